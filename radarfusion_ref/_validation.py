@@ -1,0 +1,265 @@
+"""Input validation shared by every public function of the package.
+
+Each helper checks one argument and raises a :class:`ValueError` or
+:class:`TypeError` whose message names the argument in backticks, states the
+expected form and shows what was received.  Public functions call these at
+their entry point; nothing deeper in the package re-validates.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = [
+    "as_float_array",
+    "as_positive",
+    "as_probability",
+    "as_int",
+    "as_covariance",
+    "as_choice",
+    "as_rng",
+    "broadcast",
+]
+
+
+def _describe(value) -> str:
+    """Short description of a received value for error messages."""
+    if isinstance(value, np.ndarray):
+        if value.size <= 6:
+            return f"array {np.array2string(value, precision=4)} with shape {value.shape}"
+        return f"array with shape {value.shape} and dtype {value.dtype}"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def as_float_array(value, name: str, *, ndim_min: int = 0, allow_nonfinite: bool = False,
+                   last_dims: Sequence[int | None] | None = None) -> np.ndarray:
+    """Convert `value` to a float array, rejecting non-numeric input and NaN/inf.
+
+    Parameters
+    ----------
+    value : array_like
+        The argument as the caller passed it.
+    name : str
+        The argument's name, used in error messages.
+    ndim_min : int, optional
+        Minimum number of dimensions.
+    allow_nonfinite : bool, optional
+        Accept NaN and infinities (default: reject them).
+    last_dims : sequence of int or None, optional
+        Required sizes of the trailing axes (``None`` accepts any size).
+
+    Returns
+    -------
+    numpy.ndarray
+        A float64 array.
+
+    Raises
+    ------
+    TypeError
+        If `value` is not numeric.
+    ValueError
+        If it has too few dimensions, the wrong trailing shape or non-finite
+        entries.
+
+    Examples
+    --------
+    >>> as_float_array([1, 2], "x")
+    array([1., 2.])
+    >>> as_float_array([1, float("nan")], "x")
+    Traceback (most recent call last):
+    ...
+    ValueError: `x` must be finite; received array [ 1. nan] with shape (2,) (1 non-finite entries)
+    """
+    if isinstance(value, (str, bytes)) or value is None:
+        raise TypeError(f"`{name}` must be a number or an array of numbers; received {_describe(value)}")
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"`{name}` must be a number or an array of numbers; received {_describe(value)}"
+        ) from None
+    if arr.ndim < ndim_min:
+        raise ValueError(
+            f"`{name}` must have at least {ndim_min} dimension(s); received {_describe(arr)}"
+        )
+    if last_dims is not None:
+        k = len(last_dims)
+        tail = arr.shape[arr.ndim - k:] if k else ()
+        ok = arr.ndim >= k and all(d is None or d == t for d, t in zip(last_dims, tail, strict=True))
+        if not ok:
+            want = "(..., " + ", ".join("n" if d is None else str(d) for d in last_dims) + ")"
+            raise ValueError(f"`{name}` must have shape {want}; received shape {arr.shape}")
+    if not allow_nonfinite and not np.all(np.isfinite(arr)):
+        bad = int(np.count_nonzero(~np.isfinite(arr)))
+        raise ValueError(
+            f"`{name}` must be finite; received {_describe(arr)} ({bad} non-finite entries)"
+        )
+    return arr
+
+
+def as_positive(value, name: str, *, strict: bool = True) -> np.ndarray:
+    """Float array whose entries are all > 0 (or >= 0 with ``strict=False``).
+
+    Examples
+    --------
+    >>> as_positive(-1.0, "sigma")
+    Traceback (most recent call last):
+    ...
+    ValueError: `sigma` must be > 0; received -1.0 (smallest entry -1)
+    """
+    arr = as_float_array(value, name)
+    bad = (arr <= 0) if strict else (arr < 0)
+    if np.any(bad):
+        op = ">" if strict else ">="
+        raise ValueError(
+            f"`{name}` must be {op} 0; received {_describe(value)} (smallest entry {arr.min():.6g})"
+        )
+    return arr
+
+
+def as_probability(value, name: str, *, open_interval: bool = True) -> np.ndarray:
+    """Float array of probabilities in (0, 1) (or [0, 1] with ``open_interval=False``).
+
+    Examples
+    --------
+    >>> as_probability(1.5, "p_false_reject")
+    Traceback (most recent call last):
+    ...
+    ValueError: `p_false_reject` must lie in the open interval (0, 1); received 1.5
+    """
+    arr = as_float_array(value, name)
+    if open_interval:
+        bad, text = (arr <= 0) | (arr >= 1), "the open interval (0, 1)"
+    else:
+        bad, text = (arr < 0) | (arr > 1), "the closed interval [0, 1]"
+    if np.any(bad):
+        raise ValueError(f"`{name}` must lie in {text}; received {_describe(value)}")
+    return arr
+
+
+def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """A Python int within ``[minimum, maximum]``; bools and floats are rejected.
+
+    Examples
+    --------
+    >>> as_int(0, "dof", minimum=1)
+    Traceback (most recent call last):
+    ...
+    ValueError: `dof` must be an integer >= 1; received 0
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"`{name}` must be an integer; received {_describe(value)}")
+    out = int(value)
+    if (minimum is not None and out < minimum) or (maximum is not None and out > maximum):
+        lo = "" if minimum is None else f" >= {minimum}"
+        hi = "" if maximum is None else f" <= {maximum}"
+        joint = " and" if lo and hi else ""
+        raise ValueError(f"`{name}` must be an integer{lo}{joint}{hi}; received {out}")
+    return out
+
+
+def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
+    """Stack of symmetric positive-definite matrices with shape ``(..., d, d)``.
+
+    Symmetry is checked to a relative tolerance; positive definiteness by an
+    attempted Cholesky factorisation, so a singular or indefinite matrix is
+    reported instead of producing NaN later.
+
+    Examples
+    --------
+    >>> as_covariance([[1.0, 0.0], [0.0, -1.0]], "cov")
+    Traceback (most recent call last):
+    ...
+    ValueError: `cov` must be positive definite; 1 of 1 matrices are not (Cholesky failed)
+    """
+    arr = as_float_array(value, name, ndim_min=2)
+    if arr.shape[-1] != arr.shape[-2]:
+        raise ValueError(f"`{name}` must have shape (..., d, d); received shape {arr.shape}")
+    if dim is not None and arr.shape[-1] != dim:
+        raise ValueError(
+            f"`{name}` must have shape (..., {dim}, {dim}); received shape {arr.shape}"
+        )
+    scale = np.max(np.abs(arr), axis=(-2, -1), keepdims=True)
+    asym = np.abs(arr - np.swapaxes(arr, -1, -2))
+    if np.any(asym > 1e-9 * np.maximum(scale, np.finfo(float).tiny)):
+        raise ValueError(f"`{name}` must be symmetric; received {_describe(arr)}")
+    flat = arr.reshape(-1, arr.shape[-1], arr.shape[-1])
+    try:
+        np.linalg.cholesky(flat)
+    except np.linalg.LinAlgError:
+        bad = 0
+        for m in flat:
+            try:
+                np.linalg.cholesky(m)
+            except np.linalg.LinAlgError:
+                bad += 1
+        raise ValueError(
+            f"`{name}` must be positive definite; {bad} of {len(flat)} matrices are not "
+            "(Cholesky failed)"
+        ) from None
+    return arr
+
+
+def as_choice(value, name: str, choices: Sequence[str]) -> str:
+    """One of a fixed set of string options.
+
+    Examples
+    --------
+    >>> as_choice("exact", "kind", ("profile", "marginal"))
+    Traceback (most recent call last):
+    ...
+    ValueError: `kind` must be one of 'profile', 'marginal'; received 'exact'
+    """
+    if not isinstance(value, str) or value not in choices:
+        allowed = ", ".join(repr(c) for c in choices)
+        raise ValueError(f"`{name}` must be one of {allowed}; received {_describe(value)}")
+    return value
+
+
+def as_rng(rng) -> np.random.Generator:
+    """The SPEC 7 convention: ``None``, a seed or a Generator → a Generator.
+
+    A legacy :class:`numpy.random.RandomState` is refused so that no code path
+    touches the global random state.
+
+    Examples
+    --------
+    >>> as_rng(1).integers(10) == as_rng(1).integers(10)
+    True
+    """
+    if isinstance(value := rng, np.random.RandomState):
+        raise TypeError(
+            "`rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; "
+            "received a legacy RandomState (use numpy.random.default_rng)"
+        )
+    try:
+        return np.random.default_rng(value)
+    except (TypeError, ValueError):
+        raise TypeError(
+            "`rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; "
+            f"received {_describe(value)}"
+        ) from None
+
+
+def broadcast(**arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Broadcast named arrays together, naming them all if their shapes clash.
+
+    Examples
+    --------
+    >>> broadcast(x1=np.zeros(3), x2=np.zeros(2))
+    Traceback (most recent call last):
+    ...
+    ValueError: `x1`, `x2` must broadcast to a common shape; received shapes (3,), (2,)
+    """
+    try:
+        return tuple(np.broadcast_arrays(*arrays.values()))
+    except ValueError:
+        names = ", ".join(f"`{k}`" for k in arrays)
+        shapes = ", ".join(str(np.shape(v)) for v in arrays.values())
+        raise ValueError(
+            f"{names} must broadcast to a common shape; received shapes {shapes}"
+        ) from None

@@ -1,0 +1,73 @@
+"""The map of the book: chapters, the modules behind them and the papers' equations.
+
+The introduction renders this table and a test checks it against ``_toc.yml``
+and the files on disk, so the map cannot drift from the book.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["Chapter", "CHAPTERS", "PAPERS", "chapter_table"]
+
+#: Short keys of the source papers, with their bibliography keys.
+PAPERS = {
+    "GK": ("Grachov & Korneev (2010)", "grachov2010"),
+    "P": ("Prosov", "prosov"),
+    "S": ("Sonar paper (2013)", "sonar2013"),
+}
+
+
+@dataclass(frozen=True)
+class Chapter:
+    """One chapter of the book.
+
+    Attributes
+    ----------
+    stem : str
+        Shared stem: ``book/NN_<stem>.md`` ↔ ``radarfusion_ref/<stem>.py`` ↔
+        ``tests/test_<stem>.py``.
+    number : int
+        Chapter number (the ``NN`` of the file name).
+    title : str
+        Chapter title.
+    paper : str
+        Key into :data:`PAPERS`.
+    source : str
+        The equations, figures and tables of the paper the chapter covers.
+    """
+
+    stem: str
+    number: int
+    title: str
+    paper: str
+    source: str
+
+    @property
+    def docname(self) -> str:
+        """Path of the chapter in ``_toc.yml`` (no suffix)."""
+        return f"book/{self.number:02d}_{self.stem}"
+
+    @property
+    def module(self) -> str:
+        """Dotted name of the module behind the chapter."""
+        return f"radarfusion_ref.{self.stem}"
+
+
+CHAPTERS: tuple[Chapter, ...] = ()
+
+
+def chapter_table() -> str:
+    """The chapter map as a Markdown table (rendered in the introduction).
+
+    Examples
+    --------
+    >>> chapter_table().splitlines()[0]
+    '| # | chapter | module | paper | equations |'
+    """
+    rows = ["| # | chapter | module | paper | equations |", "|---|---|---|---|---|"]
+    for ch in CHAPTERS:
+        paper = PAPERS[ch.paper][0]
+        rows.append(f"| {ch.number} | [{ch.title}]({ch.number:02d}_{ch.stem}.md) | "
+                    f"`{ch.module}` | {paper} | {ch.source} |")
+    return "\n".join(rows)

@@ -1,0 +1,133 @@
+"""The book's plotting look, and drawing helpers shared by the chapters.
+
+Rules: every helper draws into an ``ax`` it is given and returns it; none
+calls ``plt.show()``, and none simulates anything — helpers take results
+computed elsewhere in the package.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import matplotlib as mpl
+import numpy as np
+
+from .montecarlo import MeanEstimate, Proportion
+
+__all__ = [
+    "BOOK_STYLE",
+    "SENSOR_COLORS",
+    "use_book_style",
+    "book_style",
+    "plot_proportion",
+    "plot_mean",
+    "plot_reports",
+    "plot_density",
+]
+
+#: Colours by role, used consistently across chapters.
+SENSOR_COLORS = {"radar1": "#1f77b4", "radar2": "#d62728", "fused": "#2ca02c",
+                 "truth": "#222222", "theory": "#222222", "mc": "#ff7f0e"}
+
+#: rcParams of the book's look.
+BOOK_STYLE = {
+    "figure.figsize": (7.0, 3.6),
+    "figure.dpi": 96,
+    "savefig.dpi": 96,
+    "figure.autolayout": True,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.titlesize": 11,
+    "axes.labelsize": 10,
+    "legend.fontsize": 9,
+    "legend.frameon": False,
+    "xtick.labelsize": 9,
+    "ytick.labelsize": 9,
+    "lines.linewidth": 1.8,
+    "image.cmap": "viridis",
+    "animation.embed_limit": 8.0,
+}
+
+
+def use_book_style() -> None:
+    """Apply the book's look to all later figures (call once per chapter)."""
+    mpl.rcParams.update(BOOK_STYLE)
+
+
+@contextmanager
+def book_style():
+    """Context manager form of :func:`use_book_style`."""
+    with mpl.rc_context(BOOK_STYLE):
+        yield
+
+
+def plot_proportion(ax, x, p: Proportion, *, label=None, color=None, theory=None,
+                    theory_label="exact"):
+    """Monte-Carlo proportions with their confidence band, optionally against theory.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    x : array_like
+        Abscissae, one per entry of ``p.estimate``.
+    p : Proportion
+        Vector-valued result of :func:`radarfusion_ref.montecarlo.proportion`.
+    label, color : optional
+        Legend label (the trial count is appended) and colour.
+    theory : array_like, optional
+        Exact values drawn as a line at the same abscissae.
+    """
+    x = np.asarray(x)
+    color = color or SENSOR_COLORS["mc"]
+    lbl = None if label is None else f"{label} (MC, n={p.trials})"
+    ax.plot(x, p.estimate, "o", ms=4, color=color, label=lbl)
+    ax.fill_between(x, p.low, p.high, color=color, alpha=0.25, lw=0)
+    if theory is not None:
+        ax.plot(x, theory, "-", color=SENSOR_COLORS["theory"], lw=1.2, label=theory_label)
+    return ax
+
+
+def plot_mean(ax, x, m: MeanEstimate, *, label=None, color=None):
+    """Monte-Carlo means with confidence bars."""
+    x = np.asarray(x)
+    color = color or SENSOR_COLORS["mc"]
+    err = np.vstack([np.asarray(m.estimate) - m.low, np.asarray(m.high) - m.estimate])
+    lbl = None if label is None else f"{label} (n={m.trials})"
+    ax.errorbar(x, m.estimate, yerr=err, fmt="o", ms=4, capsize=2, color=color, label=lbl)
+    return ax
+
+
+def plot_reports(ax, xy1, xy2, *, truth=None, pairs=None, labels=("radar 1", "radar 2")):
+    """Reports of two radars in the plane, with optional truth and pairing lines.
+
+    Parameters
+    ----------
+    xy1, xy2 : array_like, shape (n1, 2) and (n2, 2)
+        Report positions.
+    truth : array_like, shape (n, 2), optional
+        True object positions.
+    pairs : iterable of (i, j), optional
+        Association decisions, drawn as segments from ``xy1[i]`` to ``xy2[j]``.
+    """
+    xy1, xy2 = np.atleast_2d(xy1), np.atleast_2d(xy2)
+    if truth is not None:
+        t = np.atleast_2d(truth)
+        ax.plot(t[:, 0], t[:, 1], "x", color=SENSOR_COLORS["truth"], ms=7, label="truth")
+    ax.plot(xy1[:, 0], xy1[:, 1], "o", mfc="none", color=SENSOR_COLORS["radar1"], label=labels[0])
+    ax.plot(xy2[:, 0], xy2[:, 1], "s", mfc="none", color=SENSOR_COLORS["radar2"], label=labels[1])
+    for i, j in pairs or ():
+        ax.plot([xy1[i, 0], xy2[j, 0]], [xy1[i, 1], xy2[j, 1]], "-", color="0.4", lw=1)
+    ax.set_aspect("equal", adjustable="datalim")
+    return ax
+
+
+def plot_density(ax, x, pdf, *, samples=None, bins=60, label=None, color=None):
+    """A density curve, optionally over a normalised histogram of samples."""
+    color = color or SENSOR_COLORS["theory"]
+    if samples is not None:
+        ax.hist(np.asarray(samples).ravel(), bins=bins, density=True, alpha=0.35,
+                color=SENSOR_COLORS["mc"], label=f"MC (n={np.size(samples)})")
+    ax.plot(x, pdf, color=color, label=label)
+    return ax
