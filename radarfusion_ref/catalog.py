@@ -54,7 +54,16 @@ class Chapter:
         return f"radarfusion_ref.{self.stem}"
 
 
-CHAPTERS: tuple[Chapter, ...] = ()
+CHAPTERS: tuple[Chapter, ...] = (
+    Chapter("fusion", 1, "The maximum-likelihood fused estimate", "GK", "eqs. (1)–(3)"),
+    Chapter("proximity", 2, "Likelihood and proximity measures", "GK", "eqs. (4), (7); Fig. 1"),
+    Chapter("gating", 3, "Chi-square gating", "GK", "threshold rule, $P_{lo}$"),
+    Chapter("association", 4, "Pointwise and joint association", "GK", "eqs. (5)–(6); joint measure"),
+    Chapter("features", 5, "Features and type recognition", "GK", "eqs. (8)–(13)"),
+    Chapter("conversion", 6, "Bias-corrected polar-to-Cartesian conversion", "P", "eqs. (1)–(4)"),
+    Chapter("separated", 7, "Associating two separated radars", "P", "quadratic form $S$; Table 1"),
+    Chapter("grouping", 8, "Grouping reports of many sources", "S", "eqs. (4)–(26)"),
+)
 
 
 def chapter_table() -> str:
