@@ -1,0 +1,256 @@
+"""Tests of radarfusion_ref.gating.
+
+Reference values come from independent routes: the closed form of the
+chi-square law for 1 and 2 degrees of freedom (normal quantiles, exponentials),
+numerical integration of the noncentral density written as a Poisson mixture,
+and Monte Carlo with tolerances from the binomial standard error.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import integrate, special, stats
+
+from radarfusion_ref import gating
+from radarfusion_ref.montecarlo import binomial_tolerance
+
+probs = st.floats(min_value=1e-6, max_value=0.5)
+dofs = st.integers(min_value=1, max_value=30)
+ncs = st.floats(min_value=0.0, max_value=200.0)
+
+
+# ---------------------------------------------------------------- thresholds
+@pytest.mark.parametrize("p", [0.01, 0.005, 0.05, 1e-6])
+def test_threshold_one_dof_is_squared_normal_quantile(p):
+    # chi2(1) = Z^2, so P(Z^2 > t) = p  <=>  t = Phi^{-1}(1 - p/2)^2
+    z = -special.ndtri(p / 2)
+    assert gating.gate_threshold(p, 1) == pytest.approx(z**2, rel=1e-12)
+
+
+@pytest.mark.parametrize("p", [0.01, 0.005, 0.05, 1e-9])
+def test_threshold_two_dof_is_exponential(p):
+    # chi2(2) is exponential with mean 2: P(kappa > t) = exp(-t/2)
+    assert gating.gate_threshold(p, 2) == pytest.approx(-2 * math.log(p), rel=1e-12)
+
+
+def test_threshold_table_values_from_printed_chi2_tables():
+    # Standard printed chi-square tables (upper 1 % and 0.5 % points), 3 decimals.
+    table_01 = [6.635, 9.210, 11.345, 13.277, 15.086]
+    table_005 = [7.879, 10.597, 12.838, 14.860, 16.750]
+    got = gating.gate_threshold(np.array([[0.01], [0.005]]), np.arange(1, 6))
+    np.testing.assert_allclose(got, [table_01, table_005], atol=6e-4)
+
+
+def test_threshold_even_dof_closed_form():
+    # For m = 2r, P(chi2 > t) = exp(-t/2) sum_{i<r} (t/2)^i / i!
+    for r in range(1, 6):
+        t = gating.gate_threshold(0.005, 2 * r)
+        tail = math.exp(-t / 2) * sum((t / 2) ** i / math.factorial(i) for i in range(r))
+        assert tail == pytest.approx(0.005, rel=1e-10)
+
+
+@settings(max_examples=60, deadline=None)
+@given(p=probs, m=dofs)
+def test_threshold_inverts_tail(p, m):
+    t = gating.gate_threshold(p, m)
+    assert t > 0
+    assert stats.chi2.sf(t, m) == pytest.approx(p, rel=1e-8)
+
+
+@settings(max_examples=40, deadline=None)
+@given(p1=probs, p2=probs, m=dofs)
+def test_threshold_monotone(p1, p2, m):
+    lo, hi = sorted((p1, p2))
+    assert gating.gate_threshold(lo, m) >= gating.gate_threshold(hi, m)
+    assert gating.gate_threshold(lo, m + 1) > gating.gate_threshold(lo, m)
+
+
+def test_threshold_broadcasts_like_loop():
+    p = np.array([0.01, 0.005, 0.1])[:, None]
+    m = np.arange(1, 8)[None, :]
+    got = gating.gate_threshold(p, m)
+    assert got.shape == (3, 7)
+    for i in range(3):
+        for j in range(7):
+            assert got[i, j] == gating.gate_threshold(float(p[i, 0]), int(m[0, j]))
+
+
+# ------------------------------------------------------------ false accept
+def _ncx2_cdf_by_quadrature(t, m, v):
+    """CDF of the noncentral chi-square as a Poisson mixture of chi-square CDFs,
+    each central CDF by numerical integration of its density."""
+    total = 0.0
+    for j in range(400):
+        w = stats.poisson.pmf(j, v / 2)
+        if j > v / 2 and w < 1e-17:
+            break
+        k = m + 2 * j
+        dens = lambda x, k=k: math.exp((k / 2 - 1) * math.log(x) - x / 2  # noqa: E731
+                                       - (k / 2) * math.log(2) - math.lgamma(k / 2))
+        total += w * integrate.quad(dens, 0, t, limit=200)[0]
+    return total
+
+
+@pytest.mark.parametrize(("v", "m", "p"), [(0.5, 1, 0.01), (4.0, 1, 0.005), (10.0, 1, 0.01),
+                                           (9.0, 2, 0.01), (25.0, 3, 0.005)])
+def test_p_false_accept_against_poisson_mixture(v, m, p):
+    t = gating.gate_threshold(p, m)
+    ref = _ncx2_cdf_by_quadrature(t, m, v)
+    assert gating.p_false_accept(v, m, p) == pytest.approx(ref, rel=1e-7, abs=1e-12)
+
+
+@pytest.mark.parametrize("v", [0.3, 2.0, 10.0, 30.0])
+def test_p_false_accept_one_dof_normal_form(v):
+    # For m = 1, kappa = (Z + sqrt(V))^2, so P(kappa < t) = Phi(c - mu) - Phi(-c - mu)
+    t = gating.gate_threshold(0.01, 1)
+    c, mu = math.sqrt(t), math.sqrt(v)
+    ref = special.ndtr(c - mu) - special.ndtr(-c - mu)
+    assert gating.p_false_accept(v, 1, 0.01) == pytest.approx(ref, rel=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(p=probs, m=dofs)
+def test_p_false_accept_at_zero_noncentrality(p, m):
+    assert gating.p_false_accept(0.0, m, p) == pytest.approx(1 - p, rel=1e-10)
+
+
+@settings(max_examples=40, deadline=None)
+@given(v1=ncs, v2=ncs, m=dofs, p=probs)
+def test_p_false_accept_decreasing_and_bounded(v1, v2, m, p):
+    lo, hi = sorted((v1, v2))
+    a, b = gating.p_false_accept(lo, m, p), gating.p_false_accept(hi, m, p)
+    assert 0.0 <= b <= a + 1e-12 <= 1.0 + 1e-12
+
+
+def test_p_false_accept_monte_carlo():
+    rng = np.random.default_rng(1)
+    n = 200_000
+    for v, m in [(4.0, 1), (9.0, 2), (16.0, 3)]:
+        mu = np.zeros(m)
+        mu[0] = math.sqrt(v)
+        kappa = np.sum((rng.standard_normal((n, m)) + mu) ** 2, axis=1)
+        mc = np.mean(gating.in_gate(kappa, m, 0.01))
+        exact = gating.p_false_accept(v, m, 0.01)
+        assert abs(mc - exact) < binomial_tolerance(exact, n)
+
+
+def test_gate_false_rejection_rate_monte_carlo():
+    rng = np.random.default_rng(2)
+    n = 400_000
+    for m, p in [(1, 0.01), (2, 0.005), (5, 0.01)]:
+        kappa = rng.chisquare(m, size=n)
+        rejected = np.mean(~gating.in_gate(kappa, m, p))
+        assert abs(rejected - p) < binomial_tolerance(p, n)
+
+
+# ---------------------------------------------------------- required V
+@pytest.mark.parametrize(("target", "m", "p"), [(0.5, 1, 0.01), (0.05, 1, 0.01),
+                                                (0.01, 2, 0.005), (0.1, 4, 0.01)])
+def test_required_noncentrality_roundtrip(target, m, p):
+    v = gating.required_noncentrality(target, m, p)
+    assert v > 0
+    assert stats.ncx2.cdf(stats.chi2.isf(p, m), m, v) == pytest.approx(target, rel=1e-7)
+
+
+def test_required_noncentrality_vectorized_equals_loop():
+    t = np.array([0.5, 0.1, 0.01])
+    got = gating.required_noncentrality(t[:, None], np.array([1, 2]), 0.01)
+    for i in range(3):
+        for j, m in enumerate([1, 2]):
+            assert got[i, j] == pytest.approx(gating.required_noncentrality(t[i], m, 0.01),
+                                              rel=1e-9)
+
+
+# ---------------------------------------------------------- in_gate
+@settings(max_examples=40, deadline=None)
+@given(k=st.floats(min_value=0, max_value=100), m=dofs, p=probs)
+def test_in_gate_matches_threshold(k, m, p):
+    assert gating.in_gate(k, m, p) == (k < gating.gate_threshold(p, m))
+
+
+# ---------------------------------------------------------- 2-D kernel
+def test_gate_mahalanobis_2d_against_solve():
+    rng = np.random.default_rng(3)
+    n = 10_001
+    a = rng.standard_normal((2, 2))
+    s = a @ a.T + 0.5 * np.eye(2)
+    x1, x2 = rng.standard_normal((n, 2)), rng.standard_normal((n, 2))
+    d = x1 - x2
+    ref = np.einsum("ni,ni->n", d, np.linalg.solve(s, d.T).T)
+    acc, k = gating.gate_mahalanobis_2d(x1, x2, s, chunk_size=1000, return_statistic=True)
+    np.testing.assert_allclose(k, ref, rtol=1e-12)
+    np.testing.assert_array_equal(acc, ref < stats.chi2.isf(0.01, 2))
+
+
+def test_gate_mahalanobis_2d_chunk_size_irrelevant():
+    rng = np.random.default_rng(4)
+    x1, x2 = rng.standard_normal((999, 2)), rng.standard_normal((999, 2))
+    s = np.array([[2.0, 0.3], [0.3, 1.0]])
+    base = gating.gate_mahalanobis_2d(x1, x2, s, return_statistic=True)[1]
+    for c in (1, 7, 998, 999, 5000):
+        np.testing.assert_array_equal(
+            gating.gate_mahalanobis_2d(x1, x2, s, chunk_size=c, return_statistic=True)[1], base)
+
+
+# ---------------------------------------------------------- bad input
+@pytest.mark.parametrize("p", [0.0, 1.0, -0.1, 1.5, np.nan])
+def test_bad_probability(p):
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        gating.gate_threshold(p, 1)
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        gating.p_false_accept(1.0, 1, p)
+
+
+@pytest.mark.parametrize("m", [0, -1, 1.5, np.inf, [1, 0]])
+def test_bad_dof(m):
+    with pytest.raises(ValueError, match="`dof`"):
+        gating.gate_threshold(0.01, m)
+    with pytest.raises(ValueError, match="`dof`"):
+        gating.in_gate(1.0, m, 0.01)
+
+
+def test_bad_dof_type():
+    with pytest.raises(TypeError, match="`dof`"):
+        gating.gate_threshold(0.01, True)
+    with pytest.raises(TypeError, match="`dof`"):
+        gating.gate_threshold(0.01, "two")
+
+
+@pytest.mark.parametrize("v", [-1.0, np.nan, np.inf])
+def test_bad_noncentrality(v):
+    with pytest.raises(ValueError, match="`noncentrality`"):
+        gating.p_false_accept(v, 1, 0.01)
+
+
+@pytest.mark.parametrize("k", [-0.5, np.nan])
+def test_bad_statistic(k):
+    with pytest.raises(ValueError, match="`statistic`"):
+        gating.in_gate(k, 1, 0.01)
+
+
+def test_bad_required_target():
+    with pytest.raises(ValueError, match="`p_accept`"):
+        gating.required_noncentrality(0.995, 1, 0.01)
+    with pytest.raises(ValueError, match="`p_accept`"):
+        gating.required_noncentrality(0.0, 1, 0.01)
+
+
+def test_mismatched_shapes():
+    with pytest.raises(ValueError, match="`p_false_reject`, `dof`"):
+        gating.gate_threshold([0.01, 0.02, 0.03], [1, 2])
+
+
+def test_kernel_bad_input():
+    with pytest.raises(ValueError, match="`x1`"):
+        gating.gate_mahalanobis_2d(np.zeros((3, 3)), np.zeros((3, 2)), np.eye(2))
+    with pytest.raises(ValueError, match="`x1` and `x2`"):
+        gating.gate_mahalanobis_2d(np.zeros((3, 2)), np.zeros((4, 2)), np.eye(2))
+    with pytest.raises(ValueError, match="`cov`"):
+        gating.gate_mahalanobis_2d(np.zeros((3, 2)), np.zeros((3, 2)), -np.eye(2))
+    with pytest.raises(ValueError, match="`x2`"):
+        gating.gate_mahalanobis_2d(np.zeros((3, 2)), np.full((3, 2), np.nan), np.eye(2))
