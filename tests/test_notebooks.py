@@ -1,0 +1,93 @@
+"""Execute every chapter of the book, one test per chapter.
+
+A failing cell fails the test named after its chapter, with the cell's error.
+The executed notebooks go into Jupyter Book's execution cache, so the book
+build later in the same run re-uses them instead of executing again.
+
+``RADARFUSION_BOOK_ROOT`` points the tests at another book (used by the test
+that proves a broken chapter fails the test command).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from book_tools import ROOT, ChapterExecutionError, execute_chapter, notebook_docnames
+
+BOOK_ROOT = Path(os.environ.get("RADARFUSION_BOOK_ROOT", ROOT))
+CHAPTERS = notebook_docnames(BOOK_ROOT)
+
+
+@pytest.mark.notebook
+@pytest.mark.parametrize("docname", CHAPTERS)
+def test_chapter_executes(docname):
+    path = BOOK_ROOT / f"{docname}.md"
+    try:
+        _, seconds = execute_chapter(path, cache_dir=BOOK_ROOT / "_build" / ".jupyter_cache")
+    except ChapterExecutionError as exc:
+        pytest.fail(str(exc), pytrace=False)
+    print(f"{docname}: executed in {seconds:.1f} s")
+
+
+FRONT_MATTER = (ROOT / "book" / "intro.md").read_text(encoding="utf-8").split("---", 2)[1]
+
+
+def make_book(tmp_path: Path, cell: str) -> Path:
+    """A one-chapter book whose only code cell is `cell`."""
+    (tmp_path / "book").mkdir()
+    (tmp_path / "_toc.yml").write_text("format: jb-book\nroot: book/broken\n")
+    (tmp_path / "_config.yml").write_text(textwrap.dedent("""\
+        title: broken
+        only_build_toc_files: true
+        execute:
+          execute_notebooks: cache
+        """))
+    (tmp_path / "book" / "broken.md").write_text(
+        f"---{FRONT_MATTER}---\n\n# A broken chapter\n\n```{{code-cell}} ipython3\n{cell}\n```\n"
+    )
+    return tmp_path
+
+
+@pytest.mark.notebook
+def test_broken_chapter_fails_the_test_command(tmp_path):
+    book = make_book(tmp_path, "1 / 0")
+    env = dict(os.environ, RADARFUSION_BOOK_ROOT=str(book))
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", str(ROOT / "tests" / "test_notebooks.py"), "-q",
+         "-p", "no:cacheprovider", "-k", "test_chapter_executes"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 1, proc.stdout[-2000:]
+    assert "book/broken" in proc.stdout
+    assert "ZeroDivisionError" in proc.stdout
+
+
+@pytest.mark.notebook
+def test_working_chapter_passes_the_test_command(tmp_path):
+    """The control for the test above: the same book with a working cell passes."""
+    book = make_book(tmp_path, "x = 1 / 2")
+    env = dict(os.environ, RADARFUSION_BOOK_ROOT=str(book))
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", str(ROOT / "tests" / "test_notebooks.py"), "-q",
+         "-p", "no:cacheprovider", "-k", "test_chapter_executes"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 0, proc.stdout[-2000:]
+
+
+@pytest.mark.book
+def test_broken_chapter_fails_the_build(tmp_path):
+    """`jupyter-book build -W` exits non-zero when a cell raises."""
+    from book_tools import BUILD_CMD
+
+    book = make_book(tmp_path, "raise RuntimeError('deliberately broken')")
+    proc = subprocess.run([*BUILD_CMD, str(book)], cwd=book, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode != 0
+    assert "broken" in proc.stdout + proc.stderr
+    assert "Executing notebook failed" in proc.stdout + proc.stderr
