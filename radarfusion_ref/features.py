@@ -1,0 +1,856 @@
+"""Feature (attribute) measurements: type recognition and feature-aided association.
+
+Besides a coordinate :math:`\\hat x_i`, each radar reports a *feature*
+:math:`\\hat\\Pi_i = \\Pi + \\Delta\\Pi_i` (a signal, trajectory or behaviour
+parameter), :math:`\\Delta\\Pi_i \\sim \\mathcal N(0, \\sigma_{\\Pi i}^2)`. An
+object of type :math:`T_k` has a feature value drawn from the type-conditional
+density (Grachov & Korneev 2010, eq. (8), corrected — see the chapter)
+
+.. math::
+
+    f(\\Pi \\mid T_k) = \\mathcal N(\\Pi;\\ \\Pi_k, \\sigma_{\\Pi k}^2),
+    \\qquad k = 1, \\dots, L.
+
+Public functions
+----------------
+* :func:`fused_feature` — the maximum-likelihood fused feature of two reports
+  and its variance;
+* :func:`type_likelihood` — :math:`f(\\hat\\Pi \\mid T_k)` for a feature measured
+  with variance :math:`v` (the type density convolved with the error);
+* :func:`type_posterior` — the type posterior (13), computed in the log domain;
+* :func:`combined_proximity` — the coordinate + feature proximity measure (12)
+  (vector coordinates allowed), for both feature observation models;
+* :func:`typed_scene` — two-radar scenes of typed objects (builds on
+  :func:`radarfusion_ref.scenes.two_radar_scene`);
+* :func:`association_costs` — the :math:`n \\times n` cost matrices of a scene;
+* :func:`triune` — the association – estimation – recognition outcome of a
+  given association, with accuracy, RMSE and a confusion matrix;
+* :func:`reliability_curve` — binned calibration of predicted probabilities.
+
+Two feature observation models are supported (the paper's closing discussion):
+``"shared"`` (model 1: both radars see the same value :math:`\\Pi`, their
+reports differ only by measurement error) and ``"spread"`` (model 2: each
+radar sees its own value, drawn from the type's density, so the reports of
+one object differ by the type's spread as well).
+
+References
+----------
+.. [1] V. M. Grachov, V. A. Korneev, "Method of combining radar information
+   taking coordinate and feature measurements into account", Kharkiv Air
+   Force University, 2010 — eqs. (8)–(13) and the two feature observation
+   models.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import logsumexp
+
+from ._validation import (
+    as_choice,
+    as_covariance,
+    as_float_array,
+    as_int,
+    as_positive,
+    as_rng,
+    broadcast,
+)
+from .montecarlo import MeanEstimate, Proportion, mean, proportion
+from .scenes import TwoRadarScene, two_radar_scene
+
+__all__ = [
+    "FEATURE_MODELS",
+    "CombinedProximity",
+    "Confusion",
+    "FusedFeature",
+    "ReliabilityCurve",
+    "TriuneResult",
+    "TypedScene",
+    "association_costs",
+    "combined_proximity",
+    "fused_feature",
+    "reliability_curve",
+    "triune",
+    "type_likelihood",
+    "type_posterior",
+    "typed_scene",
+]
+
+#: The two feature observation models of the paper's closing discussion.
+FEATURE_MODELS = ("shared", "spread")
+
+_LOG_2PI = np.log(2.0 * np.pi)
+
+
+# ----------------------------------------------------------------------------- validation
+def _types_iv(type_means, type_vars, priors):
+    """Validate the type description; return means, variances and log priors, each (L,)."""
+    means = as_float_array(type_means, "type_means")
+    if means.ndim != 1 or means.size == 0:
+        raise ValueError("`type_means` must be a non-empty 1-D array (one mean per type); "
+                         f"received shape {means.shape}")
+    tvars = as_positive(type_vars, "type_vars")
+    if tvars.shape != means.shape:
+        raise ValueError(f"`type_vars` must have the same shape as `type_means`, {means.shape}; "
+                         f"received shape {tvars.shape}")
+    n_types = means.size
+    if priors is None:
+        return means, tvars, np.full(n_types, -np.log(n_types))
+    p = as_float_array(priors, "priors")
+    if p.shape != means.shape:
+        raise ValueError(f"`priors` must have the same shape as `type_means`, {means.shape}; "
+                         f"received shape {p.shape}")
+    if np.any(p < 0):
+        raise ValueError(f"`priors` must be >= 0; received {p}")
+    if abs(p.sum() - 1.0) > 1e-8:
+        raise ValueError(f"`priors` must sum to 1; received {p} (sum {p.sum():.10g})")
+    with np.errstate(divide="ignore"):
+        return means, tvars, np.log(p)
+
+
+def _log_normal(x, mean_, var):
+    """log N(x; mean, var), elementwise."""
+    return -0.5 * (_LOG_2PI + np.log(var) + (x - mean_) ** 2 / var)
+
+
+# ----------------------------------------------------------------------------- fusion
+@dataclass(frozen=True)
+class FusedFeature:
+    """The fused feature of two reports of one object.
+
+    Attributes
+    ----------
+    value : numpy.ndarray or float
+        :math:`\\tilde\\Pi`, the inverse-variance weighted mean of the two reports.
+    var : numpy.ndarray or float
+        Its variance :math:`\\sigma_{\\Pi1}^2\\sigma_{\\Pi2}^2/(\\sigma_{\\Pi1}^2+\\sigma_{\\Pi2}^2)`.
+    """
+
+    value: np.ndarray | float
+    var: np.ndarray | float
+
+
+def _scalar(x):
+    return float(x) if np.ndim(x) == 0 else x
+
+
+def fused_feature(feature1, feature_var1, feature2, feature_var2) -> FusedFeature:
+    """Maximum-likelihood fused feature of two reports (model 1) and its variance.
+
+    Parameters
+    ----------
+    feature1, feature2 : array_like
+        Feature reports :math:`\\hat\\Pi_1, \\hat\\Pi_2` (broadcast together).
+    feature_var1, feature_var2 : array_like
+        Their error variances :math:`\\sigma_{\\Pi1}^2, \\sigma_{\\Pi2}^2` (> 0).
+
+    Returns
+    -------
+    FusedFeature
+
+    Raises
+    ------
+    ValueError
+        If a variance is not positive or the shapes do not broadcast.
+
+    Notes
+    -----
+    Maximising the feature factor of the likelihood (9) over :math:`\\Pi` gives
+    (the estimate printed after (9))
+
+    .. math::
+
+        \\tilde\\Pi = \\frac{\\sigma_{\\Pi2}^2\\hat\\Pi_1 + \\sigma_{\\Pi1}^2\\hat\\Pi_2}
+                           {\\sigma_{\\Pi1}^2 + \\sigma_{\\Pi2}^2},
+        \\qquad
+        \\operatorname{Var}\\tilde\\Pi = \\frac{\\sigma_{\\Pi1}^2\\sigma_{\\Pi2}^2}
+                                          {\\sigma_{\\Pi1}^2 + \\sigma_{\\Pi2}^2}.
+
+    It is the same rule as the fused coordinate (3); under model 1 it is a
+    sufficient statistic for the type (see :func:`type_posterior`).
+
+    References
+    ----------
+    Grachov & Korneev (2010), eq. (9) and the estimate after it.
+
+    Examples
+    --------
+    >>> f = fused_feature(1.0, 1.0, 3.0, 1.0)
+    >>> f.value, f.var
+    (2.0, 0.5)
+    """
+    f1 = as_float_array(feature1, "feature1")
+    f2 = as_float_array(feature2, "feature2")
+    v1 = as_positive(feature_var1, "feature_var1")
+    v2 = as_positive(feature_var2, "feature_var2")
+    f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
+    total = v1 + v2
+    return FusedFeature(_scalar((v2 * f1 + v1 * f2) / total), _scalar(v1 * v2 / total))
+
+
+# ----------------------------------------------------------------------------- recognition
+def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = False):
+    """Likelihood of each type given a feature measured with error variance `feature_var`.
+
+    Parameters
+    ----------
+    feature : array_like, shape (...)
+        Measured (or fused) feature :math:`\\hat\\Pi`.
+    feature_var : array_like, broadcastable to `feature`
+        Variance :math:`v \\ge 0` of its error; ``0`` treats the feature as exact.
+    type_means, type_vars : array_like, shape (L,)
+        :math:`\\Pi_k` and :math:`\\sigma_{\\Pi k}^2 > 0` of the type densities (8).
+    log : bool, optional
+        Return the log-likelihood (default: the likelihood).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., L)
+
+    Raises
+    ------
+    ValueError
+        Negative `feature_var`, non-positive `type_vars`, an empty or
+        non-1-D `type_means`, mismatched shapes.
+
+    Notes
+    -----
+    The feature value of a type-:math:`k` object is
+    :math:`\\Pi \\sim \\mathcal N(\\Pi_k, \\sigma_{\\Pi k}^2)` (the corrected (8)) and it
+    is measured with independent error of variance :math:`v`, so
+
+    .. math::
+
+        f(\\hat\\Pi \\mid T_k) = \\int \\mathcal N(\\hat\\Pi; \\Pi, v)\\,
+        \\mathcal N(\\Pi; \\Pi_k, \\sigma_{\\Pi k}^2)\\, d\\Pi
+        = \\mathcal N(\\hat\\Pi;\\ \\Pi_k,\\ \\sigma_{\\Pi k}^2 + v).
+
+    References
+    ----------
+    Grachov & Korneev (2010), eq. (8) (corrected) and (13).
+
+    Examples
+    --------
+    >>> type_likelihood(0.0, 0.0, [0.0, 1.0], [1.0, 1.0]).round(3)
+    array([0.399, 0.242])
+    """
+    f = as_float_array(feature, "feature")
+    v = as_positive(feature_var, "feature_var", strict=False)
+    f, v = broadcast(feature=f, feature_var=v)
+    means, tvars, _ = _types_iv(type_means, type_vars, None)
+    out = _log_normal(f[..., None], means, tvars + v[..., None])
+    return out if log else np.exp(out)
+
+
+def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
+                   log: bool = False):
+    """Posterior probability of each type, eq. (13) done properly.
+
+    Parameters
+    ----------
+    feature : array_like, shape (...)
+        The fused feature :math:`\\tilde\\Pi` (or a single report).
+    feature_var : array_like, broadcastable to `feature`
+        Its error variance :math:`v \\ge 0` (for the fused feature,
+        :attr:`FusedFeature.var`). ``0`` with ``priors=None`` reproduces the
+        paper's plug-in rule (13).
+    type_means, type_vars : array_like, shape (L,)
+        :math:`\\Pi_k` and :math:`\\sigma_{\\Pi k}^2 > 0` of the type densities.
+    priors : array_like, shape (L,), optional
+        Prior type probabilities :math:`p_k \\ge 0` summing to 1 (default uniform).
+    log : bool, optional
+        Return log-probabilities (useful for log-loss: no underflow to 0).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., L)
+        :math:`P(T_k \\mid \\tilde\\Pi)`; sums to 1 over the last axis.
+
+    Raises
+    ------
+    ValueError
+        As :func:`type_likelihood`; `priors` of the wrong shape, negative or
+        not summing to 1.
+
+    Notes
+    -----
+    With two reports of one object (model 1) the type likelihood factorises
+    into a type-free factor in :math:`\\hat\\Pi_1 - \\hat\\Pi_2` and a factor in the
+    fused feature :math:`\\tilde\\Pi` alone, so :math:`\\tilde\\Pi` is sufficient and
+
+    .. math::
+
+        P(T_k \\mid \\hat\\Pi_1, \\hat\\Pi_2)
+        = \\frac{p_k\\, \\mathcal N(\\tilde\\Pi;\\ \\Pi_k,\\ \\sigma_{\\Pi k}^2 + v)}
+               {\\sum_{\\ell=1}^L p_\\ell\\, \\mathcal N(\\tilde\\Pi;\\ \\Pi_\\ell,\\ \\sigma_{\\Pi \\ell}^2 + v)},
+        \\qquad v = \\operatorname{Var}\\tilde\\Pi.
+
+    The paper's (13) plugs :math:`\\tilde\\Pi` into :math:`f(\\Pi \\mid T_k)`, i.e.
+    takes :math:`v = 0` and uniform priors; that is overconfident unless
+    :math:`v \\ll \\sigma_{\\Pi k}^2`. The normalisation is done with
+    ``logsumexp``, so far-out features give a clean answer instead of 0/0.
+
+    References
+    ----------
+    Grachov & Korneev (2010), eq. (13) (and (8), corrected).
+
+    Examples
+    --------
+    >>> p = type_posterior(0.5, 0.1, [0.0, 1.0], [0.2, 0.2])
+    >>> p.round(3), float(p.sum())
+    (array([0.5, 0.5]), 1.0)
+    >>> type_posterior(1e3, 0.0, [0.0, 1.0], [1.0, 1.0]).round(3)
+    array([0., 1.])
+    """
+    f = as_float_array(feature, "feature")
+    v = as_positive(feature_var, "feature_var", strict=False)
+    f, v = broadcast(feature=f, feature_var=v)
+    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    log_joint = _log_normal(f[..., None], means, tvars + v[..., None]) + log_priors
+    log_post = log_joint - logsumexp(log_joint, axis=-1, keepdims=True)
+    return log_post if log else np.exp(log_post)
+
+
+# ----------------------------------------------------------------------------- proximity
+@dataclass(frozen=True)
+class CombinedProximity:
+    """The combined coordinate + feature proximity measure of report pairs.
+
+    Attributes
+    ----------
+    total : numpy.ndarray
+        :math:`\\kappa = \\kappa^x + \\kappa^\\Pi`.
+    coordinate : numpy.ndarray
+        :math:`\\kappa^x = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (C_1+C_2)^{-1}
+        (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)`.
+    feature : numpy.ndarray
+        :math:`\\kappa^\\Pi`: under ``"shared"`` the squared normalised feature
+        difference; under ``"spread"`` minus twice the log-likelihood ratio of
+        "same object" against "different objects" (it can be negative).
+    dof : int or None
+        Degrees of freedom of the :math:`\\chi^2` law of `total` under a true
+        hypothesis (``d + 1`` for ``"shared"``); ``None`` for ``"spread"``,
+        whose feature term is not :math:`\\chi^2`.
+    model : str
+        ``"shared"`` or ``"spread"``.
+    """
+
+    total: np.ndarray
+    coordinate: np.ndarray
+    feature: np.ndarray
+    dof: int | None
+    model: str
+
+
+def _mahalanobis_sq(diff, cov):
+    """diffᵀ cov⁻¹ diff through a Cholesky factor (batched)."""
+    batch = np.broadcast_shapes(diff.shape[:-1], cov.shape[:-2])
+    d = diff.shape[-1]
+    chol = np.linalg.cholesky(np.broadcast_to(cov, (*batch, d, d)))
+    z = np.linalg.solve(chol, np.broadcast_to(diff, (*batch, d))[..., None])[..., 0]
+    return np.sum(z * z, axis=-1)
+
+
+def _spread_feature_term(f1, v1, f2, v2, means, tvars, log_priors):
+    """-2 log LR(same object vs different objects) of two feature reports under model 2."""
+    l1 = _log_normal(f1[..., None], means, tvars + v1[..., None]) + log_priors
+    l2 = _log_normal(f2[..., None], means, tvars + v2[..., None])
+    same = logsumexp(l1 + l2, axis=-1)
+    apart = logsumexp(l1, axis=-1) + logsumexp(l2 + log_priors, axis=-1)
+    return -2.0 * (same - apart)
+
+
+def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, feature_var2, *,
+                       model: str = "shared", type_means=None, type_vars=None,
+                       priors=None) -> CombinedProximity:
+    """Combined coordinate + feature proximity measure of report pairs, eq. (12) corrected.
+
+    Parameters
+    ----------
+    x1, x2 : array_like, shape (..., d)
+        Coordinate reports of radar 1 and radar 2 (batch axes broadcast).
+    cov1, cov2 : array_like, shape (..., d, d)
+        Their error covariances (symmetric positive definite).
+    feature1, feature2 : array_like, shape (...)
+        Feature reports.
+    feature_var1, feature_var2 : array_like
+        Feature error variances (> 0).
+    model : {"shared", "spread"}, optional
+        Feature observation model: ``"shared"`` (the paper's model 1, used for
+        (12)) or ``"spread"`` (model 2; needs the type description).
+    type_means, type_vars, priors : array_like, shape (L,), optional
+        Type description, required for ``model="spread"``.
+
+    Returns
+    -------
+    CombinedProximity
+
+    Raises
+    ------
+    ValueError
+        Mismatched coordinate dimensions, shapes that do not broadcast,
+        covariances that are not positive definite, non-positive feature
+        variances, a missing type description for ``"spread"``.
+
+    Notes
+    -----
+    Model 1 (``"shared"``): minus twice the log of the profile likelihood (11)
+    is, up to a constant,
+
+    .. math::
+
+        \\kappa = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (C_1+C_2)^{-1}
+                  (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)
+                + \\frac{(\\hat\\Pi_1-\\hat\\Pi_2)^2}{\\sigma_{\\Pi1}^2+\\sigma_{\\Pi2}^2},
+
+    :math:`\\chi^2(d+1)` under a true hypothesis and noncentral
+    :math:`\\chi'^2(d+1, V_x + V_\\Pi)` under a false one (given the two objects'
+    positions and feature values). The paper prints (12) without the squares.
+
+    Model 2 (``"spread"``): each radar sees its own draw from the type density,
+    so the reports of one object share only the type. The feature term is
+
+    .. math::
+
+        \\kappa^\\Pi = -2 \\ln \\frac{\\sum_k p_k\\, g_{1k}(\\hat\\Pi_1)\\, g_{2k}(\\hat\\Pi_2)}
+                                 {\\sum_k p_k\\, g_{1k}(\\hat\\Pi_1)\\ \\sum_\\ell p_\\ell\\, g_{2\\ell}(\\hat\\Pi_2)},
+        \\qquad g_{ik} = \\mathcal N(\\,\\cdot\\,; \\Pi_k, \\sigma_{\\Pi k}^2 + \\sigma_{\\Pi i}^2),
+
+    minus twice the log-likelihood ratio of "one object" against "two
+    independent objects"; it measures only type agreement.
+
+    References
+    ----------
+    Grachov & Korneev (2010), eqs. (9)–(12) and the two observation models.
+
+    Examples
+    --------
+    >>> k = combined_proximity([0.0], [1.0], [[0.5]], [[0.5]], 0.0, 2.0, 1.0, 1.0)
+    >>> float(k.total), float(k.coordinate), float(k.feature), k.dof
+    (3.0, 1.0, 2.0, 2)
+    """
+    model = as_choice(model, "model", FEATURE_MODELS)
+    a = as_float_array(x1, "x1", ndim_min=1)
+    b = as_float_array(x2, "x2", ndim_min=1)
+    if a.shape[-1] != b.shape[-1]:
+        raise ValueError("`x1` and `x2` must have the same last dimension d; "
+                         f"received shapes {a.shape} and {b.shape}")
+    d = a.shape[-1]
+    c1 = as_covariance(cov1, "cov1", dim=d)
+    c2 = as_covariance(cov2, "cov2", dim=d)
+    try:
+        diff = a - b
+        cov = c1 + c2
+        np.broadcast_shapes(diff.shape[:-1], cov.shape[:-2])
+    except ValueError:
+        raise ValueError("`x1`, `x2`, `cov1`, `cov2` must have broadcastable batch shapes; "
+                         f"received {a.shape}, {b.shape}, {c1.shape}, {c2.shape}") from None
+    kx = _mahalanobis_sq(diff, cov)
+
+    f1 = as_float_array(feature1, "feature1")
+    f2 = as_float_array(feature2, "feature2")
+    v1 = as_positive(feature_var1, "feature_var1")
+    v2 = as_positive(feature_var2, "feature_var2")
+    f1, f2, v1, v2 = broadcast(feature1=f1, feature2=f2, feature_var1=v1, feature_var2=v2)
+    if model == "shared":
+        kf = (f1 - f2) ** 2 / (v1 + v2)
+        dof = d + 1
+    else:
+        if type_means is None or type_vars is None:
+            raise ValueError("`type_means` and `type_vars` are required with model='spread'; "
+                             f"received type_means={type_means!r}, type_vars={type_vars!r}")
+        means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+        kf = _spread_feature_term(f1, v1, f2, v2, means, tvars, log_priors)
+        dof = None
+    try:
+        kx, kf = np.broadcast_arrays(kx, kf)
+    except ValueError:
+        raise ValueError("the coordinate batch shape (of `x1`, `x2`) and the feature shape (of "
+                         f"`feature1`, `feature2`) must broadcast; received {kx.shape} and "
+                         f"{kf.shape}") from None
+    return CombinedProximity(kx + kf, kx, kf, dof, model)
+
+
+# ----------------------------------------------------------------------------- scenes
+@dataclass(frozen=True)
+class TypedScene:
+    """Two-radar scenes of typed objects with coordinate and feature reports.
+
+    Attributes
+    ----------
+    coords : TwoRadarScene
+        The coordinate part (truth, reports, ``owner2``), from
+        :func:`radarfusion_ref.scenes.two_radar_scene`.
+    types : numpy.ndarray of int, shape (trials, n)
+        True type index of each object.
+    feature_truth : numpy.ndarray, shape (trials, n)
+        The feature value of each object as radar 1 sees it (under
+        ``"shared"`` also radar 2's; under ``"spread"`` radar 2 sees an
+        independent draw from the same type density).
+    features1 : numpy.ndarray, shape (trials, n)
+        Radar 1's feature reports, in object order (like ``coords.reports1``).
+    features2 : numpy.ndarray, shape (trials, n)
+        Radar 2's feature reports, in radar 2's shuffled order (like
+        ``coords.reports2``).
+    feature_sigma1, feature_sigma2 : float
+        Feature error standard deviations of the two radars.
+    type_means, type_vars, priors : numpy.ndarray, shape (L,)
+        The type description the scene was drawn from.
+    model : str
+        ``"shared"`` or ``"spread"``.
+    """
+
+    coords: TwoRadarScene
+    types: np.ndarray
+    feature_truth: np.ndarray
+    features1: np.ndarray
+    features2: np.ndarray
+    feature_sigma1: float
+    feature_sigma2: float
+    type_means: np.ndarray
+    type_vars: np.ndarray
+    priors: np.ndarray
+    model: str
+
+    @property
+    def true_match(self) -> np.ndarray:
+        """``true_match[t, j]``: index in radar 2's list of object ``j``'s report."""
+        return self.coords.true_match
+
+    @property
+    def n_types(self) -> int:
+        """Number of types L."""
+        return int(self.type_means.size)
+
+
+def typed_scene(n_objects: int, *, type_means, type_vars, priors=None, spacing: float,
+                sigma1: float, sigma2: float, feature_sigma1: float, feature_sigma2: float,
+                model: str = "shared", trials: int = 1, dim: int = 1, layout: str = "line",
+                rng=None) -> TypedScene:
+    """Draw `trials` scenes of `n_objects` typed objects seen by two radars.
+
+    Positions and coordinate reports come from
+    :func:`radarfusion_ref.scenes.two_radar_scene` (same arguments); then each
+    object gets a type :math:`k \\sim p`, a feature value
+    :math:`\\Pi \\sim \\mathcal N(\\Pi_k, \\sigma_{\\Pi k}^2)` and a feature report from
+    each radar.
+
+    Parameters
+    ----------
+    n_objects : int
+        Number of objects.
+    type_means, type_vars : array_like, shape (L,)
+        Type densities (8): means :math:`\\Pi_k` and variances :math:`\\sigma_{\\Pi k}^2`.
+    priors : array_like, shape (L,), optional
+        Type probabilities (default uniform).
+    spacing, sigma1, sigma2, trials, dim, layout :
+        As in :func:`radarfusion_ref.scenes.two_radar_scene`.
+    feature_sigma1, feature_sigma2 : float
+        Feature error standard deviations :math:`\\sigma_{\\Pi1}, \\sigma_{\\Pi2}`.
+    model : {"shared", "spread"}, optional
+        Model 1: both radars measure the same value; model 2: each radar
+        measures its own draw from the type density.
+    rng : None, int or numpy.random.Generator, optional
+        Source of randomness (SPEC 7).
+
+    Returns
+    -------
+    TypedScene
+
+    Raises
+    ------
+    ValueError
+        Bad type description or scene parameters.
+
+    Examples
+    --------
+    >>> s = typed_scene(3, type_means=[0.0, 5.0], type_vars=[1.0, 1.0], spacing=1.0,
+    ...                 sigma1=0.1, sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1,
+    ...                 trials=4, rng=1)
+    >>> s.features2.shape, s.types.shape, s.n_types
+    ((4, 3), (4, 3), 2)
+    """
+    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    fs1 = float(as_positive(feature_sigma1, "feature_sigma1"))
+    fs2 = float(as_positive(feature_sigma2, "feature_sigma2"))
+    model = as_choice(model, "model", FEATURE_MODELS)
+    rng = as_rng(rng)
+    coords = two_radar_scene(n_objects, spacing=spacing, sigma1=sigma1, sigma2=sigma2,
+                             trials=trials, dim=dim, layout=layout, rng=rng)
+    trials, n = coords.owner2.shape
+    p = np.exp(log_priors)
+    types = rng.choice(means.size, size=(trials, n), p=p / p.sum())
+    sd = np.sqrt(tvars[types])
+    truth = means[types] + sd * rng.standard_normal((trials, n))
+    types2 = np.take_along_axis(types, coords.owner2, axis=1)
+    if model == "shared":
+        seen2 = np.take_along_axis(truth, coords.owner2, axis=1)
+    else:
+        seen2 = means[types2] + np.sqrt(tvars[types2]) * rng.standard_normal((trials, n))
+    features1 = truth + fs1 * rng.standard_normal((trials, n))
+    features2 = seen2 + fs2 * rng.standard_normal((trials, n))
+    return TypedScene(coords, types, truth, features1, features2, fs1, fs2, means, tvars,
+                      np.exp(log_priors), model)
+
+
+def association_costs(scene: TypedScene, *, features: str = "shared") -> np.ndarray:
+    """Cost matrices ``cost[t, i, j]`` of pairing radar-1 report i with radar-2 report j.
+
+    Parameters
+    ----------
+    scene : TypedScene
+    features : {"none", "shared", "spread"}, optional
+        ``"none"``: coordinates only (:math:`\\kappa^x`); ``"shared"``: the
+        corrected (12); ``"spread"``: coordinates plus the model-2 feature
+        term. The statistic need not match the scene's own model — using
+        ``"shared"`` on a ``"spread"`` scene is the mistake the chapter shows.
+
+    Returns
+    -------
+    numpy.ndarray, shape (trials, n, n)
+
+    Examples
+    --------
+    >>> s = typed_scene(2, type_means=[0.0], type_vars=[1.0], spacing=1.0, sigma1=0.1,
+    ...                 sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1, rng=0)
+    >>> association_costs(s, features="none").shape
+    (1, 2, 2)
+    """
+    if not isinstance(scene, TypedScene):
+        raise TypeError(f"`scene` must be a TypedScene; received {type(scene).__name__}")
+    features = as_choice(features, "features", ("none", *FEATURE_MODELS))
+    c = scene.coords
+    d = c.reports1.shape[-1]
+    cov1 = c.sigma1**2 * np.eye(d)
+    cov2 = c.sigma2**2 * np.eye(d)
+    k = combined_proximity(c.reports1[:, :, None, :], c.reports2[:, None, :, :], cov1, cov2,
+                           scene.features1[:, :, None], scene.features2[:, None, :],
+                           scene.feature_sigma1**2, scene.feature_sigma2**2,
+                           model="shared" if features == "none" else features,
+                           type_means=scene.type_means, type_vars=scene.type_vars,
+                           priors=scene.priors)
+    return k.coordinate if features == "none" else k.total
+
+
+# ----------------------------------------------------------------------------- triune task
+@dataclass(frozen=True)
+class Confusion:
+    """A type confusion matrix with Wilson intervals per entry.
+
+    Attributes
+    ----------
+    counts : numpy.ndarray of int, shape (L, L)
+        ``counts[k, l]``: objects of true type ``k`` recognised as type ``l``.
+    rate : numpy.ndarray, shape (L, L)
+        Row-normalised counts (``nan``-free: a type that never occurred has a
+        zero row and is flagged in `support`).
+    low, high : numpy.ndarray, shape (L, L)
+        95 % Wilson limits of each rate (objects treated as independent).
+    support : numpy.ndarray of int, shape (L,)
+        Number of objects of each true type.
+    """
+
+    counts: np.ndarray
+    rate: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    support: np.ndarray
+
+
+@dataclass(frozen=True)
+class TriuneResult:
+    """Outcome of association – estimation – recognition on a batch of typed scenes.
+
+    Attributes
+    ----------
+    match : numpy.ndarray of int, shape (trials, n)
+        The association evaluated: radar-1 report ``j`` paired with radar-2
+        report ``match[t, j]`` (``-1``: left unpaired).
+    correct : numpy.ndarray of bool, shape (trials, n)
+        Whether each radar-1 report got its true partner.
+    fused : numpy.ndarray, shape (trials, n, d)
+        Fused coordinates of each object (a lone radar-1 report if unpaired).
+    sq_error : numpy.ndarray, shape (trials, n)
+        Squared Euclidean error of `fused` against the truth.
+    posterior : numpy.ndarray, shape (trials, n, L)
+        Type posterior of each object.
+    recognised : numpy.ndarray of int, shape (trials, n)
+        The maximum-a-posteriori type.
+    true_type : numpy.ndarray of int, shape (trials, n)
+        The true type.
+    """
+
+    match: np.ndarray
+    correct: np.ndarray
+    fused: np.ndarray
+    sq_error: np.ndarray
+    posterior: np.ndarray
+    recognised: np.ndarray
+    true_type: np.ndarray
+
+    def pair_accuracy(self) -> MeanEstimate:
+        """Mean fraction of correctly associated reports per scene (t-interval over scenes)."""
+        return mean(self.correct.mean(axis=-1))
+
+    def all_correct(self) -> Proportion:
+        """Probability that a scene is associated entirely correctly (Wilson interval)."""
+        return proportion(np.all(self.correct, axis=-1), None)
+
+    def mse(self) -> MeanEstimate:
+        """Mean squared position error per object (t-interval over per-scene means)."""
+        return mean(self.sq_error.mean(axis=-1))
+
+    def rmse(self) -> tuple[float, float, float]:
+        """RMSE with its 95 % interval: the square roots of :meth:`mse` and its limits."""
+        m = self.mse()
+        return (float(np.sqrt(m.estimate)), float(np.sqrt(max(m.low, 0.0))),
+                float(np.sqrt(m.high)))
+
+    def type_accuracy(self) -> Proportion:
+        """Fraction of objects recognised correctly (Wilson; objects treated as independent)."""
+        return proportion((self.recognised == self.true_type).ravel(), None)
+
+    def confusion(self) -> Confusion:
+        """The type confusion matrix with per-entry Wilson intervals."""
+        n_types = self.posterior.shape[-1]
+        counts = np.zeros((n_types, n_types), dtype=int)
+        np.add.at(counts, (self.true_type.ravel(), self.recognised.ravel()), 1)
+        support = counts.sum(axis=1)
+        rate = np.zeros((n_types, n_types))
+        low = np.zeros((n_types, n_types))
+        high = np.ones((n_types, n_types))
+        for k in np.flatnonzero(support):
+            p = proportion(counts[k], int(support[k]))
+            rate[k], low[k], high[k] = p.estimate, p.low, p.high
+        return Confusion(counts, rate, low, high, support)
+
+
+def triune(scene: TypedScene, match, *, rule: str = "exact") -> TriuneResult:
+    """Estimate and recognise every object of `scene` under the association `match`.
+
+    Parameters
+    ----------
+    scene : TypedScene
+    match : array_like of int, shape (trials, n)
+        Radar-2 partner of each radar-1 report (``-1``: unpaired), e.g. from
+        an associator run on :func:`association_costs`.
+    rule : {"exact", "plugin"}, optional
+        Type posterior: the exact one (fused-feature variance and the scene's
+        priors) or the paper's plug-in (13) (variance 0, uniform priors).
+
+    Returns
+    -------
+    TriuneResult
+
+    Raises
+    ------
+    ValueError
+        If `match` has the wrong shape or out-of-range entries.
+
+    Examples
+    --------
+    >>> s = typed_scene(3, type_means=[0.0, 9.0], type_vars=[1.0, 1.0], spacing=5.0,
+    ...                 sigma1=0.1, sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1,
+    ...                 trials=50, rng=2)
+    >>> r = triune(s, s.true_match)
+    >>> r.all_correct().estimate, r.type_accuracy().estimate > 0.95
+    (1.0, True)
+    """
+    if not isinstance(scene, TypedScene):
+        raise TypeError(f"`scene` must be a TypedScene; received {type(scene).__name__}")
+    rule = as_choice(rule, "rule", ("exact", "plugin"))
+    c = scene.coords
+    trials, n = c.owner2.shape
+    m = np.asarray(match)
+    if m.shape != (trials, n) or not np.issubdtype(m.dtype, np.integer):
+        raise ValueError(f"`match` must be an integer array of shape {(trials, n)}; "
+                         f"received dtype {m.dtype} with shape {m.shape}")
+    if np.any((m < -1) | (m >= n)):
+        raise ValueError(f"`match` entries must lie in [-1, {n - 1}]; received min {m.min()}, "
+                         f"max {m.max()}")
+    paired = m >= 0
+    idx = np.where(paired, m, 0)
+    x2 = np.take_along_axis(c.reports2, idx[..., None], axis=1)
+    f2 = np.take_along_axis(scene.features2, idx, axis=1)
+    s1, s2 = c.sigma1**2, c.sigma2**2
+    fused = np.where(paired[..., None], (s2 * c.reports1 + s1 * x2) / (s1 + s2), c.reports1)
+    v1, v2 = scene.feature_sigma1**2, scene.feature_sigma2**2
+    ff = fused_feature(scene.features1, v1, f2, v2)
+    feat = np.where(paired, ff.value, scene.features1)
+    fvar = np.where(paired, ff.var, v1)
+    if rule == "exact":
+        post = type_posterior(feat, fvar, scene.type_means, scene.type_vars, scene.priors)
+    else:
+        post = type_posterior(feat, 0.0, scene.type_means, scene.type_vars)
+    sq = np.sum((fused - c.truth) ** 2, axis=-1)
+    return TriuneResult(m, m == scene.true_match, fused, sq, post, np.argmax(post, axis=-1),
+                        scene.types)
+
+
+# ----------------------------------------------------------------------------- calibration
+@dataclass(frozen=True)
+class ReliabilityCurve:
+    """Binned calibration of predicted probabilities (a reliability diagram).
+
+    Attributes
+    ----------
+    predicted : numpy.ndarray, shape (B,)
+        Mean predicted probability in each non-empty bin.
+    observed : numpy.ndarray, shape (B,)
+        Observed frequency of the event in the bin.
+    low, high : numpy.ndarray, shape (B,)
+        95 % Wilson limits of `observed`.
+    counts : numpy.ndarray of int, shape (B,)
+        Number of predictions in the bin.
+    """
+
+    predicted: np.ndarray
+    observed: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    counts: np.ndarray
+
+
+def reliability_curve(prob, outcome, *, bins: int = 10) -> ReliabilityCurve:
+    """Reliability diagram data: predicted probability against observed frequency.
+
+    Parameters
+    ----------
+    prob : array_like
+        Predicted probabilities in [0, 1] (any shape; flattened).
+    outcome : array_like of bool
+        Whether the predicted event happened (same shape as `prob`).
+    bins : int, optional
+        Number of equal-width bins on [0, 1]; empty bins are dropped.
+
+    Returns
+    -------
+    ReliabilityCurve
+
+    Examples
+    --------
+    >>> r = reliability_curve([0.1, 0.1, 0.9, 0.9], [False, False, True, True], bins=2)
+    >>> r.predicted, r.observed, r.counts
+    (array([0.1, 0.9]), array([0., 1.]), array([2, 2]))
+    """
+    p = as_float_array(prob, "prob").ravel()
+    o = np.asarray(outcome)
+    if o.dtype != bool or o.size != p.size:
+        raise ValueError(f"`outcome` must be a boolean array with as many entries as `prob` "
+                         f"({p.size}); received dtype {o.dtype} with {o.size} entries")
+    if np.any((p < 0) | (p > 1)):
+        raise ValueError("`prob` must lie in [0, 1]")
+    bins = as_int(bins, "bins", minimum=1)
+    which = np.minimum((p * bins).astype(int), bins - 1)
+    counts = np.bincount(which, minlength=bins)
+    hits = np.bincount(which[o.ravel()], minlength=bins)
+    sums = np.bincount(which, weights=p, minlength=bins)
+    keep = np.flatnonzero(counts)
+    pred = sums[keep] / counts[keep]
+    obs, low, high = (np.empty(keep.size) for _ in range(3))
+    for i, b in enumerate(keep):
+        est = proportion(int(hits[b]), int(counts[b]))
+        obs[i], low[i], high[i] = est.estimate, est.low, est.high
+    return ReliabilityCurve(pred, obs, low, high, counts[keep])
