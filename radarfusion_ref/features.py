@@ -50,7 +50,6 @@ from scipy.special import logsumexp
 
 from ._validation import (
     as_choice,
-    as_covariance,
     as_float_array,
     as_int,
     as_positive,
@@ -58,6 +57,7 @@ from ._validation import (
     broadcast,
 )
 from .montecarlo import MeanEstimate, Proportion, mean, proportion
+from .proximity import mahalanobis_sq
 from .scenes import TwoRadarScene, two_radar_scene
 
 __all__ = [
@@ -344,15 +344,6 @@ class CombinedProximity:
     model: str
 
 
-def _mahalanobis_sq(diff, cov):
-    """diffᵀ cov⁻¹ diff through a Cholesky factor (batched)."""
-    batch = np.broadcast_shapes(diff.shape[:-1], cov.shape[:-2])
-    d = diff.shape[-1]
-    chol = np.linalg.cholesky(np.broadcast_to(cov, (*batch, d, d)))
-    z = np.linalg.solve(chol, np.broadcast_to(diff, (*batch, d))[..., None])[..., 0]
-    return np.sum(z * z, axis=-1)
-
-
 def _spread_feature_term(f1, v1, f2, v2, means, tvars, log_priors):
     """-2 log LR(same object vs different objects) of two feature reports under model 2."""
     l1 = _log_normal(f1[..., None], means, tvars + v1[..., None]) + log_priors
@@ -396,6 +387,7 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
 
     Notes
     -----
+    The coordinate part is :func:`radarfusion_ref.proximity.mahalanobis_sq`.
     Model 1 (``"shared"``): minus twice the log of the profile likelihood (11)
     is, up to a constant,
 
@@ -432,22 +424,8 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     (3.0, 1.0, 2.0, 2)
     """
     model = as_choice(model, "model", FEATURE_MODELS)
-    a = as_float_array(x1, "x1", ndim_min=1)
-    b = as_float_array(x2, "x2", ndim_min=1)
-    if a.shape[-1] != b.shape[-1]:
-        raise ValueError("`x1` and `x2` must have the same last dimension d; "
-                         f"received shapes {a.shape} and {b.shape}")
-    d = a.shape[-1]
-    c1 = as_covariance(cov1, "cov1", dim=d)
-    c2 = as_covariance(cov2, "cov2", dim=d)
-    try:
-        diff = a - b
-        cov = c1 + c2
-        np.broadcast_shapes(diff.shape[:-1], cov.shape[:-2])
-    except ValueError:
-        raise ValueError("`x1`, `x2`, `cov1`, `cov2` must have broadcastable batch shapes; "
-                         f"received {a.shape}, {b.shape}, {c1.shape}, {c2.shape}") from None
-    kx = _mahalanobis_sq(diff, cov)
+    kx = np.asarray(mahalanobis_sq(x1, x2, cov1, cov2), dtype=float)
+    d = np.shape(x1)[-1]
 
     f1 = as_float_array(feature1, "feature1")
     f2 = as_float_array(feature2, "feature2")
