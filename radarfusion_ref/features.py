@@ -18,6 +18,8 @@ Public functions
 * :func:`type_likelihood` — :math:`f(\\hat\\Pi \\mid T_k)` for a feature measured
   with variance :math:`v` (the type density convolved with the error);
 * :func:`type_posterior` — the type posterior (13), computed in the log domain;
+* :func:`pair_type_posterior` — the type posterior from both radars' reports,
+  under either feature observation model;
 * :func:`combined_proximity` — the coordinate + feature proximity measure (12)
   (vector coordinates allowed), for both feature observation models;
 * :func:`typed_scene` — two-radar scenes of typed objects (builds on
@@ -71,6 +73,7 @@ __all__ = [
     "association_costs",
     "combined_proximity",
     "fused_feature",
+    "pair_type_posterior",
     "reliability_curve",
     "triune",
     "type_likelihood",
@@ -309,6 +312,66 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
     f, v = broadcast(feature=f, feature_var=v)
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
     log_joint = _log_normal(f[..., None], means, tvars + v[..., None]) + log_priors
+    log_post = log_joint - logsumexp(log_joint, axis=-1, keepdims=True)
+    return log_post if log else np.exp(log_post)
+
+
+def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_means, type_vars,
+                        priors=None, *, model: str = "shared", log: bool = False):
+    """Type posterior from the two feature reports of one object, under either model.
+
+    Parameters
+    ----------
+    feature1, feature2 : array_like
+        The two radars' feature reports of the object (broadcast together).
+    feature_var1, feature_var2 : array_like
+        Their error variances (> 0).
+    type_means, type_vars, priors : array_like, shape (L,)
+        As in :func:`type_posterior`.
+    model : {"shared", "spread"}, optional
+        Feature observation model.
+    log : bool, optional
+        Return log-probabilities.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., L)
+
+    Notes
+    -----
+    ``"shared"``: :func:`type_posterior` of the fused feature with its
+    variance (the fused feature is sufficient). ``"spread"``: the two reports
+    are independent given the type, so
+
+    .. math::
+
+        P(T_k \\mid \\hat\\Pi_1, \\hat\\Pi_2) \\propto p_k\\,
+        \\mathcal N(\\hat\\Pi_1; \\Pi_k, \\sigma_{\\Pi k}^2 + \\sigma_{\\Pi 1}^2)\\,
+        \\mathcal N(\\hat\\Pi_2; \\Pi_k, \\sigma_{\\Pi k}^2 + \\sigma_{\\Pi 2}^2).
+
+    References
+    ----------
+    Grachov & Korneev (2010), eq. (13) and the two observation models.
+
+    Examples
+    --------
+    >>> pair_type_posterior(0.9, 0.1, 1.1, 0.1, [0.0, 1.0], [0.2, 0.2]).round(3)
+    array([0.119, 0.881])
+    >>> pair_type_posterior(0.9, 0.1, 1.1, 0.1, [0.0, 1.0], [0.2, 0.2], model="spread").round(3)
+    array([0.034, 0.966])
+    """
+    model = as_choice(model, "model", FEATURE_MODELS)
+    if model == "shared":
+        ff = fused_feature(feature1, feature_var1, feature2, feature_var2)
+        return type_posterior(ff.value, ff.var, type_means, type_vars, priors, log=log)
+    f1 = as_float_array(feature1, "feature1")
+    f2 = as_float_array(feature2, "feature2")
+    v1 = as_positive(feature_var1, "feature_var1")
+    v2 = as_positive(feature_var2, "feature_var2")
+    f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
+    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    log_joint = (_log_normal(f1[..., None], means, tvars + v1[..., None])
+                 + _log_normal(f2[..., None], means, tvars + v2[..., None]) + log_priors)
     log_post = log_joint - logsumexp(log_joint, axis=-1, keepdims=True)
     return log_post if log else np.exp(log_post)
 
@@ -715,8 +778,10 @@ def triune(scene: TypedScene, match, *, rule: str = "exact") -> TriuneResult:
         Radar-2 partner of each radar-1 report (``-1``: unpaired), e.g. from
         an associator run on :func:`association_costs`.
     rule : {"exact", "plugin"}, optional
-        Type posterior: the exact one (fused-feature variance and the scene's
-        priors) or the paper's plug-in (13) (variance 0, uniform priors).
+        Type posterior: the exact one for the scene's feature model
+        (:func:`pair_type_posterior` with the scene's priors; a lone report's
+        own posterior if unpaired) or the paper's plug-in (13) (the fused
+        feature with variance 0 and uniform priors).
 
     Returns
     -------
@@ -755,13 +820,15 @@ def triune(scene: TypedScene, match, *, rule: str = "exact") -> TriuneResult:
     s1, s2 = c.sigma1**2, c.sigma2**2
     fused = np.where(paired[..., None], (s2 * c.reports1 + s1 * x2) / (s1 + s2), c.reports1)
     v1, v2 = scene.feature_sigma1**2, scene.feature_sigma2**2
-    ff = fused_feature(scene.features1, v1, f2, v2)
-    feat = np.where(paired, ff.value, scene.features1)
-    fvar = np.where(paired, ff.var, v1)
+    types = (scene.type_means, scene.type_vars)
     if rule == "exact":
-        post = type_posterior(feat, fvar, scene.type_means, scene.type_vars, scene.priors)
+        post = np.where(paired[..., None],
+                        pair_type_posterior(scene.features1, v1, f2, v2, *types, scene.priors,
+                                            model=scene.model),
+                        type_posterior(scene.features1, v1, *types, scene.priors))
     else:
-        post = type_posterior(feat, 0.0, scene.type_means, scene.type_vars)
+        ff = fused_feature(scene.features1, v1, f2, v2)
+        post = type_posterior(np.where(paired, ff.value, scene.features1), 0.0, *types)
     sq = np.sum((fused - c.truth) ** 2, axis=-1)
     return TriuneResult(m, m == scene.true_match, fused, sq, post, np.argmax(post, axis=-1),
                         scene.types)

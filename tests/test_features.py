@@ -69,6 +69,27 @@ def test_two_report_posterior_equals_numerical_integration(f1, f2, s1, s2, means
     np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-12)
 
 
+def test_pair_posterior_both_models_by_integration():
+    """Model 2: P(T_k | Π̂1, Π̂2) ∝ p_k ∫N(Π̂1;Π,v1)N(Π;Π_k,σ_k²)dΠ ∫N(Π̂2;Π',v2)N(Π';Π_k,σ_k²)dΠ'."""
+    means, tvars, pri = [0.0, 1.5, 2.0], [0.3, 0.6, 0.2], np.array([0.5, 0.2, 0.3])
+    f1, f2, v1, v2 = 0.7, 1.9, 0.2, 0.05
+
+    def g(f, v, m, tv):
+        return integrate.quad(lambda x: _npdf(f, x, v) * _npdf(x, m, tv), -np.inf, np.inf)[0]
+
+    lik = np.array([g(f1, v1, m, t) * g(f2, v2, m, t) for m, t in zip(means, tvars, strict=True)])
+    want = pri * lik / np.sum(pri * lik)
+    got = F.pair_type_posterior(f1, v1, f2, v2, means, tvars, pri, model="spread")
+    np.testing.assert_allclose(got, want, rtol=1e-7)
+    ff = F.fused_feature(f1, v1, f2, v2)
+    np.testing.assert_allclose(F.pair_type_posterior(f1, v1, f2, v2, means, tvars, pri),
+                               F.type_posterior(ff.value, ff.var, means, tvars, pri))
+    with pytest.raises(ValueError, match="`model`"):
+        F.pair_type_posterior(f1, v1, f2, v2, means, tvars, model="one")
+    with pytest.raises(ValueError, match="`feature_var1`"):
+        F.pair_type_posterior(f1, -v1, f2, v2, means, tvars, model="spread")
+
+
 @pytest.mark.parametrize(("f", "v", "m", "tv"), [(0.4, 0.3, 1.0, 0.5), (-2.0, 0.0, 0.0, 2.0)])
 def test_type_likelihood_equals_convolution(f, v, m, tv):
     if v == 0:
