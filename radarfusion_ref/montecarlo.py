@@ -186,7 +186,9 @@ def proportion(successes, trials, *, confidence: float = 0.95,
         denom = 1 + z**2 / n
         centre = (p + z**2 / (2 * n)) / denom
         half = z * np.sqrt(p * (1 - p) / n + z**2 / (4 * n**2)) / denom
-        low, high = np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
+        # exact limits at the boundaries (rounding would leave them a hair off)
+        low = np.where(k == 0, 0.0, np.clip(centre - half, 0, 1))
+        high = np.where(k == n, 1.0, np.clip(centre + half, 0, 1))
     else:
         with np.errstate(invalid="ignore"):
             low = np.where(k > 0, stats.beta.ppf(alpha / 2, k, n - k + 1), 0.0)

@@ -1,0 +1,74 @@
+"""The book's layout: chapters, modules and tests share stems; conventions hold."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from book_tools import ROOT, is_notebook, notebook_docnames, toc_docnames
+
+from radarfusion_ref import catalog
+
+CHAPTER_DOCS = [d for d in notebook_docnames() if re.search(r"/\d\d_", d)]
+
+
+def test_catalog_matches_the_table_of_contents():
+    assert [c.docname for c in catalog.CHAPTERS] == CHAPTER_DOCS
+
+
+@pytest.mark.parametrize("chapter", catalog.CHAPTERS, ids=lambda c: c.stem)
+def test_chapter_module_and_tests_exist(chapter):
+    assert (ROOT / f"{chapter.docname}.md").exists()
+    assert (ROOT / "radarfusion_ref" / f"{chapter.stem}.py").exists(), chapter.module
+    assert (ROOT / "tests" / f"test_{chapter.stem}.py").exists()
+    assert (ROOT / "book" / "errata" / f"{chapter.stem}.md").exists()
+
+
+def test_every_toc_entry_exists():
+    for docname in toc_docnames():
+        assert (ROOT / f"{docname}.md").exists(), docname
+
+
+@pytest.mark.parametrize("docname", notebook_docnames())
+def test_chapter_conventions(docname):
+    text = (ROOT / f"{docname}.md").read_text(encoding="utf-8")
+    assert is_notebook(ROOT / f"{docname}.md")
+    assert "jupytext:" in text.split("---", 2)[1], "jupytext front matter"
+    assert "{exercise-start}" in text, "a chapter ends with exercises"
+    solutions = re.findall(r"```\{solution-start\}[^\n]*\n((?::[^\n]*\n)*)", text)
+    assert solutions, "exercises have solutions"
+    assert all(":class: dropdown" in opts for opts in solutions), "solutions hidden by default"
+    assert "default_rng(" in text, "one seeded generator per chapter"
+
+
+def test_no_global_numpy_random_state():
+    pattern = re.compile(r"np\.random\.(seed|rand|randn|randint|choice|normal|uniform|shuffle"
+                         r"|permutation|random_sample)\(")
+    offenders = []
+    for path in [*ROOT.glob("radarfusion_ref/*.py"), *ROOT.glob("book/*.md"),
+                 *ROOT.glob("benchmarks/*.py")]:
+        for i, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if pattern.search(line):
+                offenders.append(f"{path.relative_to(ROOT)}:{i}: {line.strip()}")
+    assert not offenders, offenders
+
+
+def test_no_assert_for_validation_in_the_package():
+    offenders = [f"{p.name}:{i}" for p in ROOT.glob("radarfusion_ref/*.py")
+                 for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+                 if re.match(r"\s*assert\s", line)]
+    assert not offenders, offenders
+
+
+def test_ci_runs_exactly_the_readme_test_command():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```bash\n(.*?)\n```", readme, flags=re.S)
+    test_cmd = next(b for b in blocks if "pytest" in b)
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    assert ci[-1] == test_cmd
+
+
+def test_errata_page_includes_every_chapter_fragment():
+    errata = (ROOT / "book" / "errata.md").read_text(encoding="utf-8")
+    included = set(re.findall(r"\{include\} errata/(\w+)\.md", errata))
+    assert included == {c.stem for c in catalog.CHAPTERS}

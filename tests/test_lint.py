@@ -1,0 +1,31 @@
+"""Lint: ruff over the package, tests and benchmarks, and pyflakes rules over every chapter."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+from book_tools import ROOT, notebook_docnames
+
+
+def _ruff(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "ruff", *args], cwd=ROOT, input=stdin,
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_ruff_is_clean():
+    proc = _ruff("check", "--no-cache", ".")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("docname", notebook_docnames())
+def test_chapter_code_has_no_pyflakes_errors(docname):
+    """Undefined names, unused imports and similar slips in a chapter's code cells."""
+    import jupytext
+
+    nb = jupytext.read(ROOT / f"{docname}.md")
+    script = jupytext.writes(nb, fmt="py:percent")
+    proc = _ruff("check", "--no-cache", "--select", "F,E9", "--ignore", "F811",
+                 "--stdin-filename", f"{docname}.py", "-", stdin=script)
+    assert proc.returncode == 0, f"{docname}:\n{proc.stdout}"

@@ -1,0 +1,85 @@
+"""The shared input checks: clear messages naming the argument."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from radarfusion_ref import _validation as v
+
+
+def test_float_array_accepts_numbers_and_lists():
+    np.testing.assert_array_equal(v.as_float_array([1, 2], "x"), [1.0, 2.0])
+    assert v.as_float_array(3, "x").shape == ()
+
+
+@pytest.mark.parametrize("bad", ["abc", None, [[1, 2], [3]], {"a": 1}])
+def test_float_array_rejects_non_numeric(bad):
+    with pytest.raises(TypeError, match="`x` must be a number or an array of numbers"):
+        v.as_float_array(bad, "x")
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, [1.0, -np.inf]])
+def test_float_array_rejects_non_finite(bad):
+    with pytest.raises(ValueError, match="`x` must be finite"):
+        v.as_float_array(bad, "x")
+
+
+def test_trailing_shape_is_checked():
+    v.as_float_array(np.zeros((4, 2)), "xy", last_dims=(2,))
+    with pytest.raises(ValueError, match=r"`xy` must have shape \(\.\.\., 2\)"):
+        v.as_float_array(np.zeros((4, 3)), "xy", last_dims=(2,))
+
+
+def test_positive_and_probability():
+    with pytest.raises(ValueError, match="`var` must be > 0"):
+        v.as_positive([1.0, 0.0], "var")
+    v.as_positive([1.0, 0.0], "var", strict=False)
+    with pytest.raises(ValueError, match="`p` must lie in the open interval"):
+        v.as_probability(0.0, "p")
+    v.as_probability(0.0, "p", open_interval=False)
+
+
+@pytest.mark.parametrize("bad", [1.0, True, "3"])
+def test_int_rejects_non_integers(bad):
+    with pytest.raises(TypeError, match="`n` must be an integer"):
+        v.as_int(bad, "n")
+
+
+def test_int_range():
+    assert v.as_int(np.int64(3), "n", minimum=1) == 3
+    with pytest.raises(ValueError, match="`n` must be an integer >= 1 and <= 5; received 6"):
+        v.as_int(6, "n", minimum=1, maximum=5)
+
+
+def test_covariance_checks():
+    good = np.array([[2.0, 0.5], [0.5, 1.0]])
+    np.testing.assert_array_equal(v.as_covariance(np.stack([good, good]), "cov"),
+                                  np.stack([good, good]))
+    with pytest.raises(ValueError, match="`cov` must be symmetric"):
+        v.as_covariance([[1.0, 0.5], [0.0, 1.0]], "cov")
+    with pytest.raises(ValueError, match="1 of 2 matrices are not"):
+        v.as_covariance(np.stack([good, [[1.0, 2.0], [2.0, 1.0]]]), "cov")
+    with pytest.raises(ValueError, match=r"`cov` must have shape \(\.\.\., d, d\)"):
+        v.as_covariance(np.zeros((2, 3)), "cov")
+    with pytest.raises(ValueError, match=r"\(\.\.\., 3, 3\)"):
+        v.as_covariance(good, "cov", dim=3)
+
+
+def test_choice_and_rng():
+    assert v.as_choice("a", "kind", ("a", "b")) == "a"
+    with pytest.raises(ValueError, match="`kind` must be one of 'a', 'b'"):
+        v.as_choice("c", "kind", ("a", "b"))
+    g = np.random.default_rng(0)
+    assert v.as_rng(g) is g
+    with pytest.raises(TypeError, match="legacy RandomState"):
+        v.as_rng(np.random.RandomState(0))
+    with pytest.raises(TypeError, match="`rng`"):
+        v.as_rng("seed")
+
+
+def test_broadcast_names_all_arguments():
+    a, b = v.broadcast(x1=np.zeros((3, 1)), x2=np.zeros(2))
+    assert a.shape == b.shape == (3, 2)
+    with pytest.raises(ValueError, match="`x1`, `x2` must broadcast"):
+        v.broadcast(x1=np.zeros(3), x2=np.zeros(2))
