@@ -47,6 +47,7 @@ References
 
 from __future__ import annotations
 
+import bisect
 import heapq
 import itertools
 import math
@@ -593,32 +594,46 @@ class KBestAssignments:
         return int(self.costs.shape[0])
 
 
-def _duals(m: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Dual potentials ``(u, v)`` certifying the diagonal of ``m`` as an optimal assignment.
+def _reduced_costs(m: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Reduced costs certifying the diagonal of ``m`` as an optimal assignment.
 
-    ``m`` is ``(s, s)`` with ``+inf`` for forbidden pairs and its optimal
-    assignment on the diagonal. Finds ``v`` with ``v_j - v_i <= m_ij - m_ii`` by
-    Bellman–Ford (vectorized; no negative cycles exist at an optimum), started
-    from ``v0`` (any finite start converges; a parent's potentials converge in a
-    few sweeps), then ``u_i = m_ii - v_i``; the reduced costs ``m - u - v`` are
-    >= 0 and vanish on the diagonal.
+    ``m`` is ``(s, s)`` with ``+inf`` for forbidden pairs and an optimal
+    assignment on its diagonal. Column potentials ``v`` with
+    ``v_j - v_i <= m_ij - m_ii`` are found by Bellman–Ford (vectorized; an
+    optimum has no negative cycle), started from ``v0`` — any finite start
+    converges, and a parent's potentials converge in a few sweeps. With
+    ``u_i = m_ii - v_i`` the reduced costs ``m_ij - u_i - v_j`` are >= 0 and vanish on
+    the diagonal.
+
+    Returns
+    -------
+    red : numpy.ndarray, shape (s, s)
+        Reduced costs, clipped at 0, with ``+inf`` on the diagonal (an
+        assignment's own pairs are excluded from the bounds).
+    v : numpy.ndarray, shape (s,)
+        The column potentials (a warm start for the children).
     """
     s = m.shape[0]
     diag = np.diagonal(m)
     w = m - diag[:, None]                     # edge i -> j (column i is held by row i)
-    v = v0.copy()
+    tol = 1e-12 * (1.0 + float(np.abs(diag).max()))
+    v = v0
     for _ in range(s + 1):
         nv = np.min(v[:, None] + w, axis=0)
-        if not np.any(nv < v - 1e-12 * (1.0 + np.abs(v))):
+        if not (nv < v - tol).any():
             break
         v = np.minimum(v, nv)
-    return diag - v, v
+    red = w + v[:, None]
+    red -= v
+    np.maximum(red, 0.0, out=red)
+    red.flat[::s + 1] = np.inf
+    return red, v
 
 
 @lru_cache(maxsize=64)
-def _upper(s: int) -> np.ndarray:
-    """Strictly upper-triangular boolean mask of size ``s`` (cached, read-only)."""
-    out = np.triu(np.ones((s, s), dtype=bool), 1)
+def _not_upper(s: int) -> np.ndarray:
+    """``+inf`` on and below the diagonal, 0 above (cached, read-only)."""
+    out = np.where(np.triu(np.ones((s, s), dtype=bool), 1), 0.0, np.inf)
     out.setflags(write=False)
     return out
 
@@ -706,19 +721,21 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     root = solve(square)
     solved += 1
     heap: list = []
-    # An exact node: (row_ids, col_ids, matrix, fixed_rows, fixed_cols, offset, cols, v0)
-    # -- the sub-problem's rows/columns (original indices), its matrix, the pairs fixed
-    # above it, their cost, its optimal column per row, and a warm start for its duals.
+    exact_pending: list[float] = []     # sorted costs of solved, not yet output, nodes
+    # An exact node: (row_ids, col_ids, matrix, fixed, offset, cols, v0) -- the
+    # sub-problem's rows/columns (original indices), its matrix, the pairs fixed above it
+    # (a chain (previous, rows, cols) shared with its siblings), their cost, its optimal
+    # column per row, and a warm start for its duals.
     # A pending child: (parent, t) -- solved only when its lower bound reaches the front.
     if root is not None:
         cols, total = root
-        node = (np.arange(b), np.arange(b), square, np.empty(0, int), np.empty(0, int), 0.0,
-                cols, np.zeros(b))
+        node = (np.arange(b), np.arange(b), square, None, 0.0, cols, np.zeros(b))
         heapq.heappush(heap, (total, next(counter), True, node))
+        exact_pending.append(total)
     while heap and len(out_assign) < k:
         bound, _, exact, node = heapq.heappop(heap)
         if not exact:
-            (row_ids, col_ids, pm, frows, fcols, offset, v), t = node
+            (row_ids, col_ids, pm, fixed, offsets, v), t = node
             sub = pm[t:, t:].copy()
             sub[0, 0] = np.inf
             res = solve(sub)
@@ -726,46 +743,60 @@ def k_best_assignments(cost, k) -> KBestAssignments:
             if res is None:
                 continue
             cols, total = res
-            child_offset = offset + float(np.trace(pm[:t, :t]))
-            child = (row_ids[t:], col_ids[t:], sub, np.concatenate([frows, row_ids[:t]]),
-                     np.concatenate([fcols, col_ids[:t]]), child_offset, cols, v[t:])
-            heapq.heappush(heap, (child_offset + total, next(counter), True, child))
+            child = (row_ids[t:], col_ids[t:], sub, (fixed, row_ids[:t], col_ids[:t]),
+                     offsets[t], cols, v[t:])
+            heapq.heappush(heap, (offsets[t] + total, next(counter), True, child))
+            bisect.insort(exact_pending, offsets[t] + total)
             continue
-        row_ids, col_ids, mat, frows, fcols, offset, cols, v0 = node
-        full = np.empty(b, dtype=int)
-        full[frows] = fcols
-        full[row_ids] = col_ids[cols]
-        out_assign.append(full[:a].copy())
+        exact_pending.pop(0)
+        row_ids, col_ids, mat, fixed, offset, cols, v0 = node
+        out_assign.append((fixed, row_ids, col_ids[cols]))
         out_cost.append(bound)
-        if len(out_assign) == k:
+        need = k - len(out_assign)
+        if need == 0:
             break
         real = is_real[row_ids]
         m_real = int(np.count_nonzero(real))
         if m_real == 0:
             continue
-        # Solution on the diagonal, then duals and reduced costs (+inf stays +inf).
+        # Solved nodes already queued give an upper bound on the k-th best cost: a
+        # child whose lower bound exceeds it can never be output.
+        upper = exact_pending[need - 1] if len(exact_pending) >= need else np.inf
+        # Solution on the diagonal, then reduced costs.
         pm = mat[:, cols]
-        u, v = _duals(pm, v0[cols])
-        red = np.maximum(pm - u[:, None] - v[None, :], 0.0)
+        red, v = _reduced_costs(pm, v0[cols])
         # Partition order (Miller et al.): real rows whose children are likely needed
         # (small bound) go last, where their sub-problems are smallest; dummies after.
-        s_ = red.shape[0]
-        off = red.copy()
-        np.fill_diagonal(off, np.inf)
-        loose = off.min(axis=1) + off.min(axis=0)
-        idx_real = np.flatnonzero(real)
-        order = np.concatenate([idx_real[np.argsort(-loose[idx_real], kind="stable")],
-                                np.flatnonzero(~real)])
-        pm, red, v = pm[order][:, order], red[order][:, order], v[order]
-        upper = _upper(s_)
-        row_min = np.min(red, axis=1, where=upper, initial=np.inf)[:m_real]
-        col_min = np.min(red, axis=0, where=upper.T, initial=np.inf)[:m_real]
-        lb = ((bound - 1e-9 * (1.0 + abs(bound))) + row_min + col_min).tolist()
-        parent = (row_ids[order], col_ids[cols][order], pm, frows, fcols, offset, v)
-        for t, val in enumerate(lb):
-            if val < np.inf:
-                heapq.heappush(heap, (val, next(counter), False, (parent, t)))
+        loose = red.min(axis=1) + red.min(axis=0)
+        if m_real == len(real):
+            order = np.argsort(-loose, kind="stable")
+        else:
+            idx_real = np.flatnonzero(real)
+            order = np.concatenate([idx_real[np.argsort(-loose[idx_real], kind="stable")],
+                                    np.flatnonzero(~real)])
+        pm, red = pm[order][:, order], red[order][:, order]
+        mask = _not_upper(red.shape[0])
+        row_min = np.min(red + mask, axis=1)      # row r_t to a column s_tau, tau > t
+        col_min = np.min(red + mask.T, axis=0)    # column s_t from a row r_tau, tau > t
+        lb = (bound - 1e-9 * (1.0 + abs(bound))) + (row_min + col_min)[:m_real]
+        keep = np.flatnonzero(lb <= upper)
+        if keep.size == 0:
+            continue
+        # child t's fixed cost: this node's offset plus its first t diagonal entries
+        offsets = (offset + np.concatenate([[0.0], np.cumsum(np.diagonal(pm))])).tolist()
+        parent = (row_ids[order], col_ids[cols][order], pm, fixed, offsets, v[order])
+        for t, val in zip(keep.tolist(), lb[keep].tolist(), strict=True):
+            heapq.heappush(heap, (val, next(counter), False, (parent, t)))
 
+    rows_out = []
+    for fixed, rids, cids in out_assign:
+        full = np.empty(b, dtype=int)
+        full[rids] = cids
+        while fixed is not None:
+            fixed, frows, fcols = fixed
+            full[frows] = fcols
+        rows_out.append(full[:a])
+    out_assign = rows_out
     assign = np.array(out_assign, dtype=int).reshape(-1, a)
     if transpose:
         assign = _inverse(assign, n1) if assign.size else np.empty((0, n1), dtype=int)
