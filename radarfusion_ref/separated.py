@@ -763,6 +763,9 @@ class MethodResult:
     false_pass : Proportion
         Shape (n,): how often the false pair of radar-1 report ``i`` with
         radar-2 report ``i+1`` (cyclically) passes the gate.
+    all_correct : Proportion
+        Scalar: how often per-report gating decides *every* target correctly
+        (comparable with ``joint``, which decides all targets at once).
     """
 
     label: str
@@ -773,6 +776,7 @@ class MethodResult:
     joint_ungated: Proportion
     true_reject: Proportion
     false_pass: Proportion
+    all_correct: Proportion
 
 
 @dataclass(frozen=True)
@@ -898,6 +902,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     joint_ug = np.zeros((k, 3), dtype=np.int64)
     true_rej = np.zeros((k, n), dtype=np.int64)
     false_pass = np.zeros((k, n), dtype=np.int64)
+    all_ok = np.zeros(k, dtype=np.int64)
     idx = np.arange(n)
     nxt = (idx + 1) % n
     perms = np.array(list(itertools.permutations(range(n))))
@@ -914,7 +919,9 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
             passed = s < th
             true_pass = passed[idx, idx]                     # (n, m)
             single = passed.sum(axis=1) == 1
-            c_ok = np.count_nonzero(single & true_pass, axis=1)
+            ok_i = single & true_pass
+            all_ok[q] += np.count_nonzero(ok_i.all(axis=0))
+            c_ok = np.count_nonzero(ok_i, axis=1)
             c_wrong = np.count_nonzero(single & ~true_pass, axis=1)
             per[q] += np.stack([c_ok, c_wrong, m - c_ok - c_wrong], axis=-1)
             true_rej[q] += m - np.count_nonzero(true_pass, axis=1)
@@ -931,10 +938,23 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     results = {}
     for q, (pm, cm) in enumerate(meths):
         label = pm if pm == cm else f"{pm}/{cm}"
-        results[label] = MethodResult(
-            label, pm, cm, proportion(per[q], n_trials), proportion(joint[q], n_trials),
-            proportion(joint_ug[q], n_trials), proportion(true_rej[q], n_trials),
-            proportion(false_pass[q], n_trials))
+        # one interval computation for all counts of the method, then sliced
+        parts = [per[q], joint[q], joint_ug[q], true_rej[q], false_pass[q], all_ok[q]]
+        flat = proportion(np.concatenate([np.ravel(x) for x in parts]), n_trials)
+        props, pos = [], 0
+        for x in parts:
+            size, shape = np.size(x), np.shape(x)
+            sl = slice(pos, pos + size)
+            pos += size
+
+            def cut(v, sl=sl, shape=shape):
+                out = np.asarray(v)[sl].reshape(shape)
+                return out.item() if out.ndim == 0 else out
+
+            props.append(Proportion(cut(flat.successes), n_trials, cut(flat.estimate),
+                                    cut(flat.low), cut(flat.high), flat.confidence,
+                                    flat.method))
+        results[label] = MethodResult(label, pm, cm, *props)
     return ExperimentResult(results, n_trials, th, th_joint, geo, sr, sb, p_lo)
 
 

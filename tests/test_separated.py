@@ -56,6 +56,7 @@ def loop_outcomes(rep, method, th, th_joint):
     n = geo.targets.shape[0]
     p2 = geo.radar2
     per = np.zeros((n, 3), dtype=int)
+    all_ok = 0
     joint = np.zeros(3, dtype=int)
     joint_ug = np.zeros(3, dtype=int)
     for t in range(rep.trials):
@@ -71,14 +72,17 @@ def loop_outcomes(rep, method, th, th_joint):
                 C = c1.cov[i] + c2.cov[j]
                 S[i, j] = d @ np.linalg.solve(C, d)
                 LD[i, j] = np.linalg.slogdet(C)[1]
+        n_ok = 0
         for i in range(n):
             passing = [j for j in range(n) if S[i, j] < th]
             if len(passing) == 1 and passing[0] == i:
                 per[i, 0] += 1
+                n_ok += 1
             elif len(passing) == 1:
                 per[i, 1] += 1
             else:
                 per[i, 2] += 1
+        all_ok += n_ok == n
         best, best_cost, best_s = None, math.inf, None
         for perm in itertools.permutations(range(n)):
             cost = sum(S[i, perm[i]] + LD[i, perm[i]] for i in range(n))
@@ -91,7 +95,7 @@ def loop_outcomes(rep, method, th, th_joint):
             joint[2] += 1
         else:
             joint[0 if correct else 1] += 1
-    return per, joint, joint_ug
+    return per, joint, joint_ug, all_ok
 
 
 # ---------------------------------------------------------------- geometry
@@ -232,10 +236,12 @@ def test_vectorized_experiment_equals_per_trial_loop(methods):
         label = pm if pm == cm else f"{pm}/{cm}"
         if pm != cm:
             continue    # the loop reference converts with one method
-        per, joint, joint_ug = loop_outcomes(rep, pm, res.threshold, res.joint_threshold)
+        per, joint, joint_ug, all_ok = loop_outcomes(rep, pm, res.threshold,
+                                                     res.joint_threshold)
         np.testing.assert_array_equal(res[label].per_report.successes, per)
         np.testing.assert_array_equal(res[label].joint.successes, joint)
         np.testing.assert_array_equal(res[label].joint_ungated.successes, joint_ug)
+        assert res[label].all_correct.successes == all_ok
 
 
 def test_chunking_does_not_change_the_result_for_one_chunk():
