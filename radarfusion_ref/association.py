@@ -70,6 +70,7 @@ from ._validation import (
 )
 from .errors import RadarFusionWarning
 from .montecarlo import Proportion, proportion
+from .proximity import mahalanobis_sq
 
 __all__ = [
     "Association",
@@ -1134,6 +1135,9 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, sigma1: float, si
 def proximity_matrix(reports1, reports2, sigma1: float, sigma2: float) -> np.ndarray:
     """All pairwise proximity measures :math:`\\kappa_{ij}` of two report lists.
 
+    A thin wrapper that broadcasts :func:`radarfusion_ref.proximity.mahalanobis_sq`
+    over every (radar-1, radar-2) pair.
+
     Parameters
     ----------
     reports1, reports2 : array_like, shape (..., n1, d) and (..., n2, d)
@@ -1157,9 +1161,11 @@ def proximity_matrix(reports1, reports2, sigma1: float, sigma2: float) -> np.nda
     if r1.shape[-1] != r2.shape[-1]:
         raise ValueError("`reports1` and `reports2` must have the same last dimension d; "
                          f"received shapes {r1.shape} and {r2.shape}")
-    var = float(as_positive(sigma1, "sigma1")) ** 2 + float(as_positive(sigma2, "sigma2")) ** 2
-    diff = r1[..., :, None, :] - r2[..., None, :, :]
-    return np.sum(diff * diff, axis=-1) / var
+    eye = np.eye(r1.shape[-1])
+    v1 = float(as_positive(sigma1, "sigma1")) ** 2
+    v2 = float(as_positive(sigma2, "sigma2")) ** 2
+    out = mahalanobis_sq(r1[..., :, None, :], r2[..., None, :, :], v1 * eye, v2 * eye)
+    return np.asarray(out, dtype=float)
 
 
 # --------------------------------------------------------------------------- Monte Carlo
