@@ -389,15 +389,17 @@ class CombinedProximity:
         :math:`\\kappa^x = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (C_1+C_2)^{-1}
         (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)`.
     feature : numpy.ndarray
-        :math:`\\kappa^\\Pi`: under ``"shared"`` the squared normalised feature
-        difference; under ``"spread"`` minus twice the log-likelihood ratio of
-        "same object" against "different objects" (it can be negative).
+        :math:`\\kappa^\\Pi`, the feature term (see :func:`combined_proximity`).
     dof : int or None
         Degrees of freedom of the :math:`\\chi^2` law of `total` under a true
-        hypothesis (``d + 1`` for ``"shared"``); ``None`` for ``"spread"``,
-        whose feature term is not :math:`\\chi^2`.
+        hypothesis: ``d + 1`` for the profile measure of model 1, ``d`` for the
+        profile measure of model 2 (whose feature term is zero); ``None`` for
+        the marginal measures, which are log-likelihood ratios, not
+        :math:`\\chi^2`.
     model : str
         ``"shared"`` or ``"spread"``.
+    kind : str
+        ``"profile"`` or ``"marginal"``.
     """
 
     total: np.ndarray
@@ -405,20 +407,29 @@ class CombinedProximity:
     feature: np.ndarray
     dof: int | None
     model: str
+    kind: str
 
 
-def _spread_feature_term(f1, v1, f2, v2, means, tvars, log_priors):
-    """-2 log LR(same object vs different objects) of two feature reports under model 2."""
-    l1 = _log_normal(f1[..., None], means, tvars + v1[..., None]) + log_priors
-    l2 = _log_normal(f2[..., None], means, tvars + v2[..., None])
-    same = logsumexp(l1 + l2, axis=-1)
-    apart = logsumexp(l1, axis=-1) + logsumexp(l2 + log_priors, axis=-1)
+def _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors):
+    """-2 ln LR("one object" vs "two objects") of two feature reports (Π integrated out)."""
+    n1 = _log_normal(f1[..., None], means, tvars + v1[..., None])
+    n2 = _log_normal(f2[..., None], means, tvars + v2[..., None])
+    apart = logsumexp(n1 + log_priors, axis=-1) + logsumexp(n2 + log_priors, axis=-1)
+    if model == "spread":
+        same = logsumexp(n1 + n2 + log_priors, axis=-1)
+    else:
+        total = v1 + v2
+        fused = (v2 * f1 + v1 * f2) / total
+        fused_var = v1 * v2 / total
+        same = (_log_normal(f1 - f2, 0.0, total)
+                + logsumexp(_log_normal(fused[..., None], means, tvars + fused_var[..., None])
+                            + log_priors, axis=-1))
     return -2.0 * (same - apart)
 
 
 def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, feature_var2, *,
-                       model: str = "shared", type_means=None, type_vars=None,
-                       priors=None) -> CombinedProximity:
+                       model: str = "shared", kind: str = "profile", type_means=None,
+                       type_vars=None, priors=None) -> CombinedProximity:
     """Combined coordinate + feature proximity measure of report pairs, eq. (12) corrected.
 
     Parameters
@@ -433,9 +444,14 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
         Feature error variances (> 0).
     model : {"shared", "spread"}, optional
         Feature observation model: ``"shared"`` (the paper's model 1, used for
-        (12)) or ``"spread"`` (model 2; needs the type description).
+        (9)–(12)) or ``"spread"`` (model 2).
+    kind : {"profile", "marginal"}, optional
+        ``"profile"`` (default): the unknown feature value(s) replaced by their
+        ML estimates, as the paper does — for model 1 the corrected (12).
+        ``"marginal"``: the feature value integrated out under the type
+        description, giving minus twice a log-likelihood ratio.
     type_means, type_vars, priors : array_like, shape (L,), optional
-        Type description, required for ``model="spread"``.
+        Type description, required for ``kind="marginal"``.
 
     Returns
     -------
@@ -446,12 +462,14 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     ValueError
         Mismatched coordinate dimensions, shapes that do not broadcast,
         covariances that are not positive definite, non-positive feature
-        variances, a missing type description for ``"spread"``.
+        variances, an unknown `model` or `kind`, a missing or invalid type
+        description for ``kind="marginal"``.
 
     Notes
     -----
     The coordinate part is :func:`radarfusion_ref.proximity.mahalanobis_sq`.
-    Model 1 (``"shared"``): minus twice the log of the profile likelihood (11)
+
+    *Profile, model 1* — minus twice the log of the profile likelihood (11)
     is, up to a constant,
 
     .. math::
@@ -464,17 +482,24 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     :math:`\\chi'^2(d+1, V_x + V_\\Pi)` under a false one (given the two objects'
     positions and feature values). The paper prints (12) without the squares.
 
-    Model 2 (``"spread"``): each radar sees its own draw from the type density,
-    so the reports of one object share only the type. The feature term is
+    *Profile, model 2* — each radar's value is a separate unknown, fitted
+    exactly by its own report: the feature term is zero (features say nothing
+    about association — the paper's conclusion for model 2).
+
+    *Marginal* — with :math:`g_{ik} = \\mathcal N(\\,\\cdot\\,; \\Pi_k, \\sigma_{\\Pi k}^2 +
+    \\sigma_{\\Pi i}^2)` and :math:`p(\\hat\\Pi_i) = \\sum_k p_k g_{ik}(\\hat\\Pi_i)`,
 
     .. math::
 
-        \\kappa^\\Pi = -2 \\ln \\frac{\\sum_k p_k\\, g_{1k}(\\hat\\Pi_1)\\, g_{2k}(\\hat\\Pi_2)}
-                                 {\\sum_k p_k\\, g_{1k}(\\hat\\Pi_1)\\ \\sum_\\ell p_\\ell\\, g_{2\\ell}(\\hat\\Pi_2)},
-        \\qquad g_{ik} = \\mathcal N(\\,\\cdot\\,; \\Pi_k, \\sigma_{\\Pi k}^2 + \\sigma_{\\Pi i}^2),
+        \\kappa^\\Pi = -2 \\ln \\frac{p(\\hat\\Pi_1, \\hat\\Pi_2 \\mid \\text{one object})}
+                                 {p(\\hat\\Pi_1)\\, p(\\hat\\Pi_2)},
 
-    minus twice the log-likelihood ratio of "one object" against "two
-    independent objects"; it measures only type agreement.
+    where the numerator is :math:`\\sum_k p_k\\, g_{1k}(\\hat\\Pi_1)\\, g_{2k}(\\hat\\Pi_2)`
+    under model 2 (the reports share only the type) and
+    :math:`\\mathcal N(\\hat\\Pi_1-\\hat\\Pi_2; 0, \\sigma_{\\Pi1}^2+\\sigma_{\\Pi2}^2)
+    \\sum_k p_k\\, \\mathcal N(\\tilde\\Pi; \\Pi_k, \\sigma_{\\Pi k}^2 + v)` under model 1.
+    The model-1 marginal term is the profile term plus a correction that
+    matters when the feature noise is not small against the type spread.
 
     References
     ----------
@@ -485,8 +510,14 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     >>> k = combined_proximity([0.0], [1.0], [[0.5]], [[0.5]], 0.0, 2.0, 1.0, 1.0)
     >>> float(k.total), float(k.coordinate), float(k.feature), k.dof
     (3.0, 1.0, 2.0, 2)
+    >>> k = combined_proximity([0.0], [1.0], [[0.5]], [[0.5]], 0.0, 2.0, 1.0, 1.0,
+    ...                        model="spread", kind="marginal", type_means=[0.0, 2.0],
+    ...                        type_vars=[0.1, 0.1])
+    >>> round(float(k.feature), 3), k.dof
+    (1.465, None)
     """
     model = as_choice(model, "model", FEATURE_MODELS)
+    kind = as_choice(kind, "kind", ("profile", "marginal"))
     kx = np.asarray(mahalanobis_sq(x1, x2, cov1, cov2), dtype=float)
     d = np.shape(x1)[-1]
 
@@ -495,15 +526,15 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     v1 = as_positive(feature_var1, "feature_var1")
     v2 = as_positive(feature_var2, "feature_var2")
     f1, f2, v1, v2 = broadcast(feature1=f1, feature2=f2, feature_var1=v1, feature_var2=v2)
-    if model == "shared":
-        kf = (f1 - f2) ** 2 / (v1 + v2)
-        dof = d + 1
+    if kind == "profile":
+        kf = (f1 - f2) ** 2 / (v1 + v2) if model == "shared" else np.zeros(f1.shape)
+        dof = d + 1 if model == "shared" else d
     else:
         if type_means is None or type_vars is None:
-            raise ValueError("`type_means` and `type_vars` are required with model='spread'; "
+            raise ValueError("`type_means` and `type_vars` are required with kind='marginal'; "
                              f"received type_means={type_means!r}, type_vars={type_vars!r}")
         means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
-        kf = _spread_feature_term(f1, v1, f2, v2, means, tvars, log_priors)
+        kf = _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors)
         dof = None
     try:
         kx, kf = np.broadcast_arrays(kx, kf)
@@ -511,7 +542,7 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
         raise ValueError("the coordinate batch shape (of `x1`, `x2`) and the feature shape (of "
                          f"`feature1`, `feature2`) must broadcast; received {kx.shape} and "
                          f"{kf.shape}") from None
-    return CombinedProximity(kx + kf, kx, kf, dof, model)
+    return CombinedProximity(kx + kf, kx, kf, dof, model, kind)
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -636,17 +667,21 @@ def typed_scene(n_objects: int, *, type_means, type_vars, priors=None, spacing: 
                       np.exp(log_priors), model)
 
 
-def association_costs(scene: TypedScene, *, features: str = "shared") -> np.ndarray:
+def association_costs(scene: TypedScene, *, features: str = "shared",
+                      kind: str = "profile") -> np.ndarray:
     """Cost matrices ``cost[t, i, j]`` of pairing radar-1 report i with radar-2 report j.
 
     Parameters
     ----------
     scene : TypedScene
     features : {"none", "shared", "spread"}, optional
-        ``"none"``: coordinates only (:math:`\\kappa^x`); ``"shared"``: the
-        corrected (12); ``"spread"``: coordinates plus the model-2 feature
-        term. The statistic need not match the scene's own model — using
-        ``"shared"`` on a ``"spread"`` scene is the mistake the chapter shows.
+        ``"none"``: coordinates only (:math:`\\kappa^x`); otherwise coordinates
+        plus the feature term of :func:`combined_proximity` for that model.
+        The model need not match the scene's own — using ``"shared"`` on a
+        ``"spread"`` scene is the mistake the chapter shows.
+    kind : {"profile", "marginal"}, optional
+        The feature term's kind (see :func:`combined_proximity`); the scene's
+        type description is used for ``"marginal"``.
 
     Returns
     -------
@@ -662,6 +697,7 @@ def association_costs(scene: TypedScene, *, features: str = "shared") -> np.ndar
     if not isinstance(scene, TypedScene):
         raise TypeError(f"`scene` must be a TypedScene; received {type(scene).__name__}")
     features = as_choice(features, "features", ("none", *FEATURE_MODELS))
+    kind = as_choice(kind, "kind", ("profile", "marginal"))
     c = scene.coords
     d = c.reports1.shape[-1]
     cov1 = c.sigma1**2 * np.eye(d)
@@ -670,6 +706,7 @@ def association_costs(scene: TypedScene, *, features: str = "shared") -> np.ndar
                            scene.features1[:, :, None], scene.features2[:, None, :],
                            scene.feature_sigma1**2, scene.feature_sigma2**2,
                            model="shared" if features == "none" else features,
+                           kind="profile" if features == "none" else kind,
                            type_means=scene.type_means, type_vars=scene.type_vars,
                            priors=scene.priors)
     return k.coordinate if features == "none" else k.total

@@ -194,15 +194,20 @@ def test_combined_proximity_is_sum_of_parts_and_vectorized_equals_loop(d, batch,
         np.testing.assert_allclose(k.coordinate[b], kx, rtol=1e-9)
         np.testing.assert_allclose(k.feature[b], kf, rtol=1e-12)
         np.testing.assert_allclose(k.total[b], kx + kf, rtol=1e-9)
-    ks = F.combined_proximity(x1, x2, cov[0], cov[1], f1, f2, v1, v2, model="spread",
-                              type_means=[0.0, 1.0], type_vars=[0.5, 0.5])
-    np.testing.assert_allclose(ks.total, ks.coordinate + ks.feature)
-    np.testing.assert_allclose(ks.coordinate, k.coordinate)
-    assert ks.dof is None
+    for model in F.FEATURE_MODELS:
+        ks = F.combined_proximity(x1, x2, cov[0], cov[1], f1, f2, v1, v2, model=model,
+                                  kind="marginal", type_means=[0.0, 1.0], type_vars=[0.5, 0.5])
+        np.testing.assert_allclose(ks.total, ks.coordinate + ks.feature)
+        np.testing.assert_allclose(ks.coordinate, k.coordinate)
+        assert ks.dof is None
+    k0 = F.combined_proximity(x1, x2, cov[0], cov[1], f1, f2, v1, v2, model="spread")
+    np.testing.assert_array_equal(k0.feature, 0.0)
+    assert k0.dof == d
 
 
-def test_spread_feature_term_equals_numerical_integration():
-    """Model 2: -2 ln [P(Π̂1,Π̂2 | one object) / (P(Π̂1) P(Π̂2))] by quad."""
+@pytest.mark.parametrize("model", ["shared", "spread"])
+def test_marginal_feature_term_equals_numerical_integration(model):
+    """-2 ln [p(Π̂1, Π̂2 | one object) / (p(Π̂1) p(Π̂2))], every density by quad."""
     means, tvars, pri = [0.0, 2.0], [0.4, 0.9], np.array([0.3, 0.7])
     f1, f2, v1, v2 = 0.5, 1.4, 0.1, 0.3
 
@@ -211,10 +216,31 @@ def test_spread_feature_term_equals_numerical_integration():
 
     g1 = np.array([g(f1, v1, m, t) for m, t in zip(means, tvars, strict=True)])
     g2 = np.array([g(f2, v2, m, t) for m, t in zip(means, tvars, strict=True)])
-    want = -2 * np.log(np.sum(pri * g1 * g2) / (np.sum(pri * g1) * np.sum(pri * g2)))
-    k = F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], f1, f2, v1, v2, model="spread",
-                             type_means=means, type_vars=tvars, priors=pri)
+    if model == "spread":
+        same = np.sum(pri * g1 * g2)
+    else:  # one shared value Π ~ Σ p_k N(Π_k, σ_k²), seen by both radars
+        same = sum(p * integrate.quad(
+            lambda x, m=m, t=t: _npdf(f1, x, v1) * _npdf(f2, x, v2) * _npdf(x, m, t),
+            -np.inf, np.inf)[0] for p, m, t in zip(pri, means, tvars, strict=True))
+    want = -2 * np.log(same / (np.sum(pri * g1) * np.sum(pri * g2)))
+    k = F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], f1, f2, v1, v2, model=model,
+                             kind="marginal", type_means=means, type_vars=tvars, priors=pri)
     np.testing.assert_allclose(k.feature, want, rtol=1e-8)
+
+
+def test_marginal_term_approaches_profile_term_for_small_noise():
+    """σ_Πi ≪ σ_Πk: the model-1 marginal term differs from (12) by report-only terms."""
+    rng = np.random.default_rng(3)
+    f1, f2 = rng.normal(0, 1, size=(2, 5))
+    kw = dict(type_means=[0.0], type_vars=[1.0])
+    prof = F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], f1[:, None], f2[None, :],
+                                1e-4, 1e-4).feature
+    marg = F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], f1[:, None], f2[None, :],
+                                1e-4, 1e-4, kind="marginal", **kw).feature
+    diff = marg - prof
+    # pairing-dependent part of the difference vanishes: diff ≈ a_i + b_j
+    resid = diff - diff.mean(1, keepdims=True) - diff.mean(0, keepdims=True) + diff.mean()
+    assert np.max(np.abs(resid)) < 1e-3 * np.max(np.abs(prof))
 
 
 def test_proximity_laws_by_monte_carlo():
@@ -274,7 +300,7 @@ def test_association_costs_match_pairwise_loop():
                       trials=2, dim=2, rng=3)
     c = s.coords
     for feats in ("none", "shared", "spread"):
-        cost = F.association_costs(s, features=feats)
+        cost = F.association_costs(s, features=feats, kind="marginal")
         for t in range(2):
             for i in range(3):
                 for j in range(3):
@@ -284,7 +310,8 @@ def test_association_costs_match_pairwise_loop():
                                              0.09 * np.eye(2), 0.16 * np.eye(2),
                                              s.features1[t, i], s.features2[t, j], 0.04, 0.01,
                                              model="shared" if feats == "none" else feats,
-                                             type_means=[0.0, 2.0], type_vars=[0.5, 0.5])
+                                             kind="marginal", type_means=[0.0, 2.0],
+                                             type_vars=[0.5, 0.5])
                     want = kx if feats == "none" else float(k.total)
                     np.testing.assert_allclose(cost[t, i, j], want, rtol=1e-10)
 
@@ -376,8 +403,10 @@ def test_likelihood_and_fusion_bad_input():
     (dict(feature_var2=-1.0), "feature_var2"),
     (dict(feature1=[0.0, 1.0], feature2=[0.0, 1.0, 2.0]), "feature1"),
     (dict(model="other"), "model"),
-    (dict(model="spread"), "type_means"),
-    (dict(model="spread", type_means=[0.0], type_vars=[1.0], priors=[0.5]), "priors"),
+    (dict(kind="marginal"), "type_means"),
+    (dict(kind="exact"), "kind"),
+    (dict(kind="marginal", type_means=[0.0], type_vars=[1.0], priors=[0.5]), "priors"),
+    (dict(kind="marginal", type_means=[0.0], type_vars=[-1.0]), "type_vars"),
     (dict(x1=np.zeros((3, 1)), x2=np.zeros((2, 1))), "x1"),
 ])
 def test_combined_proximity_bad_input(kwargs, arg):
@@ -408,6 +437,8 @@ def test_scene_triune_and_reliability_bad_input():
         F.association_costs(s.coords)
     with pytest.raises(ValueError, match="`features`"):
         F.association_costs(s, features="model1")
+    with pytest.raises(ValueError, match="`kind`"):
+        F.association_costs(s, kind="bayes")
     with pytest.raises(ValueError, match="`outcome`"):
         F.reliability_curve([0.5], [1])
     with pytest.raises(ValueError, match="`prob`"):
