@@ -10,8 +10,8 @@ always carries its trial count and an interval:
 Both return frozen dataclasses whose ``str`` is the form used in the prose,
 e.g. ``0.9512 [0.9469, 0.9552] (n=10000, 95% Wilson)``.
 
-References
-----------
+.. rubric:: References
+
 .. [1] E. B. Wilson, "Probable inference, the law of succession, and
    statistical inference", JASA 22 (1927) 209–212.
 .. [2] C. J. Clopper, E. S. Pearson, "The use of confidence or fiducial limits

@@ -72,3 +72,11 @@ def test_errata_page_includes_every_chapter_fragment():
     errata = (ROOT / "book" / "errata.md").read_text(encoding="utf-8")
     included = set(re.findall(r"\{include\} errata/(\w+)\.md", errata))
     assert included == {c.stem for c in catalog.CHAPTERS}
+
+
+def test_every_module_has_an_api_page():
+    modules = {p.stem for p in ROOT.glob("radarfusion_ref/*.py") if not p.stem.startswith("_")}
+    pages = {p.stem for p in (ROOT / "book" / "api").glob("*.md")} - {"index"}
+    assert modules == pages
+    listed = set(toc_docnames())
+    assert {f"book/api/{m}" for m in modules} <= listed
