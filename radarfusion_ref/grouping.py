@@ -738,10 +738,13 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
         ) from None
     xb = np.broadcast_to(xb.reshape(*batch_x, m, n, d), (*batch, m, n, d)).reshape(-1, m, n, d)
     if cb.shape[0] > 1:
-        cb = np.broadcast_to(cb.reshape(*batch_x, m, n, d, d), (*batch, m, n, d, d))
-    cb = np.broadcast_to(cb, (xb.shape[0], m, n, d, d)).reshape(-1, m, n, d, d)
+        cb = np.broadcast_to(cb.reshape(*batch_x, m, n, d, d),
+                             (*batch, m, n, d, d)).reshape(-1, m, n, d, d)
     tb = np.broadcast_to(t, (*batch, n, d)).reshape(-1, n, d)
-    tcb = np.broadcast_to(tc, (*batch, n, d, d)).reshape(-1, n, d, d)
+    if math.prod(tc.shape[:-3]) == 1 and cb.shape[0] == 1:     # no per-scene covariances
+        tcb = np.broadcast_to(tc.reshape(tc.shape[-3:]), (n, d, d))[None]
+    else:
+        tcb = np.broadcast_to(tc, (*batch, n, d, d)).reshape(-1, n, d, d)
     B = xb.shape[0]
     hyp = binding_hypotheses(n, m)                                   # (H, m, n)
     if cost == "paper":
@@ -753,7 +756,9 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
         out = q[:, ii, hyp, pp].sum(axis=(-2, -1))                   # (B, H)
     else:
         xe = np.concatenate([tb[:, None], xb], axis=1)               # track = source 0
-        ce = np.concatenate([tcb[:, None], cb], axis=1)
+        bc = max(tcb.shape[0], cb.shape[0])
+        ce = np.concatenate([np.broadcast_to(tcb[:, None], (bc, 1, n, d, d)),
+                             np.broadcast_to(cb, (bc, m, n, d, d))], axis=1)
         tensor = _ml_tensor(xe, ce).reshape(B, -1)
         w = np.array([n ** (m - i) for i in range(m + 1)])
         flat = np.arange(n) * w[0] + np.einsum("hip,i->hp", hyp, w[1:])   # (H, n)
@@ -776,10 +781,12 @@ def grouping_scene(n_targets: int, n_sources: int, *, cov, spacing: float = 1.0,
     cov : array_like, shape (m, n, d, d)
         Error covariance of each report (broadcastable, e.g. ``(m, 1, d, d)``);
         ``d`` is taken from it.
-    spacing : float, optional
-        ``"line"``: targets ``spacing`` apart on the first coordinate (all other
-        coordinates zero); ``"uniform"``: target states uniform in a cube of
-        side ``spacing * n ** (1 / d)`` (one target per ``spacing ** d``).
+    spacing : float or array_like of shape (d,), optional
+        ``"line"``: targets ``spacing`` (its first entry) apart on the first
+        coordinate, all other coordinates zero; ``"uniform"``: coordinate ``c``
+        of each target uniform on ``[0, spacing[c] * n ** (1 / d)]`` (one target
+        per ``prod(spacing)`` of state space) — a vector lets positions and
+        velocities have their own scales.
     layout : {"line", "uniform"}, optional
         Target placement.
     track_cov : array_like, shape (n, d, d), optional
@@ -805,7 +812,7 @@ def grouping_scene(n_targets: int, n_sources: int, *, cov, spacing: float = 1.0,
     n = as_int(n_targets, "n_targets", minimum=1)
     m = as_int(n_sources, "n_sources", minimum=1)
     trials = as_int(trials, "trials", minimum=1)
-    spacing = float(as_positive(spacing, "spacing"))
+    spacing = as_positive(spacing, "spacing")
     layout = as_choice(layout, "layout", ("line", "uniform"))
     c = as_float_array(cov, "cov", ndim_min=4)
     try:
@@ -817,6 +824,12 @@ def grouping_scene(n_targets: int, n_sources: int, *, cov, spacing: float = 1.0,
         ) from None
     c = as_covariance(c, "cov")
     d = c.shape[-1]
+    if spacing.ndim > 1 or spacing.size not in (1, d):
+        raise ValueError(
+            f"`spacing` must be a number or have shape ({d},) (one scale per coordinate); "
+            f"received shape {spacing.shape}"
+        )
+    spacing = np.broadcast_to(spacing.reshape(-1), (d,))
     tcov = None
     if track_cov is not None:
         tcov = as_float_array(track_cov, "track_cov", ndim_min=2)
@@ -831,9 +844,9 @@ def grouping_scene(n_targets: int, n_sources: int, *, cov, spacing: float = 1.0,
     rng = as_rng(rng)
     if layout == "line":
         truth = np.zeros((trials, n, d))
-        truth[..., 0] = spacing * np.arange(n)
+        truth[..., 0] = spacing[0] * np.arange(n)
     else:
-        truth = rng.uniform(0.0, spacing * n ** (1.0 / d), size=(trials, n, d))
+        truth = rng.uniform(0.0, 1.0, size=(trials, n, d)) * (spacing * n ** (1.0 / d))
     owner = rng.permuted(np.broadcast_to(np.arange(n), (trials, m, n)), axis=-1)
     chol = np.linalg.cholesky(c)                                    # (m, n, d, d)
     z = rng.standard_normal((trials, m, n, d))
