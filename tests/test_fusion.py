@@ -1,0 +1,484 @@
+"""Tests of radarfusion_ref.fusion: the ML fused estimate (Grachov & Korneev 2010, eqs. (1)-(3)).
+
+Reference values come from independent routes: a sympy derivation written here, the paper's
+printed estimate, the two-sensor covariance form, brute-force numerical maximisation of the
+log-likelihood (scipy.optimize) and scipy.stats densities. Statistical tests use fixed seeds
+and tolerances of 5 standard errors.
+"""
+
+from __future__ import annotations
+
+import re
+from functools import reduce
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+from scipy import optimize, stats
+
+from radarfusion_ref.fusion import (
+    FusedEstimate,
+    GaussianFusion,
+    fuse,
+    fuse_gaussian,
+    log_likelihood,
+    misweighted,
+    sample_reports,
+    sample_reports_gaussian,
+)
+from radarfusion_ref.montecarlo import binomial_tolerance
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# ----------------------------------------------------------------------------- strategies
+
+reports_st = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
+variances_st = st.floats(1e-3, 1e3, allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def scalar_problem(draw, *, k_min=1, k_max=6):
+    k = draw(st.integers(k_min, k_max))
+    x = draw(hnp.arrays(float, k, elements=reports_st))
+    var = draw(hnp.arrays(float, k, elements=variances_st))
+    return x, var
+
+
+def random_spd(rng, shape, d, *, floor=0.05):
+    a = rng.normal(size=(*shape, d, d))
+    return a @ np.swapaxes(a, -1, -2) + floor * np.eye(d)
+
+
+@st.composite
+def gaussian_problem(draw, *, k_max=4, d_max=3):
+    k = draw(st.integers(1, k_max))
+    d = draw(st.integers(1, d_max))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    return rng.normal(scale=10.0, size=(k, d)), random_spd(rng, (k,), d)
+
+
+# ----------------------------------------------------------------------------- sympy oracle
+
+
+@pytest.fixture(scope="module")
+def sympy_two_sensor():
+    """Derive x~ and its variance from eq. (2) with sympy, independently of the package."""
+    x = sp.Symbol("x", real=True)
+    x1, x2 = sp.symbols("x1 x2", real=True)
+    s1, s2 = sp.symbols("s1 s2", positive=True)
+
+    def pdf(v, s):
+        return sp.exp(-(v - x) ** 2 / (2 * s**2)) / (sp.sqrt(2 * sp.pi) * s)
+
+    ell = sp.expand_log(sp.log(pdf(x1, s1) * pdf(x2, s2)), force=True)
+    (root,) = sp.solve(sp.diff(ell, x), x)
+    fisher = -sp.diff(ell, x, 2)
+    return {
+        "ell": sp.lambdify((x1, x2, s1, s2, x), ell, "numpy"),
+        "estimate": sp.lambdify((x1, x2, s1, s2), root, "numpy"),
+        "variance": sp.lambdify((s1, s2), 1 / fisher, "numpy"),
+        "root": root,
+        "symbols": (x1, x2, s1, s2),
+    }
+
+
+def test_estimate_matches_sympy_root_of_likelihood_equation(sympy_two_sensor):
+    rng = np.random.default_rng(1)
+    xs, sig = rng.normal(size=(500, 2)), rng.uniform(0.05, 5.0, size=(500, 2))
+    r = fuse(xs, sig**2)
+    np.testing.assert_allclose(r.estimate, sympy_two_sensor["estimate"](*xs.T, *sig.T),
+                               rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(r.variance, sympy_two_sensor["variance"](*sig.T), rtol=1e-12)
+
+
+def test_paper_printed_estimate_equals_derived_root(sympy_two_sensor):
+    x1, x2, s1, s2 = sympy_two_sensor["symbols"]
+    printed = (s2**2 * x1 + s1**2 * x2) / (s1**2 + s2**2)   # after eq. (3) of the paper
+    assert sp.simplify(sympy_two_sensor["root"] - printed) == 0
+    # and numerically with the package
+    r = fuse([2.0, 5.0], [0.5**2, 1.5**2])
+    assert r.estimate == pytest.approx((1.5**2 * 2.0 + 0.5**2 * 5.0) / (0.5**2 + 1.5**2))
+
+
+def test_log_likelihood_matches_sympy_and_scipy(sympy_two_sensor):
+    rng = np.random.default_rng(2)
+    xs, sig, pos = rng.normal(size=(200, 2)), rng.uniform(0.1, 3, (200, 2)), rng.normal(size=200)
+    got = log_likelihood(xs, sig**2, pos)
+    np.testing.assert_allclose(got, sympy_two_sensor["ell"](*xs.T, *sig.T, pos), rtol=1e-12)
+    ref = stats.norm.logpdf(xs, loc=pos[:, None], scale=sig).sum(axis=-1)
+    np.testing.assert_allclose(got, ref, rtol=1e-12)
+
+
+def test_k_sensor_closed_form_from_sympy():
+    k = 4
+    x = sp.Symbol("x", real=True)
+    xs = sp.symbols(f"x1:{k + 1}", real=True)
+    ss = sp.symbols(f"s1:{k + 1}", positive=True)
+    ell = sum(-(xi - x) ** 2 / (2 * si**2) - sp.log(si) for xi, si in zip(xs, ss, strict=True))
+    (root,) = sp.solve(sp.diff(ell, x), x)
+    est = sp.lambdify((xs, ss), root, "numpy")
+    var = sp.lambdify((ss,), -1 / sp.diff(ell, x, 2), "numpy")
+    rng = np.random.default_rng(3)
+    X, S = rng.normal(size=(300, k)), rng.uniform(0.1, 4.0, size=(300, k))
+    r = fuse(X, S**2)
+    np.testing.assert_allclose(r.estimate, est(X.T, S.T), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(r.variance, var(S.T), rtol=1e-12)
+
+
+def test_estimate_maximises_the_log_likelihood_numerically():
+    rng = np.random.default_rng(4)
+    xs, var = rng.normal(size=5) * 10, rng.uniform(0.1, 9.0, size=5)
+    res = optimize.minimize_scalar(lambda p: -log_likelihood(xs, var, p), bracket=(-50, 50),
+                                   options={"xtol": 1e-12})
+    assert fuse(xs, var).estimate == pytest.approx(res.x, abs=1e-6)
+    # curvature of ell = -Fisher information = -1/variance (central difference)
+    h, e = 1e-3, fuse(xs, var).estimate
+    curv = (log_likelihood(xs, var, e + h) - 2 * log_likelihood(xs, var, e)
+            + log_likelihood(xs, var, e - h)) / h**2
+    assert -curv == pytest.approx(1 / fuse(xs, var).variance, rel=1e-5)
+
+
+def test_result_types_and_fields():
+    r = fuse([1.0, 2.0], [1.0, 1.0])
+    assert isinstance(r, FusedEstimate)
+    assert np.ndim(r.estimate) == 0 and np.ndim(r.variance) == 0
+    assert r.information == pytest.approx(2.0) and r.std == pytest.approx(np.sqrt(0.5))
+    with pytest.raises(AttributeError):
+        r.estimate = 0.0  # frozen
+    g = fuse_gaussian(np.zeros((2, 3)), np.stack([np.eye(3)] * 2))
+    assert isinstance(g, GaussianFusion)
+    assert g.estimate.shape == (3,) and g.covariance.shape == (3, 3)
+    np.testing.assert_allclose(g.information, 2 * np.eye(3))
+
+
+def test_single_sensor_is_returned_unchanged():
+    r = fuse([3.5], [2.0])
+    assert r.estimate == 3.5 and r.variance == 2.0
+
+
+# ----------------------------------------------------------------------------- properties
+
+
+@settings(max_examples=100, deadline=None)
+@given(scalar_problem(k_min=2))
+def test_symmetric_under_permutation_of_sensors(problem):
+    x, var = problem
+    perm = np.random.default_rng(len(x)).permutation(len(x))
+    a, b = fuse(x, var), fuse(x[perm], var[perm])
+    assert a.estimate == pytest.approx(b.estimate, rel=1e-12, abs=1e-9)
+    assert a.variance == pytest.approx(b.variance, rel=1e-12)
+    np.testing.assert_allclose(a.weights[perm], b.weights, rtol=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(scalar_problem())
+def test_estimate_lies_between_reports_and_variance_below_each(problem):
+    x, var = problem
+    r = fuse(x, var)
+    tol = 1e-12 * max(1.0, np.abs(x).max())
+    assert x.min() - tol <= r.estimate <= x.max() + tol
+    assert r.variance <= var.min() * (1 + 1e-12)
+    assert np.all(r.weights > 0)
+    assert r.weights.sum() == pytest.approx(1.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(scalar_problem(k_min=2))
+def test_k_sensor_fuse_equals_sequential_pairwise_fusion(problem):
+    x, var = problem
+
+    def step(acc, item):
+        r = fuse([acc[0], item[0]], [acc[1], item[1]])
+        return float(r.estimate), float(r.variance)
+
+    est, v = reduce(step, zip(x[1:], var[1:], strict=True), (x[0], var[0]))
+    batch = fuse(x, var)
+    assert est == pytest.approx(batch.estimate, rel=1e-9, abs=1e-9 * max(1, np.abs(x).max()))
+    assert v == pytest.approx(batch.variance, rel=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 5), st.integers(1, 4), st.integers(0, 2**32 - 1))
+def test_scalar_vectorized_equals_loop(k, n, seed):
+    rng = np.random.default_rng(seed)
+    x, var = rng.normal(size=(n, 3, k)), rng.uniform(0.01, 10, size=(n, 3, k))
+    r = fuse(x, var)
+    assert r.estimate.shape == (n, 3) and r.weights.shape == (n, 3, k)
+    for i in range(n):
+        for j in range(3):
+            one = fuse(x[i, j], var[i, j])
+            assert r.estimate[i, j] == pytest.approx(one.estimate, rel=1e-13, abs=1e-15)
+            assert r.variance[i, j] == pytest.approx(one.variance, rel=1e-13)
+
+
+def test_scalar_broadcasting_of_variances():
+    x = np.arange(12.0).reshape(4, 3)
+    np.testing.assert_allclose(fuse(x, [1.0, 2.0, 3.0]).estimate,
+                               [fuse(row, [1.0, 2.0, 3.0]).estimate for row in x])
+    np.testing.assert_allclose(fuse(x, 2.0).estimate, x.mean(axis=-1))
+
+
+@settings(max_examples=60, deadline=None)
+@given(gaussian_problem())
+def test_gaussian_agrees_with_brute_force_ml(problem):
+    """Independent route: maximise the log-likelihood numerically and take its Hessian."""
+    x, cov = problem
+    d = x.shape[-1]
+    r = fuse_gaussian(x, cov)
+
+    def negll(p):
+        return 0.5 * sum(float((xi - p) @ np.linalg.solve(ci, xi - p)) for xi, ci in zip(x, cov, strict=True))
+
+    res = optimize.minimize(negll, x.mean(axis=0), method="BFGS", options={"gtol": 1e-10})
+    scale = max(1.0, np.abs(x).max())
+    np.testing.assert_allclose(r.estimate, res.x, atol=1e-4 * scale)
+    # Fisher information = sum of the precisions (minus the Hessian of the log-likelihood):
+    info = sum(np.linalg.solve(ci, np.eye(d)) for ci in cov)
+    np.testing.assert_allclose(r.information, info, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(r.covariance @ info, np.eye(d), atol=1e-8)
+
+
+@settings(max_examples=60, deadline=None)
+@given(gaussian_problem(k_max=2))
+def test_gaussian_two_sensor_covariance_form_and_symmetry(problem):
+    x, cov = problem
+    if len(x) == 1:
+        x, cov = np.concatenate([x, x + 1.0]), np.concatenate([cov, 2 * cov])
+    r = fuse_gaussian(x, cov)
+    s = cov[0] + cov[1]
+    gain = np.linalg.solve(s, cov[0]).T                     # C1 (C1 + C2)^{-1}
+    np.testing.assert_allclose(r.estimate, x[0] + gain @ (x[1] - x[0]), rtol=1e-7,
+                               atol=1e-7 * max(1, np.abs(x).max()))
+    np.testing.assert_allclose(r.covariance, cov[0] - gain @ cov[0], rtol=1e-7, atol=1e-9)
+    swapped = fuse_gaussian(x[::-1], cov[::-1])
+    np.testing.assert_allclose(swapped.estimate, r.estimate, rtol=1e-9,
+                               atol=1e-9 * max(1, np.abs(x).max()))
+    np.testing.assert_allclose(swapped.covariance, r.covariance, rtol=1e-9, atol=1e-12)
+    # P is symmetric and below each C_i in the Loewner order
+    np.testing.assert_array_equal(r.covariance, r.covariance.T)
+    for c in cov:
+        assert np.linalg.eigvalsh(c - r.covariance).min() > -1e-9 * np.abs(c).max()
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(1, 3), st.integers(1, 3), st.integers(0, 2**32 - 1))
+def test_gaussian_vectorized_equals_loop_and_broadcasts(k, d, seed):
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(4, 2, k, d))
+    cov = random_spd(rng, (2, k), d)            # broadcast over the first batch axis
+    r = fuse_gaussian(x, cov)
+    assert r.estimate.shape == (4, 2, d) and r.covariance.shape == (4, 2, d, d)
+    for i in range(4):
+        for j in range(2):
+            one = fuse_gaussian(x[i, j], cov[j])
+            np.testing.assert_allclose(r.estimate[i, j], one.estimate, rtol=1e-12, atol=1e-13)
+            np.testing.assert_allclose(r.covariance[i, j], one.covariance, rtol=1e-12)
+
+
+def test_gaussian_reduces_to_scalar_fuse():
+    rng = np.random.default_rng(5)
+    x, var = rng.normal(size=(50, 3)), rng.uniform(0.1, 4, size=(50, 3))
+    g = fuse_gaussian(x[..., None], var[..., None, None])
+    s = fuse(x, var)
+    np.testing.assert_allclose(g.estimate[..., 0], s.estimate, rtol=1e-12)
+    np.testing.assert_allclose(g.covariance[..., 0, 0], s.variance, rtol=1e-12)
+    # diagonal covariances fuse coordinate by coordinate
+    xv, dv = rng.normal(size=(3, 2)), rng.uniform(0.1, 4, size=(3, 2))
+    g2 = fuse_gaussian(xv, np.stack([np.diag(v) for v in dv]))
+    np.testing.assert_allclose(g2.estimate, fuse(xv.T, dv.T).estimate, rtol=1e-12)
+
+
+def test_gaussian_ill_conditioned_covariances_stay_accurate():
+    # long thin ellipses at right angles: condition number 1e8 each
+    c1 = np.diag([1e-4, 1e4])
+    c2 = np.diag([1e4, 1e-4])
+    r = fuse_gaussian([[1.0, 2.0], [3.0, 4.0]], [c1, c2])
+    np.testing.assert_allclose(r.estimate, [1.0 + 2.0 * 1e-4 / (1e4 + 1e-4),
+                                            4.0 - 2.0 * 1e-4 / (1e4 + 1e-4)], rtol=1e-10)
+    np.testing.assert_allclose(np.diag(r.covariance), [1 / (1e4 + 1e-4)] * 2, rtol=1e-10)
+
+
+# ----------------------------------------------------------------------------- mis-weighting
+
+
+def test_misweighted_matches_sympy():
+    s1, s2, a1, a2 = sp.symbols("s1 s2 a1 a2", positive=True)
+    w1 = a2 / (a1 + a2)
+    actual = sp.lambdify((s1, s2, a1, a2), w1**2 * s1**2 + (1 - w1) ** 2 * s2**2, "numpy")
+    rng = np.random.default_rng(6)
+    sig, a = rng.uniform(0.1, 3, size=(100, 2)), rng.uniform(0.01, 10, size=(100, 2))
+    m = misweighted(sig**2, a)
+    np.testing.assert_allclose(m.actual_variance, actual(*sig.T, *a.T), rtol=1e-12)
+    np.testing.assert_allclose(m.reported_variance, a.prod(-1) / a.sum(-1), rtol=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(hnp.arrays(float, st.integers(1, 5), elements=variances_st), st.floats(1e-3, 1e3),
+       st.integers(0, 2**32 - 1))
+def test_misweighting_efficiency_bounded_and_scale_invariant(var, scale, seed):
+    m = misweighted(var, scale * var)                       # proportional: no loss
+    assert m.efficiency == pytest.approx(1.0, rel=1e-9)
+    assert m.consistency == pytest.approx(scale, rel=1e-9)
+    wrong = np.random.default_rng(seed).uniform(1e-3, 1e3, size=var.shape)
+    assert misweighted(var, wrong).efficiency <= 1.0 + 1e-12
+
+
+def test_misweighted_estimate_is_fuse_with_assumed_variances():
+    rng = np.random.default_rng(7)
+    var, assumed = np.array([1.0, 4.0, 9.0]), np.array([2.0, 1.0, 30.0])
+    x = rng.normal(size=3)
+    np.testing.assert_allclose(misweighted(var, assumed).weights, fuse(x, assumed).weights)
+
+
+# ----------------------------------------------------------------------------- Monte Carlo
+
+
+def test_monte_carlo_unbiased_and_at_the_bound():
+    trials = 200_000
+    var = np.array([1.0, 4.0, 0.25])
+    reports = sample_reports(2.0, var, trials=trials, rng=20101)
+    err = fuse(reports, var).estimate - 2.0
+    bound = 1.0 / np.sum(1.0 / var)
+    se_mean = np.sqrt(bound / trials)
+    assert abs(err.mean()) < 5 * se_mean
+    se_var = bound * np.sqrt(2.0 / trials)                  # Var of a chi^2_1 mean
+    assert abs(np.mean(err**2) - bound) < 5 * se_var
+    inside = np.mean(np.abs(err) <= stats.norm.ppf(0.975) * np.sqrt(bound))
+    assert abs(inside - 0.95) < binomial_tolerance(0.95, trials)
+
+
+def test_monte_carlo_misweighted_variance():
+    trials = 200_000
+    var, assumed = np.array([1.0, 4.0]), np.array([1.0, 0.25])
+    reports = sample_reports(0.0, var, trials=trials, rng=7)
+    err = fuse(reports, assumed).estimate
+    exact = misweighted(var, assumed).actual_variance
+    assert abs(np.mean(err**2) - exact) < 5 * exact * np.sqrt(2.0 / trials)
+
+
+def test_monte_carlo_gaussian_covariance_and_coverage():
+    trials = 100_000
+    rng = np.random.default_rng(8)
+    cov = random_spd(rng, (3,), 2, floor=0.1)
+    truth = np.array([10.0, -5.0])
+    reports = sample_reports_gaussian(truth, cov, trials=trials, rng=rng)
+    r = fuse_gaussian(reports, cov)
+    err = r.estimate - truth
+    P = r.covariance[0]
+    emp = np.cov(err.T)
+    se = np.sqrt((P**2 + np.outer(np.diag(P), np.diag(P))) / trials)  # Wishart entry s.e.
+    np.testing.assert_array_less(np.abs(emp - P), 5 * se)
+    q = np.einsum("ti,ij,tj->t", err, r.information[0], err)
+    inside = np.mean(q <= stats.chi2.ppf(0.9, df=2))
+    assert abs(inside - 0.9) < binomial_tolerance(0.9, trials)
+
+
+def test_samplers_shapes_moments_and_determinism():
+    a = sample_reports(np.zeros(4), [1.0, 9.0], trials=50_000, rng=3)
+    assert a.shape == (50_000, 4, 2)
+    np.testing.assert_allclose(a.var(axis=(0, 1)), [1.0, 9.0], rtol=0.03)
+    np.testing.assert_array_equal(a, sample_reports(np.zeros(4), [1.0, 9.0], trials=50_000, rng=3))
+    c = np.array([[2.0, 0.5], [0.5, 1.0]])
+    b = sample_reports_gaussian([1.0, 2.0], c[None], trials=50_000, rng=4)
+    assert b.shape == (50_000, 1, 2)
+    np.testing.assert_allclose(np.cov(b[:, 0].T), c, atol=0.05)
+
+
+# ----------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize("var", [[1.0, 0.0], [1.0, -2.0], [1.0, np.nan], [np.inf, 1.0]])
+def test_fuse_rejects_bad_variances(var):
+    with pytest.raises(ValueError, match="`var`"):
+        fuse([1.0, 2.0], var)
+
+
+@pytest.mark.parametrize("x", [[1.0, np.nan], [np.inf, 0.0]])
+def test_fuse_rejects_nonfinite_reports(x):
+    with pytest.raises(ValueError, match="`x`"):
+        fuse(x, [1.0, 1.0])
+
+
+def test_fuse_rejects_shape_mismatch_and_empty_and_non_numeric():
+    with pytest.raises(ValueError, match="`x`, `var`"):
+        fuse([1.0, 2.0, 3.0], [1.0, 2.0])
+    with pytest.raises(ValueError, match="`x`"):
+        fuse(np.zeros((3, 0)), 1.0)
+    with pytest.raises(ValueError, match="`x`"):
+        fuse(1.0, 1.0)                                      # no sensor axis
+    with pytest.raises(TypeError, match="`x`"):
+        fuse("abc", 1.0)
+
+
+def test_fuse_gaussian_rejects_bad_covariances():
+    x = np.zeros((2, 2))
+    good = np.stack([np.eye(2)] * 2)
+    not_pd = good.copy()
+    not_pd[1] = [[1.0, 2.0], [2.0, 1.0]]
+    with pytest.raises(ValueError, match=r"`cov`.*positive definite"):
+        fuse_gaussian(x, not_pd)
+    asym = good.copy()
+    asym[0, 0, 1] = 0.5
+    with pytest.raises(ValueError, match=r"`cov`.*symmetric"):
+        fuse_gaussian(x, asym)
+    nan = good.copy()
+    nan[0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="`cov`"):
+        fuse_gaussian(x, nan)
+    with pytest.raises(ValueError, match="`cov`"):
+        fuse_gaussian(x, np.zeros((2, 2, 2)))
+
+
+def test_fuse_gaussian_rejects_shape_mismatch():
+    with pytest.raises(ValueError, match="`cov`"):
+        fuse_gaussian(np.zeros((2, 3)), np.stack([np.eye(2)] * 2))         # d mismatch
+    with pytest.raises(ValueError, match=r"`x`.*`cov`"):
+        fuse_gaussian(np.zeros((3, 2)), np.stack([np.eye(2)] * 2))         # k mismatch
+    with pytest.raises(ValueError, match="`x`"):
+        fuse_gaussian(np.zeros(2), np.eye(2)[None])                        # no sensor axis
+    with pytest.raises(ValueError, match="`cov`"):
+        fuse_gaussian(np.zeros((2, 2)), np.eye(2))                         # no sensor axis
+    with pytest.raises(ValueError, match="`x`"):
+        fuse_gaussian([[0.0, np.nan]], np.eye(2)[None])
+
+
+def test_other_entry_points_reject_bad_input():
+    with pytest.raises(ValueError, match="`var_assumed`"):
+        misweighted([1.0, 2.0], [1.0, 0.0])
+    with pytest.raises(ValueError, match="`var_true`"):
+        misweighted([-1.0, 2.0], [1.0, 1.0])
+    with pytest.raises(ValueError, match="`position`"):
+        log_likelihood(np.zeros((3, 2)), 1.0, np.zeros(4))
+    with pytest.raises(ValueError, match="`trials`"):
+        sample_reports(0.0, [1.0], trials=0)
+    with pytest.raises(ValueError, match="`var`"):
+        sample_reports(0.0, [1.0, -1.0], trials=3)
+    with pytest.raises(TypeError, match="`rng`"):
+        sample_reports(0.0, [1.0], trials=3, rng=np.random.RandomState(0))
+    with pytest.raises(ValueError, match=r"`cov`.*positive definite"):
+        sample_reports_gaussian([0.0, 0.0], -np.eye(2)[None], trials=3)
+    with pytest.raises(ValueError, match="`cov`"):
+        sample_reports_gaussian([0.0, 0.0, 0.0], np.eye(2)[None], trials=3)
+
+
+# ----------------------------------------------------------------------------- the chapter
+
+
+def test_chapter_literalincludes_show_the_code_after_the_docstring():
+    """The chapter shows `def` + body of two functions by line numbers; keep them in step."""
+    import inspect
+
+    from radarfusion_ref import fusion
+
+    text = (ROOT / "book" / "01_fusion.md").read_text()
+    found = re.findall(r":pyobject: (\w+)\n:lines: 1,(\d+)-", text)
+    assert {name for name, _ in found} == {"fuse", "fuse_gaussian"}
+    for name, start in found:
+        lines = inspect.getsource(getattr(fusion, name)).splitlines()
+        assert lines[int(start) - 2].strip() == '"""', name      # the line before: docstring end
+        assert lines[0].startswith(f"def {name}(") and lines[0].endswith(":"), name
