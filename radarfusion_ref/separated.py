@@ -1082,7 +1082,7 @@ def collect(experiments, label: str, field: str = "per_report") -> Proportion:
         Results with the same number of trials (e.g. a parameter sweep).
     label : str
         Method label (a key of ``ExperimentResult.results``).
-    field : {"per_report", "joint", "joint_ungated", "true_reject", "false_pass"}
+    field : {"per_report", "joint", "joint_ungated", "true_reject", "false_pass", "all_correct"}
         Which :class:`MethodResult` field to stack.
 
     Returns
@@ -1106,7 +1106,7 @@ def collect(experiments, label: str, field: str = "per_report") -> Proportion:
     if not runs:
         raise ValueError("`experiments` must hold at least one ExperimentResult; received none")
     as_choice(field, "field", ("per_report", "joint", "joint_ungated", "true_reject",
-                               "false_pass"))
+                               "false_pass", "all_correct"))
     if label not in runs[0].results:
         raise ValueError(f"`label` must be one of {', '.join(map(repr, runs[0].results))}; "
                          f"received {label!r}")
