@@ -6,8 +6,8 @@ A radar measures range :math:`\\hat r = r + \\tilde r` and azimuth
 :math:`\\tilde\\beta \\sim \\mathcal N(0, \\sigma_\\beta^2)`. Every method here
 returns a Cartesian position :math:`(\\hat x, \\hat y)` and a 2×2 covariance.
 
-**Azimuth convention** (the paper's, Prosov, text below Fig. 2: "the azimuth is
-counted from the X axis counter-clockwise"): :math:`\\beta` is in **radians**,
+**Azimuth convention** (the paper's: Prosov, description of the simulated
+example, "the azimuth is counted from the X axis counter-clockwise"): :math:`\\beta` is in **radians**,
 measured **counter-clockwise from the x axis**, so
 
 .. math::
@@ -97,8 +97,8 @@ METHODS = ("linearized", "additive", "multiplicative", "first_order", "first_ord
 #: Largest azimuth standard deviation accepted (radians, ≈ 28.6°). See :func:`polar_to_cartesian`.
 SIGMA_BETA_MAX = 0.5
 
-#: Lerro & Bar-Shalom's rule of thumb: the linearized conversion is adequate
-#: while :math:`r\sigma_\beta^2/\sigma_r` stays below this value.
+#: Lerro & Bar-Shalom's rule of thumb (as usually quoted): the linearized
+#: conversion is adequate while :math:`r\sigma_\beta^2/\sigma_r` stays below this value.
 LERRO_THRESHOLD = 0.4
 
 #: Smallest r/σr accepted by :func:`simulate_polar` (a negative simulated range
