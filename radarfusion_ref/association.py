@@ -313,33 +313,45 @@ def associate_pointwise(cost, threshold, *, order: str = "scan") -> Association:
 
 
 # --------------------------------------------------------------------------- joint (exact)
-def _solve_one(c: np.ndarray, th: float | None, miss: float | None) -> np.ndarray:
-    """Optimal ``row_to_col`` for one matrix (validated inputs)."""
-    n1, n2 = c.shape
+def _solve_batch(c: np.ndarray, th: float | None, miss: float | None) -> np.ndarray:
+    """Optimal ``row_to_col`` for a stack of matrices ``(B, n1, n2)`` (validated inputs).
+
+    Every matrix is turned into one plain rectangular assignment problem
+    (vectorized over the stack), then solved by
+    :func:`scipy.optimize.linear_sum_assignment`; pairs that are not allowed or
+    not worth taking are dropped afterwards.
+    """
+    nb, n1, n2 = c.shape
     allowed = np.isfinite(c) if th is None else (c <= th) & np.isfinite(c)
-    out = np.full(n1, -1, dtype=int)
-    if not allowed.any():
-        return out
     if miss is not None:
         # Partial matching with a cost `miss` per unassigned report: a pair is worth
         # taking only if c < 2*miss, and
         #   min over partial matchings of sum(c - 2 miss)
         #     = min over full assignments of sum(min(c - 2 miss, 0)),
         # so one rectangular assignment of the clipped matrix is exact (no augmentation).
-        gain = np.where(allowed, np.minimum(c - 2.0 * miss, 0.0), 0.0)
-        rows, cols = linear_sum_assignment(gain)
-        keep = allowed[rows, cols] & (c[rows, cols] - 2.0 * miss < 0)
+        work = np.where(allowed, np.minimum(c - 2.0 * miss, 0.0), 0.0)
+        useful = allowed & (work < 0)
+    elif allowed.all():
+        work, useful = c, allowed                 # the plain complete assignment
     else:
         # Maximum number of allowed pairs first, then the smallest cost among those:
         # forbidden pairs get a cost larger than any possible saving, so every
         # assignment with fewer forbidden pairs is cheaper (exact lexicographic order).
-        lo = c[allowed].min()
-        span = c[allowed].max() - lo
-        big = (min(n1, n2) + 1) * (span + 1.0)
-        shifted = np.where(allowed, c - lo, big)
-        rows, cols = linear_sum_assignment(shifted)
-        keep = allowed[rows, cols]
-    out[rows[keep]] = cols[keep]
+        lo = np.min(c, axis=(1, 2), where=allowed, initial=np.inf)
+        hi = np.max(c, axis=(1, 2), where=allowed, initial=-np.inf)
+        lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
+        big = (min(n1, n2) + 1) * (hi - lo + 1.0)
+        work = np.where(allowed, c - lo[:, None, None], big[:, None, None])
+        useful = allowed
+    k = min(n1, n2)
+    rows = np.empty((nb, k), dtype=int)
+    cols = np.empty((nb, k), dtype=int)
+    for b in range(nb):
+        rows[b], cols[b] = linear_sum_assignment(work[b])
+    keep = useful[np.arange(nb)[:, None], rows, cols]
+    out = np.full((nb, n1), -1, dtype=int)
+    bb, kk = np.nonzero(keep)
+    out[bb, rows[bb, kk]] = cols[bb, kk]
     return out
 
 
@@ -418,7 +430,7 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     miss = _as_miss_cost(miss_cost)
     n1, n2 = c.shape[-2:]
     flat = c.reshape(-1, n1, n2)
-    out = np.stack([_solve_one(m, th, miss) for m in flat])
+    out = _solve_batch(flat, th, miss)
     return _make_result(c, out.reshape(*c.shape[:-2], n1), miss)
 
 
