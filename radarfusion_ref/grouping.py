@@ -37,6 +37,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass
@@ -508,6 +509,7 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
     return GroupingResult(groups, float(cost_out) if not batch else cost_out, cost, "bruteforce")
 
 
+@functools.lru_cache(maxsize=16)
 def _sd_constraints(m, n):
     """Equality constraints of the S-D assignment: each report in exactly one tuple."""
     N = n**m
@@ -516,6 +518,37 @@ def _sd_constraints(m, n):
     cols = np.tile(np.arange(N), m)
     A = sparse.csc_array((np.ones(m * N), (rows, cols)), shape=(m * n, N))
     return A, idx
+
+
+def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
+    """Solve the S-D assignment for a flat cost vector over the n**m tuples.
+
+    Returns the flat indices of the n chosen tuples and whether the LP
+    relaxation's solution was already integral.
+    """
+    A, _ = _sd_constraints(m, n)
+    c = c_raw - c_raw.min()               # every grouping has n groups: a constant shift
+    z, integral = None, False
+    if relaxation:
+        lp = linprog(c, A_eq=A, b_eq=np.ones(m * n), bounds=(0, 1), method="highs")
+        if lp.status == 0 and np.all(np.minimum(lp.x, 1 - lp.x) < 1e-6):
+            z, integral = lp.x, True
+    if z is None:
+        options = {"mip_rel_gap": 0.0, "presolve": False}
+        if time_limit is not None:
+            options["time_limit"] = time_limit
+        res = milp(c, constraints=LinearConstraint(A, 1, 1), integrality=np.ones(n**m),
+                   bounds=Bounds(0, 1), options=options)
+        if res.status != 0 or res.x is None:
+            raise RuntimeError(
+                f"HiGHS did not return a proven optimum (status {res.status}: {res.message})"
+            )
+        z = res.x
+    chosen = np.flatnonzero(z > 0.5)
+    tuples = np.array(np.unravel_index(chosen, (n,) * m))          # (m, n)
+    if chosen.size != n or np.any(np.sort(tuples, axis=1) != np.arange(n)):
+        raise RuntimeError("HiGHS returned an infeasible grouping")
+    return chosen, integral
 
 
 def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
@@ -587,38 +620,17 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         time_limit = float(as_positive(time_limit, "time_limit"))
     xb, cb, batch = _reports_iv(x, cov)
     B, m, n, _ = xb.shape
-    A, idx = _sd_constraints(m, n)
-    N = n**m
-    cons = LinearConstraint(A, 1, 1)
-    options = {"mip_rel_gap": 0.0, "presolve": False}
-    if time_limit is not None:
-        options["time_limit"] = time_limit
     groups = np.empty((B, n, m), dtype=np.int64)
     totals = np.empty(B)
     integral = np.zeros(B, dtype=bool)
     for b in range(B):
         c_raw = _tensor(xb[b:b + 1], cb[min(b, cb.shape[0] - 1):][:1], cost).ravel()
-        c = c_raw - c_raw.min()              # every grouping has n groups: a constant shift
-        z = None
-        if relaxation:
-            lp = linprog(c, A_eq=A, b_eq=np.ones(m * n), bounds=(0, 1), method="highs")
-            if lp.status == 0 and np.all(np.minimum(lp.x, 1 - lp.x) < 1e-6):
-                z = lp.x
-                integral[b] = True
-        if z is None:
-            res = milp(c, constraints=cons, integrality=np.ones(N), bounds=Bounds(0, 1),
-                       options=options)
-            if res.status != 0 or res.x is None:
-                raise RuntimeError(
-                    f"HiGHS did not return a proven optimum for scene {b} "
-                    f"(status {res.status}: {res.message})"
-                )
-            z = res.x
-        chosen = np.flatnonzero(z > 0.5)
-        tuples = idx[:, chosen].T                                  # (n, m)
-        if chosen.size != n or np.any(np.sort(tuples, axis=0) != np.arange(n)[:, None]):
-            raise RuntimeError(f"HiGHS returned an infeasible grouping for scene {b}")
-        groups[b] = _normalise(tuples)
+        try:
+            chosen, integral[b] = _sd_solve(c_raw, m, n, relaxation=relaxation,
+                                            time_limit=time_limit)
+        except RuntimeError as exc:
+            raise RuntimeError(f"scene {b}: {exc}") from None
+        groups[b] = _normalise(np.array(np.unravel_index(chosen, (n,) * m)).T)
         totals[b] = c_raw[chosen].sum()
     groups = groups.reshape(*batch, n, m)
     cost_out = totals.reshape(batch)

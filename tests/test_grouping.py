@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate, stats
-from scipy.optimize import linear_sum_assignment
+from scipy.optimize import linear_sum_assignment, linprog
 
 from radarfusion_ref import grouping
 from radarfusion_ref.montecarlo import binomial_tolerance
@@ -197,18 +197,19 @@ def test_bruteforce_is_minimal_over_independent_enumeration():
 
 
 def test_fractional_relaxation_falls_back_to_branch_and_bound():
-    # Hunt (deterministically) for scenes whose LP relaxation is fractional; the
-    # answer must still equal brute force.
-    found = 0
-    for seed in [169, *range(400)]:   # 169: fractional with HiGHS 1.x; search if that changes
-        x, cov = rand_problem(seed, 3, 4, noise=1.5)
-        sd = grouping.group_sd(x, cov, cost="pairwise")
-        if not sd.relaxation_integral:
-            found += 1
-            bf = grouping.group_bruteforce(x, cov, cost="pairwise")
-            np.testing.assert_array_equal(sd.groups, bf.groups)
-            break
-    assert found > 0
+    # m = 3, n = 2: the four even-parity tuples at z = 1/2 cover every report once.
+    # Cost 0 for even parity, 1 for odd: the LP optimum is 0 (fractional), while
+    # every grouping pairs a tuple with its complement (opposite parity): cost 1.
+    idx = np.indices((2, 2, 2)).reshape(3, -1)
+    parity_cost = (idx.sum(axis=0) % 2).astype(float)
+    A, _ = grouping._sd_constraints(3, 2)
+    lp = linprog(parity_cost, A_eq=A, b_eq=np.ones(6), bounds=(0, 1), method="highs")
+    assert lp.fun == pytest.approx(0.0, abs=1e-9)
+    chosen, integral = grouping._sd_solve(parity_cost, 3, 2)
+    assert not integral
+    assert parity_cost[chosen].sum() == pytest.approx(1.0)
+    tuples = np.array(np.unravel_index(chosen, (2, 2, 2)))
+    np.testing.assert_array_equal(np.sort(tuples, axis=1), [[0, 1]] * 3)
 
 
 @pytest.mark.parametrize("seed", range(5))
