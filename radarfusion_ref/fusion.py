@@ -249,10 +249,10 @@ def fuse(x, var) -> FusedEstimate:
     array([0.5, 3. ])
     """
     x, var = _scalar_iv(x, var)
-    info_i = 1.0 / var                       # sigma_i^-2: each sensor's Fisher information
+    info_i = 1.0 / var                       # sensor i's Fisher information
     info = info_i.sum(axis=-1)               # I = sum_i sigma_i^-2
     weights = info_i / info[..., None]       # w_i = sigma_i^-2 / I
-    estimate = np.sum(weights * x, axis=-1)  # x~ = sum_i w_i x_i   (root of eq. (3))
+    estimate = np.sum(weights * x, axis=-1)  # x~ = sum_i w_i x_i, root of (3)
     return FusedEstimate(_scalar(estimate), _scalar(1.0 / info), weights)
 
 
@@ -428,17 +428,17 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
            [0. , 0.8]])
     """
     x, cov = _gaussian_iv(x, cov)
-    d = x.shape[-1]
-    eye = np.eye(d)
-    chol = np.linalg.cholesky(cov)                              # C_i = L_i L_i^T
-    white = np.linalg.solve(chol, eye)                          # W_i = L_i^{-1}
-    wx = np.linalg.solve(chol, x[..., None])                    # W_i x_i
-    info = np.sum(np.swapaxes(white, -1, -2) @ white, axis=-3)  # Y = sum_i W_i^T W_i
-    y = np.sum(np.swapaxes(white, -1, -2) @ wx, axis=-3)        # y = sum_i C_i^-1 x_i
-    r = np.linalg.cholesky(info)                                # Y = R R^T
-    r_inv = np.linalg.solve(r, eye)                             # R^{-1}
-    cov_f = np.swapaxes(r_inv, -1, -2) @ r_inv                  # P = Y^{-1}
-    estimate = (cov_f @ y)[..., 0]                              # x~ = P y
+    eye = np.eye(x.shape[-1])
+    chol = np.linalg.cholesky(cov)                # C_i = L_i L_i^T
+    white = np.linalg.solve(chol, eye)            # W_i = L_i^-1
+    white_t = np.swapaxes(white, -1, -2)
+    wx = np.linalg.solve(chol, x[..., None])      # W_i x_i
+    info = np.sum(white_t @ white, axis=-3)       # Y = sum_i W_i^T W_i
+    y = np.sum(white_t @ wx, axis=-3)             # y = sum_i C_i^-1 x_i
+    r = np.linalg.cholesky(info)                  # Y = R R^T
+    r_inv = np.linalg.solve(r, eye)               # R^-1
+    cov_f = np.swapaxes(r_inv, -1, -2) @ r_inv    # P = Y^-1 = R^-T R^-1
+    estimate = (cov_f @ y)[..., 0]                # x~ = P y
     return GaussianFusion(estimate, cov_f, info)
 
 
