@@ -289,7 +289,7 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
     return _out(out)
 
 
-def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=8192,
+def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
                         return_statistic=False):
     """Chunked squared-Mahalanobis distance and chi-square gate for 2-D pairs.
 
@@ -336,7 +336,9 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=8192,
         \\quad \\kappa = z_1^2 + z_2^2 .
 
     Each chunk is processed with in-place ufuncs into preallocated buffers,
-    so the working set stays in cache.
+    so the working set stays in cache, and the inputs are checked for NaN/inf
+    chunk by chunk (through :math:`\\kappa`), so the only memory that grows with
+    ``N`` is the 1-byte-per-pair result.
 
     Examples
     --------
@@ -345,8 +347,9 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=8192,
     >>> acc, k
     (array([ True, False]), array([ 1., 16.]))
     """
-    a = as_float_array(x1, "x1", last_dims=(None, 2))
-    b = as_float_array(x2, "x2", last_dims=(None, 2))
+    # finiteness is checked chunk by chunk below, so no N-sized temporary is made here
+    a = as_float_array(x1, "x1", last_dims=(None, 2), allow_nonfinite=True)
+    b = as_float_array(x2, "x2", last_dims=(None, 2), allow_nonfinite=True)
     if a.ndim != 2 or b.shape != a.shape:
         raise ValueError(f"`x1` and `x2` must both have shape (N, 2); received shapes "
                          f"{a.shape} and {b.shape}")
@@ -363,20 +366,24 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=8192,
     z1 = np.empty(chunk)
     z2 = np.empty(chunk)
     k = np.empty(chunk)
-    for start in range(0, n, chunk):
-        stop = min(start + chunk, n)
-        m = stop - start
-        u, w, kk = z1[:m], z2[:m], k[:m]
-        np.subtract(a[start:stop, 0], b[start:stop, 0], out=u)
-        np.subtract(a[start:stop, 1], b[start:stop, 1], out=w)
-        u *= inv_l11                      # z1 = d1 / l11
-        np.multiply(u, l21, out=kk)       # w = (d2 - l21 z1) / l22
-        w -= kk
-        w *= inv_l22
-        np.multiply(u, u, out=kk)         # kappa = z1^2 + z2^2
-        w *= w
-        kk += w
-        np.less(kk, th, out=accepted[start:stop])
-        if kappa is not None:
-            kappa[start:stop] = kk
+    with np.errstate(invalid="ignore", over="ignore"):
+        for start in range(0, n, chunk):
+            stop = min(start + chunk, n)
+            m = stop - start
+            u, w, kk = z1[:m], z2[:m], k[:m]
+            np.subtract(a[start:stop, 0], b[start:stop, 0], out=u)
+            np.subtract(a[start:stop, 1], b[start:stop, 1], out=w)
+            u *= inv_l11                      # z1 = d1 / l11
+            np.multiply(u, l21, out=kk)       # w = (d2 - l21 z1) / l22
+            w -= kk
+            w *= inv_l22
+            np.multiply(u, u, out=kk)         # kappa = z1^2 + z2^2
+            w *= w
+            kk += w
+            if not np.isfinite(kk).all():     # NaN/inf in an input makes kappa non-finite
+                for name, arr in (("x1", a), ("x2", b)):
+                    as_float_array(arr[start:stop], f"{name}[{start}:{stop}]")
+            np.less(kk, th, out=accepted[start:stop])
+            if kappa is not None:
+                kappa[start:stop] = kk
     return (accepted, kappa) if return_statistic else accepted
