@@ -72,6 +72,30 @@ def test_marginal_by_numerical_integration():
         assert got == pytest.approx(math.log(ref), rel=1e-9)
 
 
+def test_vector_profile_minimum_is_mahalanobis_symbolic():
+    # Fully symbolic 2x2 covariances: minimising the two-sensor quadratic form over x
+    # gives (x1 - x2)' (C1 + C2)^-1 (x1 - x2), the quantity mahalanobis_sq computes.
+    a1, c1, a2, c2 = sp.symbols("a1 c1 a2 c2", positive=True)
+    b1, b2 = sp.symbols("b1 b2", real=True)
+    C1 = sp.Matrix([[a1, b1], [b1, c1]])
+    C2 = sp.Matrix([[a2, b2], [b2, c2]])
+    p1 = sp.Matrix(sp.symbols("p1 q1", real=True))
+    p2 = sp.Matrix(sp.symbols("p2 q2", real=True))
+    xv = sp.Matrix(sp.symbols("x y", real=True))
+    Q = (((p1 - xv).T * C1.inv() * (p1 - xv))[0]
+         + ((p2 - xv).T * C2.inv() * (p2 - xv))[0])
+    sol = sp.solve([sp.diff(Q, v) for v in xv], list(xv), dict=True)[0]
+    d = p1 - p2
+    kappa = (d.T * (C1 + C2).LUsolve(d))[0]
+    assert sp.simplify(sp.together(Q.subs(sol) - kappa)) == 0
+    # and numerically against the package for one admissible set of values
+    vals = {a1: 2.0, b1: 0.3, c1: 1.0, a2: 0.5, b2: -0.2, c2: 1.5,
+            p1[0]: 0.4, p1[1]: -1.0, p2[0]: 1.1, p2[1]: 0.2}
+    got = px.mahalanobis_sq([0.4, -1.0], [1.1, 0.2], np.array(C1.subs(vals), dtype=float),
+                            np.array(C2.subs(vals), dtype=float))
+    assert got == pytest.approx(float(kappa.subs(vals)), rel=1e-12)
+
+
 def test_paper_eq7_printed_factor_is_wrong():
     # The printed (7): exp(-kappa/2) / (2 pi (s1^2 + s2^2)). It differs from the
     # derived profile measure unless s1 s2 = s1^2 + s2^2, which is impossible.
