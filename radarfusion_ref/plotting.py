@@ -23,6 +23,7 @@ __all__ = [
     "plot_mean",
     "plot_reports",
     "plot_density",
+    "plot_covariance_ellipse",
 ]
 
 #: Colours by role, used consistently across chapters.
@@ -99,7 +100,8 @@ def plot_mean(ax, x, m: MeanEstimate, *, label=None, color=None):
     return ax
 
 
-def plot_reports(ax, xy1, xy2, *, truth=None, pairs=None, labels=("radar 1", "radar 2")):
+def plot_reports(ax, xy1, xy2, *, truth=None, pairs=None, true_pairs=None,
+                 labels=("radar 1", "radar 2")):
     """Reports of two radars in the plane, with optional truth and pairing lines.
 
     Parameters
@@ -110,6 +112,9 @@ def plot_reports(ax, xy1, xy2, *, truth=None, pairs=None, labels=("radar 1", "ra
         True object positions.
     pairs : iterable of (i, j), optional
         Association decisions, drawn as segments from ``xy1[i]`` to ``xy2[j]``.
+    true_pairs : iterable of (i, j), optional
+        The correct pairs. When given, decided pairs not among them are drawn
+        thick and red, so wrong decisions stand out.
     """
     xy1, xy2 = np.atleast_2d(xy1), np.atleast_2d(xy2)
     if truth is not None:
@@ -117,9 +122,46 @@ def plot_reports(ax, xy1, xy2, *, truth=None, pairs=None, labels=("radar 1", "ra
         ax.plot(t[:, 0], t[:, 1], "x", color=SENSOR_COLORS["truth"], ms=7, label="truth")
     ax.plot(xy1[:, 0], xy1[:, 1], "o", mfc="none", color=SENSOR_COLORS["radar1"], label=labels[0])
     ax.plot(xy2[:, 0], xy2[:, 1], "s", mfc="none", color=SENSOR_COLORS["radar2"], label=labels[1])
+    correct = None if true_pairs is None else {(int(i), int(j)) for i, j in true_pairs}
     for i, j in pairs or ():
-        ax.plot([xy1[i, 0], xy2[j, 0]], [xy1[i, 1], xy2[j, 1]], "-", color="0.4", lw=1)
+        wrong = correct is not None and (int(i), int(j)) not in correct
+        ax.plot([xy1[i, 0], xy2[j, 0]], [xy1[i, 1], xy2[j, 1]], "-",
+                color="red" if wrong else "0.4", lw=2 if wrong else 1)
     ax.set_aspect("equal", adjustable="datalim")
+    return ax
+
+
+def plot_covariance_ellipse(ax, mean, cov, *, n_sigma: float = 2.0, **kwargs):
+    """The ``n_sigma`` ellipse of a 2-D Gaussian: ``(x - mean)' cov^-1 (x - mean) = n_sigma**2``.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    mean : array_like, shape (2,)
+    cov : array_like, shape (2, 2)
+        Symmetric positive-definite covariance.
+    n_sigma : float, optional
+        Scale of the ellipse in standard deviations (default 2).
+    **kwargs
+        Passed to :class:`matplotlib.patches.Ellipse` (``fill=False`` by default).
+
+    Notes
+    -----
+    The semi-axes are ``n_sigma * sqrt(eigenvalues)`` along the eigenvectors of
+    `cov`.
+    """
+    from matplotlib.patches import Ellipse
+
+    from ._validation import as_covariance, as_float_array
+
+    mean = as_float_array(mean, "mean", last_dims=(2,))
+    cov = as_covariance(cov, "cov", dim=2)
+    vals, vecs = np.linalg.eigh(cov)
+    angle = np.degrees(np.arctan2(vecs[1, 1], vecs[0, 1]))
+    kwargs.setdefault("fill", False)
+    patch = Ellipse(tuple(mean), 2 * n_sigma * np.sqrt(vals[1]), 2 * n_sigma * np.sqrt(vals[0]),
+                    angle=angle, **kwargs)
+    ax.add_patch(patch)
     return ax
 
 
