@@ -155,7 +155,16 @@ def _scalar_iv(x, var):
     if x.shape[-1] == 0:
         raise ValueError(f"`x` must hold at least one report on its last axis; received shape "
                          f"{x.shape}")
+    _check_invertible(var, "var")
     return x, var
+
+
+def _check_invertible(var, name):
+    """Refuse variances so small that their reciprocals overflow (they would give NaN)."""
+    with np.errstate(over="ignore", divide="ignore"):
+        if not np.all(np.isfinite(1.0 / var)):
+            raise ValueError(f"`{name}` has entries too small to invert in floating point "
+                             f"(smallest {np.min(var):.3g}); rescale the coordinates")
 
 
 def _gaussian_iv(x, cov):
@@ -203,8 +212,8 @@ def fuse(x, var) -> FusedEstimate:
     Raises
     ------
     ValueError
-        If `var` has a zero, negative or non-finite entry, `x` is non-finite
-        or has no reports, or the two do not broadcast.
+        If `var` has a zero, negative, non-finite or non-invertible (subnormal)
+        entry, `x` is non-finite or has no reports, or the two do not broadcast.
     TypeError
         If an argument is not numeric.
 
@@ -349,6 +358,8 @@ def misweighted(var_true, var_assumed) -> Misweighting:
     """
     var_true = as_positive(var_true, "var_true")
     var_assumed = as_positive(var_assumed, "var_assumed")
+    _check_invertible(var_true, "var_true")
+    _check_invertible(var_assumed, "var_assumed")
     if var_true.ndim < 1:
         raise ValueError(f"`var_true` must have shape (..., k); received shape {var_true.shape}")
     var_true, var_assumed = broadcast(var_true=var_true, var_assumed=var_assumed)
@@ -384,8 +395,9 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
     Raises
     ------
     ValueError
-        If a covariance is not symmetric positive definite, the shapes
-        disagree, or an entry is non-finite.
+        If a covariance is not symmetric positive definite (or so close to
+        singular that the information overflows), the shapes disagree, or an
+        entry is non-finite.
     TypeError
         If an argument is not numeric.
 
@@ -439,6 +451,9 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
     r_inv = np.linalg.solve(r, eye)               # R^-1
     cov_f = np.swapaxes(r_inv, -1, -2) @ r_inv    # P = Y^-1 = R^-T R^-1
     estimate = (cov_f @ y)[..., 0]                # x~ = P y
+    if not (np.isfinite(info).all() and np.isfinite(cov_f).all()):
+        raise ValueError("`cov` is numerically singular (the information "
+                         "overflowed); rescale the coordinates")
     return GaussianFusion(estimate, cov_f, info)
 
 

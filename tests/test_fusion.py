@@ -415,6 +415,17 @@ def test_fuse_rejects_shape_mismatch_and_empty_and_non_numeric():
         fuse("abc", 1.0)
 
 
+def test_variances_too_small_to_invert_are_refused_not_nan():
+    with pytest.raises(ValueError, match=r"`var`.*too small"):
+        fuse([1.0, 2.0], [1e-320, 1.0])
+    with pytest.raises(ValueError, match=r"`var_assumed`.*too small"):
+        misweighted([1.0, 2.0], [1e-320, 1.0])
+    with pytest.raises(ValueError, match=r"`cov`.*singular"), np.errstate(over="ignore"):
+        fuse_gaussian([[0.0, 0.0], [1.0, 1.0]], [1e-310 * np.eye(2), np.eye(2)])
+    r = fuse([1.0, 2.0], [1e-300, 1.0])                     # tiny but invertible: fine
+    assert np.isfinite(r.estimate) and r.estimate == pytest.approx(1.0)
+
+
 def test_fuse_gaussian_rejects_bad_covariances():
     x = np.zeros((2, 2))
     good = np.stack([np.eye(2)] * 2)
@@ -470,15 +481,17 @@ def test_other_entry_points_reject_bad_input():
 
 
 def test_chapter_literalincludes_show_the_code_after_the_docstring():
-    """The chapter shows `def` + body of two functions by line numbers; keep them in step."""
+    """The chapter shows the body of two functions from a marker line; keep them in step."""
     import inspect
 
     from radarfusion_ref import fusion
 
     text = (ROOT / "book" / "01_fusion.md").read_text()
-    found = re.findall(r":pyobject: (\w+)\n:lines: 1,(\d+)-", text)
-    assert {name for name, _ in found} == {"fuse", "fuse_gaussian"}
-    for name, start in found:
+    found = re.findall(r":pyobject: (\w+)\n:prepend: (.*)\n:start-at: (.*)\n", text)
+    assert {name for name, _, _ in found} == {"fuse", "fuse_gaussian"}
+    for name, signature, marker in found:
         lines = inspect.getsource(getattr(fusion, name)).splitlines()
-        assert lines[int(start) - 2].strip() == '"""', name      # the line before: docstring end
-        assert lines[0].startswith(f"def {name}(") and lines[0].endswith(":"), name
+        assert lines[0] == signature, name
+        start = [i for i, line in enumerate(lines) if line.strip() == marker]
+        assert len(start) == 1, name
+        assert lines[start[0] - 1].strip() == '"""', name    # right after the docstring
