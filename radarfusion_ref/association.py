@@ -32,8 +32,8 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
 * :func:`compare_decisions` — the Monte-Carlo decision-level comparison of the
   three procedures used by the chapter.
 
-References
-----------
+.. rubric:: References
+
 .. [1] V. M. Grachov, V. A. Korneev, "Method of combining radar information
    taking coordinate and feature measurements into account", Kharkiv Air
    Force University, 2010 — eqs. (5)–(7) and the joint proximity measure.

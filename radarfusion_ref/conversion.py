@@ -44,8 +44,8 @@ Every covariance here has the form :math:`aI + bM(\\beta)` with
 its eigenvectors point along range (variance :math:`a + b`) and across range
 (variance :math:`a - b`).
 
-References
-----------
+.. rubric:: References
+
 .. [1] A. V. Prosov, "Analysis of the effect of linearization errors of radar
    measurements on the reliability of associating data from spatially
    separated radars", eqs. (1)–(4).

@@ -11,8 +11,8 @@ density (Grachov & Korneev 2010, eq. (8), corrected — see the chapter)
     f(\\Pi \\mid T_k) = \\mathcal N(\\Pi;\\ \\Pi_k, \\sigma_{\\Pi k}^2),
     \\qquad k = 1, \\dots, L.
 
-Public functions
-----------------
+.. rubric:: Public functions
+
 * :func:`fused_feature` — the maximum-likelihood fused feature of two reports
   and its variance;
 * :func:`type_likelihood` — :math:`f(\\hat\\Pi \\mid T_k)` for a feature measured
@@ -35,8 +35,8 @@ reports differ only by measurement error) and ``"spread"`` (model 2: each
 radar sees its own value, drawn from the type's density, so the reports of
 one object differ by the type's spread as well).
 
-References
-----------
+.. rubric:: References
+
 .. [1] V. M. Grachov, V. A. Korneev, "Method of combining radar information
    taking coordinate and feature measurements into account", Kharkiv Air
    Force University, 2010 — eqs. (8)–(13) and the two feature observation

@@ -28,8 +28,8 @@ by radar 1 compared with every report of radar 2:
 * **no decision** — none passes, or more than one does (for two targets: the
   true and the false pair both pass, or both fail).
 
-Public functions
-----------------
+.. rubric:: Public functions
+
 * :func:`radar2_position`, :func:`paper_geometry`, :func:`polar_from` — the
   geometry;
 * :func:`simulate_polar` — noisy polar reports of both radars, vectorized over
@@ -46,8 +46,8 @@ Public functions
 
 Units: kilometres and radians throughout.
 
-References
-----------
+.. rubric:: References
+
 .. [1] A. V. Prosov, "Analysis of the effect of linearization errors of radar
    measurements on the reliability of associating data from spatially
    separated radars" — Fig. 1, eqs. (1)–(4), the quadratic form :math:`S`,
