@@ -58,6 +58,7 @@ from ._validation import (
     as_rng,
     broadcast,
 )
+from .fusion import fuse
 from .montecarlo import MeanEstimate, Proportion, mean, proportion
 from .proximity import mahalanobis_sq
 from .scenes import TwoRadarScene, two_radar_scene
@@ -189,8 +190,8 @@ def fused_feature(feature1, feature_var1, feature2, feature_var2) -> FusedFeatur
     v1 = as_positive(feature_var1, "feature_var1")
     v2 = as_positive(feature_var2, "feature_var2")
     f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
-    total = v1 + v2
-    return FusedFeature(_scalar((v2 * f1 + v1 * f2) / total), _scalar(v1 * v2 / total))
+    fe = fuse(np.stack([f1, f2], axis=-1), np.stack([v1, v2], axis=-1))
+    return FusedFeature(_scalar(fe.estimate), _scalar(fe.variance))
 
 
 # ----------------------------------------------------------------------------- recognition
@@ -418,10 +419,10 @@ def _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors):
     if model == "spread":
         same = logsumexp(n1 + n2 + log_priors, axis=-1)
     else:
-        total = v1 + v2
-        fused = (v2 * f1 + v1 * f2) / total
-        fused_var = v1 * v2 / total
-        same = (_log_normal(f1 - f2, 0.0, total)
+        fe = fuse(np.stack(np.broadcast_arrays(f1, f2), axis=-1),
+                  np.stack(np.broadcast_arrays(v1, v2), axis=-1))
+        fused, fused_var = np.asarray(fe.estimate), np.asarray(fe.variance)
+        same = (_log_normal(f1 - f2, 0.0, v1 + v2)
                 + logsumexp(_log_normal(fused[..., None], means, tvars + fused_var[..., None])
                             + log_priors, axis=-1))
     return -2.0 * (same - apart)
@@ -855,7 +856,8 @@ def triune(scene: TypedScene, match, *, rule: str = "exact") -> TriuneResult:
     x2 = np.take_along_axis(c.reports2, idx[..., None], axis=1)
     f2 = np.take_along_axis(scene.features2, idx, axis=1)
     s1, s2 = c.sigma1**2, c.sigma2**2
-    fused = np.where(paired[..., None], (s2 * c.reports1 + s1 * x2) / (s1 + s2), c.reports1)
+    pair_fused = fuse(np.stack([c.reports1, x2], axis=-1), np.array([s1, s2])).estimate
+    fused = np.where(paired[..., None], pair_fused, c.reports1)
     v1, v2 = scene.feature_sigma1**2, scene.feature_sigma2**2
     types = (scene.type_means, scene.type_vars)
     if rule == "exact":
