@@ -228,7 +228,7 @@ def as_rng(rng) -> np.random.Generator:
 
     Examples
     --------
-    >>> as_rng(1).integers(10) == as_rng(1).integers(10)
+    >>> bool(as_rng(1).integers(10) == as_rng(1).integers(10))
     True
     """
     if isinstance(value := rng, np.random.RandomState):

@@ -27,7 +27,21 @@ from scipy import stats
 
 from ._validation import as_choice, as_float_array, as_int, as_probability
 
-__all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance"]
+__all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance",
+           "require", "MonteCarloCheckError"]
+
+
+class MonteCarloCheckError(AssertionError):
+    """A Monte-Carlo estimate contradicts the exact value it was meant to confirm."""
+
+
+def _pick(x, index):
+    return np.asarray(x)[index] if index is not None else x
+
+
+def _format(est, index, digits):
+    e, lo, hi = (float(_pick(v, index)) for v in (est.estimate, est.low, est.high))
+    return f"{e:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
 def _fmt(x) -> str:
@@ -72,6 +86,19 @@ class Proportion:
         out = (np.asarray(self.low) <= value) & (value <= np.asarray(self.high))
         return bool(out) if np.ndim(out) == 0 else out
 
+    def agrees(self, exact, *, sigmas: float = 5.0) -> bool:
+        """Whether every estimate lies within `sigmas` binomial standard errors of `exact`.
+
+        The standard error is that of the *exact* proportion, so an exact value
+        of 0 or 1 demands an estimate of exactly 0 or 1.
+        """
+        tol = binomial_tolerance(np.clip(exact, 0.0, 1.0), self.trials, sigmas=sigmas)
+        return bool(np.all(np.abs(np.asarray(self.estimate) - exact) <= tol))
+
+    def format(self, index=None, *, digits: int = 3) -> str:
+        """``'0.627 [0.625, 0.629]'`` for prose (entry `index` of a vector result)."""
+        return _format(self, index, digits)
+
     def __str__(self) -> str:
         name = "Wilson" if self.method == "wilson" else "Clopper-Pearson"
         return (f"{_fmt(self.estimate)} [{_fmt(self.low)}, {_fmt(self.high)}] "
@@ -107,6 +134,15 @@ class MeanEstimate:
         """Whether `value` lies in the interval (element-wise)."""
         out = (np.asarray(self.low) <= value) & (value <= np.asarray(self.high))
         return bool(out) if np.ndim(out) == 0 else out
+
+    def agrees(self, exact, *, sigmas: float = 5.0) -> bool:
+        """Whether every estimate lies within `sigmas` standard errors of `exact`."""
+        diff = np.abs(np.asarray(self.estimate) - exact)
+        return bool(np.all(diff <= sigmas * np.asarray(self.std_error)))
+
+    def format(self, index=None, *, digits: int = 3) -> str:
+        """``'2.005 [1.990, 2.019]'`` for prose (entry `index` of a vector result)."""
+        return _format(self, index, digits)
 
     def __str__(self) -> str:
         return (f"{_fmt(self.estimate)} [{_fmt(self.low)}, {_fmt(self.high)}] "
@@ -253,4 +289,49 @@ def binomial_tolerance(p, trials, *, sigmas: float = 5.0):
     """
     p = as_probability(p, "p", open_interval=False)
     n = as_int(trials, "trials", minimum=1)
-    return float(sigmas) * np.sqrt(p * (1 - p) / n)
+    tol = float(sigmas) * np.sqrt(p * (1 - p) / n)
+    return float(tol) if np.ndim(tol) == 0 else tol
+
+
+def require(estimate: Proportion | MeanEstimate, exact, what: str, *,
+            sigmas: float = 5.0) -> None:
+    """Stop (raise) if a Monte-Carlo estimate contradicts the exact value it checks.
+
+    The book calls this after every Monte-Carlo check, so the executed book
+    fails when a claim breaks. The tolerance is generous — `sigmas` standard
+    errors (default 5; a 95 % interval is about 2) — so a correct claim fails
+    by bad luck with probability below about 6e-7 per comparison.
+
+    Parameters
+    ----------
+    estimate : Proportion or MeanEstimate
+    exact : float or array_like
+        The value the estimate should agree with (broadcast against it).
+    what : str
+        What is being checked, for the error message.
+    sigmas : float, optional
+        Tolerance in standard errors.
+
+    Raises
+    ------
+    MonteCarloCheckError
+        If any entry disagrees.
+    TypeError
+        If `estimate` is not a :class:`Proportion` or :class:`MeanEstimate`.
+
+    Examples
+    --------
+    >>> require(proportion(480, 1000), 0.5, "a fair coin")
+    >>> require(proportion(400, 1000), 0.5, "a fair coin")
+    Traceback (most recent call last):
+    ...
+    radarfusion_ref.montecarlo.MonteCarloCheckError: a fair coin: Monte Carlo 0.4000 [0.3700, 0.4307] (n=1000, 95% Wilson) disagrees with the exact value 0.5 (5 standard errors)
+    """
+    if not isinstance(estimate, (Proportion, MeanEstimate)):
+        raise TypeError("`estimate` must be a Proportion or a MeanEstimate; received "
+                        f"{type(estimate).__name__}")
+    if not estimate.agrees(exact, sigmas=sigmas):
+        raise MonteCarloCheckError(
+            f"{what}: Monte Carlo {estimate} disagrees with the exact value "
+            f"{np.round(exact, 6)} ({sigmas:g} standard errors)"
+        )

@@ -91,3 +91,31 @@ def test_mean_needs_two_samples():
         mean([1.0])
     with pytest.raises(ValueError, match="`samples`"):
         mean([1.0, np.nan])
+
+
+def test_agrees_uses_the_standard_error_of_the_exact_value():
+    p = proportion(5_300, 10_000)                # 0.53
+    # binomial standard error at 0.5 with n = 10 000 is 0.005: 0.03 is 6 of them
+    assert not p.agrees(0.5)
+    assert p.agrees(0.5, sigmas=7.0)
+    assert proportion(0, 100).agrees(0.0)
+    assert not proportion(1, 100).agrees(0.0)
+
+
+def test_mean_agrees_and_require():
+    m = mean(np.array([1.0, 2.0, 3.0, 4.0]))    # 2.5, standard error 0.6455
+    assert m.agrees(2.5 + 3 * 0.6455)
+    assert not m.agrees(2.5 + 6 * 0.6455)
+    from radarfusion_ref.montecarlo import MonteCarloCheckError, require
+
+    require(m, 2.0, "close")
+    with pytest.raises(MonteCarloCheckError, match="far: Monte Carlo"):
+        require(m, 10.0, "far")
+    with pytest.raises(TypeError, match="`estimate`"):
+        require(0.5, 0.5, "not an estimate")
+
+
+def test_format_for_prose():
+    p = proportion(np.array([627, 100]), 1000)
+    assert p.format(0) == f"0.627 [{p.low[0]:.3f}, {p.high[0]:.3f}]"
+    assert proportion(1, 4).format(digits=2).startswith("0.25 [")
