@@ -1,0 +1,30 @@
+"""The derivation-check helpers fail when they should."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from radarfusion_ref.symbolic import SymbolicCheckError, check_close, check_zero
+
+
+def test_check_zero_accepts_identities_and_rejects_others():
+    x = sp.symbols("x", positive=True)
+    check_zero("log identity", sp.log(x**2) - 2 * sp.log(x), quiet=True)
+    with pytest.raises(SymbolicCheckError, match="not an identity"):
+        check_zero("not an identity", sp.sin(x) - x, quiet=True)
+
+
+def test_check_zero_on_matrices():
+    a = sp.symbols("a")
+    m = sp.Matrix([[a, 1], [1, a]])
+    check_zero("inverse", m * m.inv() - sp.eye(2), quiet=True)
+    with pytest.raises(SymbolicCheckError):
+        check_zero("not inverse", m * m - sp.eye(2), quiet=True)
+
+
+def test_check_close():
+    assert "agree on 3 values" in check_close(np.ones(3), np.ones(3))
+    with pytest.raises(SymbolicCheckError, match="gain disagree"):
+        check_close([1.0], [1.001], what="gain")
