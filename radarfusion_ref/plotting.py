@@ -24,6 +24,7 @@ __all__ = [
     "plot_reports",
     "plot_density",
     "plot_covariance_ellipse",
+    "plot_groups",
 ]
 
 #: Colours by role, used consistently across chapters.
@@ -172,4 +173,49 @@ def plot_density(ax, x, pdf, *, samples=None, bins=60, label=None, color=None):
         ax.hist(np.asarray(samples).ravel(), bins=bins, density=True, alpha=0.35,
                 color=SENSOR_COLORS["mc"], label=f"MC (n={np.size(samples)})")
     ax.plot(x, pdf, color=color, label=label)
+    return ax
+
+
+def plot_groups(ax, x, cov, groups, correct=None, *, truth=None, colors=None,
+                markers="os^vD<>ph"):
+    """Reports of `m` sources with 1-sigma ellipses, and the groups formed from them.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    x : array_like, shape (m, n, >= 2)
+        Report ``j`` of source ``i`` (the first two coordinates are drawn).
+    cov : array_like, shape (m, n, d, d)
+        Their covariances (the upper-left 2x2 block is drawn).
+    groups : array_like of int, shape (g, m)
+        Each row picks one report of every source (a grouping's ``groups``).
+    correct : array_like of bool, shape (g,), optional
+        Which groups are right; wrong groups are drawn thick and red.
+    truth : array_like, shape (n, >= 2), optional
+        True positions.
+    colors : sequence, optional
+        One colour per source (matplotlib's cycle by default).
+    """
+    x = np.asarray(x, dtype=float)
+    cov = np.asarray(cov, dtype=float)
+    groups = np.asarray(groups, dtype=int)
+    m, n = x.shape[:2]
+    colors = colors or [f"C{i}" for i in range(m)]
+    correct = np.ones(len(groups), bool) if correct is None else np.asarray(correct, bool)
+    for i in range(m):
+        for j in range(n):
+            plot_covariance_ellipse(ax, x[i, j, :2], cov[i, j, :2, :2], n_sigma=1.0, lw=0.5,
+                                    color=colors[i], alpha=0.5)
+        ax.plot(x[i, :, 0], x[i, :, 1], markers[i % len(markers)], mfc="none",
+                color=colors[i], ms=5, label=f"source {i + 1}")
+    for g, ok in zip(groups, correct, strict=True):
+        pts = x[np.arange(m), g, :2]
+        centre = pts.mean(axis=0)
+        for pnt in pts:
+            ax.plot([centre[0], pnt[0]], [centre[1], pnt[1]], "-",
+                    color=SENSOR_COLORS["fused"] if ok else "red", lw=1.2 if ok else 2.0)
+    if truth is not None:
+        t = np.asarray(truth, dtype=float)
+        ax.plot(t[:, 0], t[:, 1], "x", color=SENSOR_COLORS["truth"], ms=5, label="truth")
+    ax.set_aspect("equal", adjustable="datalim")
     return ax

@@ -14,7 +14,8 @@ import numpy as np
 
 from ._validation import as_choice, as_float_array, as_int, as_positive, as_rng
 
-__all__ = ["TwoRadarScene", "two_radar_scene", "nearest_neighbour_pairing"]
+__all__ = ["TwoRadarScene", "two_radar_scene", "nearest_neighbour_pairing",
+           "ellipse_covariance"]
 
 
 @dataclass(frozen=True)
@@ -137,3 +138,32 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
         )
     d2 = np.sum((r1[..., :, None, :] - r2[..., None, :, :]) ** 2, axis=-1)
     return np.argmin(d2, axis=-1)
+
+
+def ellipse_covariance(angle, major, minor) -> np.ndarray:
+    """2-D covariance whose 1-sigma ellipse has semi-axes `major`, `minor`, rotated by `angle`.
+
+    Parameters
+    ----------
+    angle : float
+        Direction of the major axis, radians counter-clockwise from the x axis.
+    major, minor : float
+        Standard deviations along the major and minor axes (> 0).
+
+    Returns
+    -------
+    numpy.ndarray, shape (2, 2)
+        :math:`R(\\theta)\\,\\mathrm{diag}(a^2, b^2)\\,R(\\theta)^\\mathsf{T}`.
+
+    Examples
+    --------
+    >>> ellipse_covariance(np.pi / 2, 2.0, 1.0).round(12)
+    array([[1., 0.],
+           [0., 4.]])
+    """
+    theta = float(as_float_array(angle, "angle"))
+    a = float(as_positive(major, "major"))
+    b = float(as_positive(minor, "minor"))
+    c, s = np.cos(theta), np.sin(theta)
+    rot = np.array([[c, -s], [s, c]])
+    return rot @ np.diag([a * a, b * b]) @ rot.T

@@ -48,3 +48,18 @@ def test_wrong_pairs_are_drawn_red():
     colors = [line.get_color() for line in ax.lines[2:]]
     plt.close(fig)
     assert colors == ["0.4", "red"]
+
+
+def test_plot_groups_marks_wrong_groups():
+    from radarfusion_ref.plotting import plot_groups
+
+    x = np.zeros((3, 2, 2))
+    x[:, 1] = 1.0
+    cov = np.broadcast_to(np.eye(2) * 0.01, (3, 2, 2, 2))
+    fig, ax = plt.subplots()
+    plot_groups(ax, x, cov, [[0, 0, 0], [1, 1, 0]], [True, False])
+    n_ellipses = len(ax.patches)
+    colors = [line.get_color() for line in ax.lines[3:]]
+    plt.close(fig)
+    assert n_ellipses == 6
+    assert colors[:3] != ["red"] * 3 and colors[3:] == ["red"] * 3

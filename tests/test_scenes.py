@@ -80,3 +80,15 @@ def test_bad_input(kwargs, match):
 def test_nearest_neighbour_dimension_mismatch():
     with pytest.raises(ValueError, match="same last dimension"):
         nearest_neighbour_pairing(np.zeros((2, 2)), np.zeros((2, 3)))
+
+
+@settings(max_examples=30, deadline=None)
+@given(angle=st.floats(-4, 4), a=st.floats(0.1, 5), b=st.floats(0.1, 5))
+def test_ellipse_covariance_has_the_stated_axes(angle, a, b):
+    from radarfusion_ref.scenes import ellipse_covariance
+
+    cov = ellipse_covariance(angle, a, b)
+    u = np.array([np.cos(angle), np.sin(angle)])          # the major-axis direction
+    v = np.array([-np.sin(angle), np.cos(angle)])
+    assert u @ cov @ u == pytest.approx(a * a) and v @ cov @ v == pytest.approx(b * b)
+    assert u @ cov @ v == pytest.approx(0.0, abs=1e-9 * (a * a + b * b))
