@@ -7,8 +7,8 @@ the sensors' densities (Grachov & Korneev, eqs. (1)–(2)); its maximum — the
 root of the likelihood equation (3) — is the inverse-variance weighted mean,
 and its variance attains the Cramér–Rao bound.
 
-Functions
----------
+.. rubric:: Functions
+
 * :func:`fuse` — scalar reports, ``x, var: (..., k)`` (the paper's case is ``k = 2``);
 * :func:`fuse_gaussian` — vector reports with full covariances in information
   form, ``x: (..., k, d)``, ``cov: (..., k, d, d)``;
@@ -19,8 +19,8 @@ Functions
 * :func:`sample_reports`, :func:`sample_reports_gaussian` — simulated reports
   for Monte-Carlo checks.
 
-References
-----------
+.. rubric:: References
+
 .. [1] V. M. Grachov, V. A. Korneev, "Method of combining radar information
    taking coordinate and feature measurements into account", Kharkiv Air Force
    University, 2010, eqs. (1)–(3).

@@ -13,8 +13,8 @@ probability :math:`P_{\\text{lo}}` of falsely rejecting a true hypothesis
 
     P\\{\\chi^2(m) > \\kappa_{\\text{th}}\\} = P_{\\text{lo}}.
 
-Public functions
-----------------
+.. rubric:: Public functions
+
 * :func:`gate_threshold` — :math:`\\kappa_{\\text{th}}` from :math:`P_{\\text{lo}}` and the
   degrees of freedom;
 * :func:`in_gate` — the accept/reject decision for observed statistics;
@@ -27,8 +27,8 @@ Public functions
 
 All functions broadcast over their array arguments.
 
-References
-----------
+.. rubric:: References
+
 .. [1] V. M. Grachov, V. A. Korneev, "Method of combining radar information
    taking coordinate and feature measurements into account", Kharkiv Air
    Force University, 2010 — the gating rule after eq. (7), Fig. 1.

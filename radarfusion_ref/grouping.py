@@ -25,8 +25,8 @@ source ``i``, the index ``groups[k, i]`` of its report in group ``k``. Rows
 are sorted so that ``groups[:, 0] == arange(n)``, which makes a grouping's
 array unique.
 
-References
-----------
+.. rubric:: References
+
 .. [1] "Optimal association of information from hydroacoustic stations",
    National Security and Strategic Planning, no. 3 (2013), eqs. (4)–(26)
    (in Russian).
@@ -599,7 +599,7 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
 
     For :math:`m = 2` this is the linear assignment problem (its LP relaxation
     is integral); for :math:`m \\ge 3` it is the NP-hard S-D assignment problem
-    [2]_. The relaxation's optimum is a lower bound on the integer optimum, so
+    (Deb et al., 1997). The relaxation's optimum is a lower bound on the integer optimum, so
     an integral relaxed solution is an exact answer; in well-separated scenes
     this is the common case and is much faster than branch and bound.
 

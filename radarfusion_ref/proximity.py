@@ -17,8 +17,8 @@ Hypothesis :math:`G_k`: report :math:`\\hat x_1` of radar 1 and report
 * the **marginal likelihood** integrates :math:`x` out (flat prior),
   :math:`\\exp(-\\kappa/2) / \\sqrt{2\\pi(\\sigma_1^2 + \\sigma_2^2)}`.
 
-Public functions
-----------------
+.. rubric:: Public functions
+
 * :func:`proximity` — scalar :math:`\\kappa` (paper, text after eq. (7));
 * :func:`mahalanobis_sq` — vector :math:`\\kappa`, batched over leading axes;
 * :func:`log_likelihood_measure` — log profile / marginal likelihood, scalar model;
@@ -26,8 +26,8 @@ Public functions
 * :func:`best_partner` — which candidate report maximises a likelihood measure;
 * :func:`proximity_pdf` — the density of :math:`\\kappa` (the paper's Fig. 1).
 
-References
-----------
+.. rubric:: References
+
 .. [1] V. M. Grachov, V. A. Korneev, "Method of combining radar information
    taking coordinate and feature measurements into account", Kharkiv Air
    Force University, 2010 — eqs. (1)–(7), Fig. 1.
