@@ -26,6 +26,8 @@ def test_chapter_code_has_no_pyflakes_errors(docname):
 
     nb = jupytext.read(ROOT / f"{docname}.md")
     script = jupytext.writes(nb, fmt="py:percent")
+    # `display` and `get_ipython` are builtins in an IPython kernel
     proc = _ruff("check", "--no-cache", "--select", "F,E9", "--ignore", "F811",
+                 "--config", "builtins = ['display', 'get_ipython']",
                  "--stdin-filename", f"{docname}.py", "-", stdin=script)
     assert proc.returncode == 0, f"{docname}:\n{proc.stdout}"
