@@ -60,7 +60,7 @@ def _short_error(exc: Exception) -> str:
     return "\n".join(lines[-25:])
 
 
-def execute_chapter(path: Path, *, timeout: int = 600, cache_dir: Path | None = CACHE_DIR,
+def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = CACHE_DIR,
                     kernel_name: str = "python3"):
     """Execute a MyST Markdown chapter and return ``(notebook, seconds)``.
 
