@@ -75,7 +75,9 @@ def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = 
 
     path = Path(path).resolve()
     nb = jupytext.read(path)
-    client = NotebookClient(nb, timeout=timeout, kernel_name=kernel_name,
+    # record_timing=False: no execution timestamps in the cell metadata, which
+    # Jupyter Book's cache hashes (it executes the same way)
+    client = NotebookClient(nb, timeout=timeout, kernel_name=kernel_name, record_timing=False,
                             resources={"metadata": {"path": str(path.parent)}})
     start = time.perf_counter()
     try:
