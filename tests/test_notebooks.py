@@ -53,15 +53,19 @@ def make_book(tmp_path: Path, cell: str) -> Path:
     return tmp_path
 
 
-@pytest.mark.notebook
-def test_broken_chapter_fails_the_test_command(tmp_path):
-    book = make_book(tmp_path, "1 / 0")
+def run_chapter_tests(book: Path) -> subprocess.CompletedProcess:
+    """The chapter tests of this file, run by pytest against another book."""
     env = dict(os.environ, RADARFUSION_BOOK_ROOT=str(book))
-    proc = subprocess.run(
+    return subprocess.run(
         [sys.executable, "-m", "pytest", str(ROOT / "tests" / "test_notebooks.py"), "-q",
          "-p", "no:cacheprovider", "-k", "test_chapter_executes"],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
     )
+
+
+@pytest.mark.notebook
+def test_broken_chapter_fails_the_test_command(tmp_path):
+    proc = run_chapter_tests(make_book(tmp_path, "1 / 0"))
     assert proc.returncode == 1, proc.stdout[-2000:]
     assert "book/broken" in proc.stdout
     assert "ZeroDivisionError" in proc.stdout
@@ -70,13 +74,7 @@ def test_broken_chapter_fails_the_test_command(tmp_path):
 @pytest.mark.notebook
 def test_working_chapter_passes_the_test_command(tmp_path):
     """The control for the test above: the same book with a working cell passes."""
-    book = make_book(tmp_path, "x = 1 / 2")
-    env = dict(os.environ, RADARFUSION_BOOK_ROOT=str(book))
-    proc = subprocess.run(
-        [sys.executable, "-m", "pytest", str(ROOT / "tests" / "test_notebooks.py"), "-q",
-         "-p", "no:cacheprovider", "-k", "test_chapter_executes"],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
-    )
+    proc = run_chapter_tests(make_book(tmp_path, "x = 1 / 2"))
     assert proc.returncode == 0, proc.stdout[-2000:]
 
 
