@@ -24,6 +24,13 @@ def test_chapter_module_and_tests_exist(chapter):
     assert (ROOT / "book" / "errata" / f"{chapter.stem}.md").exists()
 
 
+@pytest.mark.parametrize("chapter", catalog.CHAPTERS, ids=lambda c: c.stem)
+def test_catalog_titles_are_the_chapter_titles(chapter):
+    text = (ROOT / f"{chapter.docname}.md").read_text(encoding="utf-8")
+    title = re.search(r"^# (.+)$", text, flags=re.M).group(1).strip()
+    assert title == chapter.title
+
+
 def test_every_toc_entry_exists():
     for docname in toc_docnames():
         assert (ROOT / f"{docname}.md").exists(), docname
