@@ -679,7 +679,7 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     :math:`r_1, \\dots, r_m` give :math:`m` disjoint children — child
     :math:`t` fixes :math:`r_1 \\dots r_{t-1}` to their columns in
     :math:`\\pi` and forbids :math:`(r_t, \\pi(r_t))`. Their union is every
-    solution of the parent except :math:`\\pi`, so taking the best child
+    solution of the parent apart from :math:`\\pi`, so taking the best child
     solution overall, repeatedly, ranks all assignments exactly.
 
     Work is saved as in Miller, Stone & Cox (1997): with dual potentials of
