@@ -22,6 +22,7 @@ __all__ = [
     "as_choice",
     "as_rng",
     "broadcast",
+    "unwrap",
 ]
 
 
@@ -263,3 +264,18 @@ def broadcast(**arrays: np.ndarray) -> tuple[np.ndarray, ...]:
         raise ValueError(
             f"{names} must broadcast to a common shape; received shapes {shapes}"
         ) from None
+
+
+def unwrap(x):
+    """Results of scalar input come back as Python scalars, arrays as arrays.
+
+    Public functions pass their outputs through this, so ``f(1.0)`` is a
+    ``float`` while ``f([1.0, 2.0])`` is an array.
+
+    Examples
+    --------
+    >>> unwrap(np.float64(2.5)), unwrap(np.array(3)), unwrap([1, 2])
+    (2.5, 3, array([1, 2]))
+    """
+    arr = np.asarray(x)
+    return arr.item() if arr.ndim == 0 else arr

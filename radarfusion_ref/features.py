@@ -57,6 +57,7 @@ from ._validation import (
     as_positive,
     as_rng,
     broadcast,
+    unwrap,
 )
 from .fusion import fuse
 from .montecarlo import MeanEstimate, Proportion, mean, proportion
@@ -136,10 +137,6 @@ class FusedFeature:
     var: np.ndarray | float
 
 
-def _scalar(x):
-    return float(x) if np.ndim(x) == 0 else x
-
-
 def fused_feature(feature1, feature_var1, feature2, feature_var2) -> FusedFeature:
     """Maximum-likelihood fused feature of two reports (model 1) and its variance.
 
@@ -191,7 +188,7 @@ def fused_feature(feature1, feature_var1, feature2, feature_var2) -> FusedFeatur
     v2 = as_positive(feature_var2, "feature_var2")
     f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
     fe = fuse(np.stack([f1, f2], axis=-1), np.stack([v1, v2], axis=-1))
-    return FusedFeature(_scalar(fe.estimate), _scalar(fe.variance))
+    return FusedFeature(unwrap(fe.estimate), unwrap(fe.variance))
 
 
 # ----------------------------------------------------------------------------- recognition

@@ -46,6 +46,7 @@ from ._validation import (
     as_positive,
     as_probability,
     broadcast,
+    unwrap,
 )
 
 __all__ = [
@@ -71,11 +72,6 @@ def _as_dof(value, name: str = "dof") -> np.ndarray:
         )
     return arr
 
-
-def _out(x):
-    """0-d arrays become Python scalars; arrays stay arrays."""
-    x = np.asarray(x)
-    return x.item() if x.ndim == 0 else x
 
 
 def gate_threshold(p_false_reject, dof=1):
@@ -126,7 +122,7 @@ def gate_threshold(p_false_reject, dof=1):
     p = as_probability(p_false_reject, "p_false_reject")
     m = _as_dof(dof)
     p, m = broadcast(p_false_reject=p, dof=m)
-    return _out(stats.chi2.isf(p, m))
+    return unwrap(stats.chi2.isf(p, m))
 
 
 def in_gate(statistic, dof=1, p_false_reject=0.01):
@@ -167,7 +163,7 @@ def in_gate(statistic, dof=1, p_false_reject=0.01):
     k = as_positive(statistic, "statistic", strict=False)
     th = np.asarray(gate_threshold(p_false_reject, dof))
     k, th = broadcast(statistic=k, threshold=th)
-    return _out(k < th)
+    return unwrap(k < th)
 
 
 def p_false_accept(noncentrality, dof=1, p_false_reject=0.01):
@@ -224,7 +220,7 @@ def p_false_accept(noncentrality, dof=1, p_false_reject=0.01):
     m = _as_dof(dof)
     v, m, th = broadcast(noncentrality=v, dof=m, threshold=th)
     out = np.where(v > 0, stats.ncx2.cdf(th, m, np.where(v > 0, v, 1.0)), stats.chi2.cdf(th, m))
-    return _out(out)
+    return unwrap(out)
 
 
 def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
@@ -273,7 +269,7 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
     if np.any(pa >= 1 - p):
         raise ValueError(
             "`p_accept` must be below 1 - p_false_reject (the acceptance probability at V = 0); "
-            f"received p_accept={_out(pa)!r} with p_false_reject={_out(p)!r}"
+            f"received p_accept={unwrap(pa)!r} with p_false_reject={unwrap(p)!r}"
         )
     out = np.empty(pa.shape)
     for idx in np.ndindex(pa.shape):
@@ -286,7 +282,7 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
         while f(hi) > 0:
             hi *= 2.0
         out[idx] = optimize.brentq(f, 0.0, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
-    return _out(out)
+    return unwrap(out)
 
 
 def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,

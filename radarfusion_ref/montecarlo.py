@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ._validation import as_choice, as_float_array, as_int, as_probability
+from ._validation import as_choice, as_float_array, as_int, as_probability, unwrap
 
 __all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance",
            "require", "MonteCarloCheckError"]
@@ -230,11 +230,8 @@ def proportion(successes, trials, *, confidence: float = 0.95,
             low = np.where(k > 0, stats.beta.ppf(alpha / 2, k, n - k + 1), 0.0)
             high = np.where(k < n, stats.beta.ppf(1 - alpha / 2, k + 1, n - k), 1.0)
 
-    def scalar(x):
-        return float(x) if np.ndim(x) == 0 else np.asarray(x)
-
     k_out = int(k) if np.ndim(k) == 0 else k.astype(int)
-    return Proportion(k_out, n, scalar(p), scalar(low), scalar(high), confidence, method)
+    return Proportion(k_out, n, unwrap(p), unwrap(low), unwrap(high), confidence, method)
 
 
 def mean(samples, *, axis: int = -1, confidence: float = 0.95) -> MeanEstimate:
@@ -268,10 +265,7 @@ def mean(samples, *, axis: int = -1, confidence: float = 0.95) -> MeanEstimate:
     se = x.std(axis=axis, ddof=1) / np.sqrt(n)
     t = stats.t.ppf(0.5 + confidence / 2, df=n - 1)
 
-    def scalar(v):
-        return float(v) if np.ndim(v) == 0 else v
-
-    return MeanEstimate(scalar(m), scalar(se), scalar(m - t * se), scalar(m + t * se), n,
+    return MeanEstimate(unwrap(m), unwrap(se), unwrap(m - t * se), unwrap(m + t * se), n,
                         confidence)
 
 

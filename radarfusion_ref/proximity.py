@@ -38,7 +38,15 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
-from ._validation import as_choice, as_covariance, as_float_array, as_int, as_positive, broadcast
+from ._validation import (
+    as_choice,
+    as_covariance,
+    as_float_array,
+    as_int,
+    as_positive,
+    broadcast,
+    unwrap,
+)
 
 __all__ = [
     "best_partner",
@@ -51,12 +59,6 @@ __all__ = [
 
 _KINDS = ("profile", "marginal")
 _LOG_2PI = float(np.log(2 * np.pi))
-
-
-def _out(x):
-    """0-d arrays become Python floats; arrays stay arrays."""
-    x = np.asarray(x)
-    return x.item() if x.ndim == 0 else x
 
 
 def _scalar_iv(x1, x2, var1, var2):
@@ -136,7 +138,7 @@ def proximity(x1, x2, var1, var2):
     array([0., 1.])
     """
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
-    return _out((a - b) ** 2 / (v1 + v2))
+    return unwrap((a - b) ** 2 / (v1 + v2))
 
 
 def mahalanobis_sq(x1, x2, cov1, cov2):
@@ -206,7 +208,7 @@ def mahalanobis_sq(x1, x2, cov1, cov2):
         L = np.linalg.cholesky(s)
         z = np.linalg.solve(L, delta[..., None])[..., 0]
         out = np.sum(z**2, axis=-1)
-    return _out(np.broadcast_to(out, lead))
+    return unwrap(np.broadcast_to(out, lead))
 
 
 def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
@@ -269,7 +271,7 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
         out = -0.5 * kappa - _LOG_2PI - 0.5 * (np.log(v1) + np.log(v2))
     else:
         out = -0.5 * kappa - 0.5 * (_LOG_2PI + np.log(s))
-    return _out(out)
+    return unwrap(out)
 
 
 def log_likelihood_measure_gaussian(x1, x2, cov1, cov2, *, kind="profile"):
@@ -325,7 +327,7 @@ def log_likelihood_measure_gaussian(x1, x2, cov1, cov2, *, kind="profile"):
         out = -0.5 * kappa - d * _LOG_2PI - 0.5 * (logdet(c1) + logdet(c2))
     else:
         out = -0.5 * kappa - 0.5 * d * _LOG_2PI - 0.5 * logdet(c1 + c2)
-    return _out(np.broadcast_to(out, lead))
+    return unwrap(np.broadcast_to(out, lead))
 
 
 def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
@@ -373,7 +375,7 @@ def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
     ll = np.asarray(log_likelihood_measure(np.asarray(x1)[..., None], c,
                                            np.asarray(as_positive(var1, "var1"))[..., None],
                                            candidate_vars, kind=kind))
-    return _out(np.argmax(ll, axis=-1))
+    return unwrap(np.argmax(ll, axis=-1))
 
 
 def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
@@ -419,4 +421,4 @@ def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
     with np.errstate(divide="ignore"):
         out = np.where(v > 0, stats.ncx2.pdf(k, m, np.where(v > 0, v, 1.0)),
                        stats.chi2.pdf(k, m))
-    return _out(out)
+    return unwrap(out)
