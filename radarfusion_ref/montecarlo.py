@@ -25,14 +25,41 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ._validation import as_choice, as_float_array, as_int, as_probability, unwrap
+from ._validation import _describe, as_choice, as_float_array, as_int, as_probability, unwrap
+from .checks import CheckError, _record
 
 __all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance",
            "require", "MonteCarloCheckError"]
 
 
-class MonteCarloCheckError(AssertionError):
+class MonteCarloCheckError(CheckError):
     """A Monte-Carlo estimate contradicts the exact value it was meant to confirm."""
+
+
+def _as_sigmas(sigmas) -> float:
+    """A tolerance in standard errors: finite, in (0, 10]."""
+    if isinstance(sigmas, bool) or not isinstance(sigmas, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`sigmas` must be a real number; received {_describe(sigmas)}")
+    s = float(sigmas)
+    if not (0 < s <= 10):
+        raise ValueError(f"`sigmas` must lie in (0, 10] standard errors (a wider tolerance "
+                         f"cannot fail); received {sigmas!r}")
+    return s
+
+
+def _as_exact(exact, shape) -> np.ndarray:
+    """The exact value a Monte-Carlo estimate is compared with: finite, broadcastable."""
+    if exact is None:
+        raise TypeError("`exact` must be a number or an array of numbers; received None")
+    arr = as_float_array(exact, "exact")
+    if arr.size == 0:
+        raise ValueError("`exact` must not be empty; an empty comparison proves nothing")
+    try:
+        np.broadcast_shapes(arr.shape, shape)
+    except ValueError:
+        raise ValueError(f"`exact` with shape {arr.shape} does not broadcast against the "
+                         f"estimate's shape {shape}") from None
+    return arr
 
 
 def _pick(x, index):
@@ -92,7 +119,10 @@ class Proportion:
         The standard error is that of the *exact* proportion, so an exact value
         of 0 or 1 demands an estimate of exactly 0 or 1.
         """
-        tol = binomial_tolerance(np.clip(exact, 0.0, 1.0), self.trials, sigmas=sigmas)
+        exact = _as_exact(exact, np.shape(self.estimate))
+        if np.any((exact < 0) | (exact > 1)):
+            raise ValueError(f"`exact` must be a probability in [0, 1]; received {_describe(exact)}")
+        tol = binomial_tolerance(exact, self.trials, sigmas=_as_sigmas(sigmas))
         return bool(np.all(np.abs(np.asarray(self.estimate) - exact) <= tol))
 
     def format(self, index=None, *, digits: int = 3) -> str:
@@ -137,8 +167,9 @@ class MeanEstimate:
 
     def agrees(self, exact, *, sigmas: float = 5.0) -> bool:
         """Whether every estimate lies within `sigmas` standard errors of `exact`."""
+        exact = _as_exact(exact, np.shape(self.estimate))
         diff = np.abs(np.asarray(self.estimate) - exact)
-        return bool(np.all(diff <= sigmas * np.asarray(self.std_error)))
+        return bool(np.all(diff <= _as_sigmas(sigmas) * np.asarray(self.std_error)))
 
     def format(self, index=None, *, digits: int = 3) -> str:
         """``'2.005 [1.990, 2.019]'`` for prose (entry `index` of a vector result)."""
@@ -258,6 +289,7 @@ def mean(samples, *, axis: int = -1, confidence: float = 0.95) -> MeanEstimate:
     """
     x = as_float_array(samples, "samples", ndim_min=1)
     confidence = float(as_probability(confidence, "confidence"))
+    axis = as_int(axis, "axis", minimum=-x.ndim, maximum=x.ndim - 1)
     n = x.shape[axis]
     if n < 2:
         raise ValueError(f"`samples` needs at least 2 trials along axis {axis}; received {n}")
@@ -283,7 +315,7 @@ def binomial_tolerance(p, trials, *, sigmas: float = 5.0):
     """
     p = as_probability(p, "p", open_interval=False)
     n = as_int(trials, "trials", minimum=1)
-    tol = float(sigmas) * np.sqrt(p * (1 - p) / n)
+    tol = _as_sigmas(sigmas) * np.sqrt(p * (1 - p) / n)
     return float(tol) if np.ndim(tol) == 0 else tol
 
 
@@ -324,8 +356,13 @@ def require(estimate: Proportion | MeanEstimate, exact, what: str, *,
     if not isinstance(estimate, (Proportion, MeanEstimate)):
         raise TypeError("`estimate` must be a Proportion or a MeanEstimate; received "
                         f"{type(estimate).__name__}")
+    if not isinstance(what, str) or not what.strip():
+        raise TypeError(f"`what` must be a non-empty string; received {_describe(what)}")
+    if not np.all(np.isfinite(np.asarray(estimate.estimate, dtype=float))):
+        raise MonteCarloCheckError(f"{what}: the Monte-Carlo estimate is not finite: {estimate}")
     if not estimate.agrees(exact, sigmas=sigmas):
         raise MonteCarloCheckError(
             f"{what}: Monte Carlo {estimate} disagrees with the exact value "
             f"{np.round(exact, 6)} ({sigmas:g} standard errors)"
         )
+    _record("monte-carlo", what)

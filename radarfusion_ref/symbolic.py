@@ -13,10 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from .checks import CheckError, _record
+from .checks import check_close as check_close_numbers
+
 __all__ = ["show", "check_zero", "check_close", "SymbolicCheckError"]
 
 
-class SymbolicCheckError(AssertionError):
+class SymbolicCheckError(CheckError):
     """A derivation and its claimed result (or the package) disagree."""
 
 
@@ -75,14 +78,26 @@ def check_zero(label: str, expr, *, quiet: bool = False):
     """
     import sympy as sp
 
+    if not isinstance(label, str) or not label.strip():
+        raise TypeError(f"`label` must be a non-empty string; received {label!r}")
+    if expr is None or isinstance(expr, (str, bytes)):
+        raise TypeError(f"`expr` must be a sympy expression or matrix; received {expr!r}")
     if isinstance(expr, sp.MatrixBase):
+        if 0 in expr.shape:
+            raise SymbolicCheckError(f"symbolic check failed: {label} (empty matrix {expr.shape}"
+                                     " proves nothing)")
         simplified = expr.applyfunc(lambda e: sp.simplify(sp.cancel(e)))
-        ok = simplified.is_zero_matrix
+        ok = simplified.is_zero_matrix is True
     else:
-        simplified = sp.simplify(sp.sympify(expr))
-        ok = simplified == 0
+        try:
+            simplified = sp.simplify(sp.sympify(expr, strict=True))
+        except sp.SympifyError:
+            raise TypeError(f"`expr` must be a sympy expression or matrix; received "
+                            f"{expr!r}") from None
+        ok = simplified.is_zero is True
     if not ok:
         raise SymbolicCheckError(f"symbolic check failed: {label} ({simplified} != 0)")
+    _record("symbolic", label)
     if not quiet:
         print(f"{label} = {simplified}")
     return simplified
@@ -109,17 +124,17 @@ def check_close(derived, package, *, what: str = "derivation and package", rtol:
     Raises
     ------
     SymbolicCheckError
-        With the largest discrepancy, if they disagree.
+        With the largest discrepancy, if they disagree, or if either side is
+        empty, non-finite or of another shape (see
+        :func:`radarfusion_ref.checks.check_close`).
 
     Examples
     --------
     >>> check_close([1.0, 2.0], [1.0, 2.0 + 1e-12])
     'derivation and package agree on 2 values'
     """
-    d = np.asarray(derived, dtype=float)
-    p = np.asarray(package, dtype=float)
     try:
-        np.testing.assert_allclose(p, d, rtol=rtol, atol=atol)
-    except AssertionError as exc:
-        raise SymbolicCheckError(f"{what} disagree:\n{exc}") from None
-    return f"{what} agree on {np.broadcast(d, p).size} values"
+        check_close_numbers(package, derived, what=what, rtol=rtol, atol=atol)
+    except CheckError as exc:
+        raise SymbolicCheckError(str(exc)) from None
+    return f"{what} agree on {np.size(package)} values"

@@ -26,5 +26,5 @@ def test_check_zero_on_matrices():
 
 def test_check_close():
     assert "agree on 3 values" in check_close(np.ones(3), np.ones(3))
-    with pytest.raises(SymbolicCheckError, match="gain disagree"):
+    with pytest.raises(SymbolicCheckError, match="gain: disagree"):
         check_close([1.0], [1.001], what="gain")

@@ -1,0 +1,300 @@
+"""Checks that can fail: the executed book's proof that derivation and package agree.
+
+Every check in a chapter goes through one of these helpers, so that a check
+is never weaker than it looks:
+
+* :func:`check_close` — numbers by two routes (a lambdified derivation and the
+  package, a closed form and a simulation) agree within a stated tolerance;
+* :func:`check_equal` — two decisions (assignments, labels, counts) are identical;
+* :func:`check_true` — a stated property holds for every entry;
+* :func:`radarfusion_ref.symbolic.check_zero` and
+  :func:`radarfusion_ref.montecarlo.require` (symbolic identities and
+  Monte-Carlo tolerances) record themselves here as well.
+
+Each helper refuses what would let it pass vacuously — ``None``, NaN or inf,
+an empty array, a shape mismatch, a non-finite, negative or meaningless
+tolerance — and raises :class:`CheckError` (an :class:`AssertionError`) when
+the claim is false, so a failing check stops the executed book with its
+message in the build log.
+
+Every passing check is counted (:func:`passed`). When the environment variable
+``RADARFUSION_CHECK_LOG`` names a file, each passing check also appends one
+line ``<kind>\\t<what>`` to it; the test suite uses that ledger to prove that
+hiding a check from the page never skipped its execution.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import Counter
+
+import numpy as np
+
+from ._validation import _describe
+
+__all__ = ["CheckError", "check_close", "check_equal", "check_true", "passed", "summary",
+           "LOG_ENV"]
+
+#: Environment variable naming the ledger file of passing checks.
+LOG_ENV = "RADARFUSION_CHECK_LOG"
+
+_PASSED: Counter = Counter()
+
+
+class CheckError(AssertionError):
+    """A check of the book failed: two routes disagree, or a claimed property is false."""
+
+
+def _record(kind: str, what: str) -> None:
+    """Count one passing check (and append it to the ledger file, if one is named)."""
+    _PASSED[kind] += 1
+    path = os.environ.get(LOG_ENV)
+    if path:
+        line = " ".join(str(what).split())[:200]
+        with open(path, "a", encoding="utf-8") as fh:
+            fh.write(f"{kind}\t{line}\n")
+
+
+def passed() -> dict[str, int]:
+    """How many checks have passed in this process, by kind.
+
+    Examples
+    --------
+    >>> before = sum(passed().values())
+    >>> _ = check_true(True, what="one is one")
+    >>> sum(passed().values()) - before
+    1
+    """
+    return dict(_PASSED)
+
+
+def summary() -> str:
+    """One line for the end of a page: how many checks ran, all passed.
+
+    Examples
+    --------
+    >>> summary().startswith("Verification:")
+    True
+    """
+    total = sum(_PASSED.values())
+    if total == 0:
+        return "Verification: no checks have run in this kernel."
+    parts = ", ".join(f"{n} {kind}" for kind, n in sorted(_PASSED.items()))
+    return f"Verification: all {total} checks executed on this page passed ({parts})."
+
+
+def _as_what(what) -> str:
+    if not isinstance(what, str) or not what.strip():
+        raise TypeError(f"`what` must be a non-empty string naming the check; received "
+                        f"{_describe(what)}")
+    return what
+
+
+def _numeric(value, name: str, what: str) -> np.ndarray:
+    """A non-empty, all-finite numeric array, or a CheckError / TypeError saying why not."""
+    if value is None:
+        raise TypeError(f"{what}: `{name}` is None; a check needs numbers")
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}") from None
+    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number)
+                                   or arr.dtype == bool):
+        raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}")
+    if arr.size == 0:
+        raise CheckError(f"{what}: `{name}` is empty (shape {arr.shape}); an empty "
+                         "comparison proves nothing")
+    if np.issubdtype(arr.dtype, np.inexact) and not np.all(np.isfinite(arr)):
+        bad = int(np.count_nonzero(~np.isfinite(arr)))
+        raise CheckError(f"{what}: `{name}` has {bad} non-finite entries: {_describe(arr)}")
+    return arr
+
+
+def _tolerance(value, name: str, *, upper: float | None = None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`{name}` must be a real number; received {_describe(value)}")
+    tol = float(value)
+    if not np.isfinite(tol) or tol < 0 or (upper is not None and tol >= upper):
+        bound = f"[0, {upper:g})" if upper is not None else "[0, inf)"
+        raise ValueError(f"`{name}` must be a finite tolerance in {bound}; received {value!r}")
+    return tol
+
+
+def _same_shape(value: np.ndarray, reference: np.ndarray, what: str) -> None:
+    if value.shape != reference.shape and reference.ndim != 0:
+        raise CheckError(f"{what}: shapes differ, {value.shape} against the reference's "
+                         f"{reference.shape}")
+
+
+def check_close(value, reference, *, what: str, rtol: float = 1e-9, atol: float = 0.0) -> str:
+    """Require `value` to equal `reference` within ``atol + rtol * |reference|``.
+
+    Parameters
+    ----------
+    value : array_like
+        The quantity under test (usually the package's output).
+    reference : array_like
+        The same quantity by an independent route (a lambdified derivation, a
+        closed form, brute force). It must have `value`'s shape, or be a scalar.
+    what : str
+        What is being compared, for the message.
+    rtol : float, optional
+        Relative tolerance, in [0, 1): a relative tolerance of 100 % or more
+        could not tell a value from its double.
+    atol : float, optional
+        Absolute tolerance, finite and >= 0.
+
+    Returns
+    -------
+    str
+        ``"<what>: agree on N values (largest relative difference d)"``.
+
+    Raises
+    ------
+    CheckError
+        If they disagree, if either is empty or non-finite, or if the shapes differ.
+    TypeError
+        If either is ``None`` or not numeric, or `what` is not a string.
+    ValueError
+        If a tolerance is negative, non-finite or ``rtol >= 1``.
+
+    Examples
+    --------
+    >>> check_close([1.0, 2.0], [1.0, 2.0 + 1e-12], what="two routes")
+    'two routes: agree on 2 values (largest relative difference 5e-13)'
+    >>> check_close([1.0, float("nan")], [1.0, 2.0], what="two routes")
+    Traceback (most recent call last):
+    ...
+    radarfusion_ref.checks.CheckError: two routes: `value` has 1 non-finite entries: array [ 1. nan] with shape (2,)
+    """
+    what = _as_what(what)
+    rtol = _tolerance(rtol, "rtol", upper=1.0)
+    atol = _tolerance(atol, "atol")
+    v = _numeric(value, "value", what).astype(float)
+    r = _numeric(reference, "reference", what).astype(float)
+    _same_shape(v, r, what)
+    diff = np.abs(v - r)
+    allowed = atol + rtol * np.abs(r)
+    if not np.all(diff <= allowed):
+        worst = int(np.argmax(diff - allowed))
+        vb, rb = np.broadcast_arrays(v, r)
+        raise CheckError(
+            f"{what}: disagree at {int(np.count_nonzero(diff > allowed))} of {diff.size} values; "
+            f"worst {vb.flat[worst]:.17g} against {rb.flat[worst]:.17g} "
+            f"(|diff| {diff.flat[worst]:.3g} > allowed {np.broadcast_to(allowed, diff.shape).flat[worst]:.3g}; "
+            f"rtol={rtol:g}, atol={atol:g})"
+        )
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(r != 0, diff / np.abs(r), diff)
+    _record("numeric", what)
+    return f"{what}: agree on {diff.size} values (largest relative difference {rel.max():.1g})"
+
+
+def check_equal(value, reference, *, what: str) -> str:
+    """Require two decisions (integer or boolean arrays, labels) to be identical.
+
+    Parameters
+    ----------
+    value, reference : array_like
+        Integer, boolean or string arrays of the same shape (a scalar reference
+        is compared with every entry). Floats must be whole numbers.
+    what : str
+        What is being compared.
+
+    Returns
+    -------
+    str
+        ``"<what>: identical on N entries"``.
+
+    Raises
+    ------
+    CheckError
+        If any entry differs, either input is empty or contains NaN, or the
+        shapes differ.
+    TypeError
+        If either is ``None``.
+
+    Examples
+    --------
+    >>> check_equal([0, 2, 1], [0, 2, 1], what="assignment")
+    'assignment: identical on 3 entries'
+    >>> check_equal([0, 2, 1], [0, 1, 2], what="assignment")
+    Traceback (most recent call last):
+    ...
+    radarfusion_ref.checks.CheckError: assignment: differ at 2 of 3 entries (first at index (1,): 2 against 1)
+    """
+    what = _as_what(what)
+    arrays = []
+    for name, x in (("value", value), ("reference", reference)):
+        if x is None:
+            raise TypeError(f"{what}: `{name}` is None; a check needs values")
+        a = np.asarray(x)
+        if a.size == 0:
+            raise CheckError(f"{what}: `{name}` is empty (shape {a.shape}); an empty "
+                             "comparison proves nothing")
+        if a.dtype.kind in "fc":
+            a = _numeric(a, name, what)
+            if np.any(a != np.round(a)):
+                raise CheckError(f"{what}: `{name}` must hold whole numbers or labels; "
+                                 f"received {_describe(a)}")
+        elif a.dtype == object:
+            raise TypeError(f"{what}: `{name}` must be an array of integers, booleans or "
+                            f"strings; received {_describe(x)}")
+        arrays.append(a)
+    v, r = arrays
+    _same_shape(v, r, what)
+    differ = np.asarray(v != r)
+    if np.any(differ):
+        first = tuple(int(i) for i in np.argwhere(differ)[0])
+        vb, rb = np.broadcast_arrays(v, r)
+        raise CheckError(f"{what}: differ at {int(differ.sum())} of {differ.size} entries "
+                         f"(first at index {first}: {vb[first].tolist()!r} against {rb[first].tolist()!r})")
+    _record("decision", what)
+    return f"{what}: identical on {differ.size} entries"
+
+
+def check_true(condition, *, what: str) -> str:
+    """Require a stated property to hold: a bool, or every entry of a boolean array.
+
+    Parameters
+    ----------
+    condition : bool or array_like of bool
+        Must be a genuine boolean (Python or numpy), not a number, ``None`` or
+        an empty array.
+    what : str
+        The property, in words ("the gate is monotone in the threshold").
+
+    Returns
+    -------
+    str
+        ``"<what>: holds"`` (``"holds on N entries"`` for arrays).
+
+    Raises
+    ------
+    CheckError
+        If it is false anywhere, or the array is empty.
+    TypeError
+        If `condition` is not boolean.
+
+    Examples
+    --------
+    >>> check_true(np.array([True, True]), what="weights are positive")
+    'weights are positive: holds on 2 entries'
+    >>> check_true(None, what="weights are positive")
+    Traceback (most recent call last):
+    ...
+    TypeError: weights are positive: `condition` must be a bool or a boolean array; received None
+    """
+    what = _as_what(what)
+    arr = np.asarray(condition) if condition is not None else None
+    if arr is None or arr.dtype != bool:
+        raise TypeError(f"{what}: `condition` must be a bool or a boolean array; received "
+                        f"{_describe(condition)}")
+    if arr.size == 0:
+        raise CheckError(f"{what}: `condition` is empty; an empty check proves nothing")
+    if not np.all(arr):
+        raise CheckError(f"{what}: false at {int(np.count_nonzero(~arr))} of {arr.size} entries")
+    _record("property", what)
+    return f"{what}: holds" if arr.ndim == 0 else f"{what}: holds on {arr.size} entries"
