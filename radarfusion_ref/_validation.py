@@ -23,6 +23,8 @@ __all__ = [
     "as_rng",
     "broadcast",
     "unwrap",
+    "check_size",
+    "MEMORY_LIMIT",
 ]
 
 
@@ -34,6 +36,46 @@ def _describe(value) -> str:
         return f"array with shape {value.shape} and dtype {value.dtype}"
     text = repr(value)
     return text if len(text) <= 80 else text[:77] + "..."
+
+
+#: Largest working memory any single call may plan for, in bytes (about 1 GiB).
+MEMORY_LIMIT = 1 << 30
+
+
+def check_size(requested, limit, *, what: str, alternative: str) -> int:
+    """Refuse work whose size exceeds a documented limit, before anything is allocated.
+
+    Parameters
+    ----------
+    requested : int
+        The size the call would need (hypotheses, bins, bytes, ...). Python
+        ints, so factorials do not overflow.
+    limit : int
+        The largest size allowed.
+    what : str
+        What is counted, with its unit ("hypotheses n!", "bytes of pair costs").
+    alternative : str
+        The scalable route to use instead.
+
+    Raises
+    ------
+    ValueError
+        Naming the limit, the size asked for and the alternative.
+
+    Examples
+    --------
+    >>> import math
+    >>> check_size(math.factorial(12), 10**6, what="hypotheses n!",
+    ...            alternative="associate_joint (linear assignment)")
+    Traceback (most recent call last):
+    ...
+    ValueError: refused: 479001600 hypotheses n! requested, above the limit of 1000000; use associate_joint (linear assignment) instead
+    """
+    requested, limit = int(requested), int(limit)
+    if requested > limit:
+        raise ValueError(f"refused: {requested} {what} requested, above the limit of {limit}; "
+                         f"use {alternative} instead")
+    return requested
 
 
 def as_float_array(value, name: str, *, ndim_min: int = 0, allow_nonfinite: bool = False,
@@ -75,14 +117,23 @@ def as_float_array(value, name: str, *, ndim_min: int = 0, allow_nonfinite: bool
     ...
     ValueError: `x` must be finite; received array [ 1. nan] with shape (2,) (1 non-finite entries)
     """
-    if isinstance(value, (str, bytes)) or value is None:
+    if isinstance(value, (str, bytes, bool, np.bool_)) or value is None:
         raise TypeError(f"`{name}` must be a number or an array of numbers; received {_describe(value)}")
     try:
-        arr = np.asarray(value, dtype=float)
+        raw = value if isinstance(value, np.ndarray) else np.asarray(value)
     except (TypeError, ValueError):
         raise TypeError(
             f"`{name}` must be a number or an array of numbers; received {_describe(value)}"
         ) from None
+    # bools and strings (even numeric ones such as "1.5") are not numbers here
+    if raw.dtype.kind not in "iuf":
+        kind = {"b": "booleans", "U": "strings", "S": "bytes", "O": "objects",
+                "c": "complex numbers"}.get(raw.dtype.kind, f"dtype {raw.dtype}")
+        raise TypeError(
+            f"`{name}` must be a number or an array of numbers (reals); received {kind}: "
+            f"{_describe(value)}"
+        )
+    arr = raw.astype(float, copy=False)
     if arr.ndim < ndim_min:
         raise ValueError(
             f"`{name}` must have at least {ndim_min} dimension(s); received {_describe(arr)}"

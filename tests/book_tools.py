@@ -9,10 +9,15 @@ its code cells, so the build that follows in the same test run re-uses it.
 
 from __future__ import annotations
 
+import os
 import re
 import sys
 import time
 from pathlib import Path
+
+import nbformat
+
+from radarfusion_ref.checks import LOG_ENV as CHECK_LOG_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_DIR = ROOT / "_build"
@@ -61,8 +66,18 @@ def _short_error(exc: Exception) -> str:
 
 
 def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = CACHE_DIR,
-                    kernel_name: str = "python3"):
+                    kernel_name: str = "python3", check_log: Path | None = None,
+                    preamble: str | None = None):
     """Execute a MyST Markdown chapter and return ``(notebook, seconds)``.
+
+    Parameters
+    ----------
+    check_log : Path, optional
+        File in which the kernel's passing checks are recorded, one line each
+        (``radarfusion_ref.checks.LOG_ENV``).
+    preamble : str, optional
+        Code run in the kernel before the chapter's first cell (used by the
+        mutation tests); the notebook is then not cached.
 
     Raises
     ------
@@ -75,18 +90,29 @@ def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = 
 
     path = Path(path).resolve()
     nb = jupytext.read(path)
+    if preamble is not None:
+        nb.cells.insert(0, nbformat.v4.new_code_cell(preamble))
+        cache_dir = None
     # record_timing=False: no execution timestamps in the cell metadata, which
     # Jupyter Book's cache hashes (it executes the same way)
     client = NotebookClient(nb, timeout=timeout, kernel_name=kernel_name, record_timing=False,
                             resources={"metadata": {"path": str(path.parent)}})
     start = time.perf_counter()
+    saved = os.environ.get(CHECK_LOG_ENV)
     try:
+        if check_log is not None:
+            os.environ[CHECK_LOG_ENV] = str(check_log)  # the kernel inherits it
         client.execute()
     except (CellExecutionError, CellTimeoutError) as exc:
         raise ChapterExecutionError(
             f"chapter {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path} "
             f"failed to execute:\n{_short_error(exc)}"
         ) from None
+    finally:
+        if saved is None:
+            os.environ.pop(CHECK_LOG_ENV, None)
+        else:
+            os.environ[CHECK_LOG_ENV] = saved
     seconds = time.perf_counter() - start
     if cache_dir is not None:
         _store_in_cache(nb, path, seconds, cache_dir)

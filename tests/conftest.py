@@ -20,6 +20,16 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from book_tools import BUILD_CMD, BUILD_DIR, toc_docnames  # noqa: E402
+from hypothesis import HealthCheck, settings  # noqa: E402
+
+# The property and fuzz suite's example budget. "ci" (the default) keeps the whole
+# suite within a few minutes on 2 cores; "thorough" is for a long local run:
+# HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_fuzz.py
+settings.register_profile("ci", max_examples=60, deadline=None, derandomize=True,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("thorough", max_examples=2000, deadline=None,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 def pytest_collection_modifyitems(config, items):

@@ -10,7 +10,9 @@ that proves a broken chapter fails the test command).
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -23,15 +25,49 @@ BOOK_ROOT = Path(os.environ.get("RADARFUSION_BOOK_ROOT", ROOT))
 CHAPTERS = notebook_docnames(BOOK_ROOT)
 
 
+#: Checks each chapter executed before its checks were hidden from the page.
+BASELINE = json.loads((ROOT / "tests" / "check_baseline.json").read_text(encoding="utf-8"))
+#: Passing checks recorded by each executed page in this run, by chapter key.
+EXECUTED_CHECKS: dict[str, int] = {}
+
+
+def chapter_key(docname: str) -> str:
+    """``book/07_separated_table1`` → ``"07"`` (a chapter and its sub-pages share it)."""
+    stem = docname.rsplit("/", 1)[-1]
+    match = re.match(r"(\d\d)_", stem)
+    return match.group(1) if match else stem
+
+
 @pytest.mark.notebook
 @pytest.mark.parametrize("docname", CHAPTERS)
-def test_chapter_executes(docname):
+def test_chapter_executes(docname, tmp_path):
     path = BOOK_ROOT / f"{docname}.md"
+    log = tmp_path / "checks.log"
     try:
-        _, seconds = execute_chapter(path, cache_dir=BOOK_ROOT / "_build" / ".jupyter_cache")
+        _, seconds = execute_chapter(path, cache_dir=BOOK_ROOT / "_build" / ".jupyter_cache",
+                                     check_log=log)
     except ChapterExecutionError as exc:
         pytest.fail(str(exc), pytrace=False)
-    print(f"{docname}: executed in {seconds:.1f} s")
+    lines = log.read_text(encoding="utf-8").splitlines() if log.exists() else []
+    key = chapter_key(docname)
+    EXECUTED_CHECKS[key] = EXECUTED_CHECKS.get(key, 0) + len(lines)
+    print(f"{docname}: executed in {seconds:.1f} s, {len(lines)} checks passed")
+
+
+@pytest.mark.notebook
+@pytest.mark.skipif(BOOK_ROOT != ROOT, reason="the baseline belongs to this book")
+def test_hidden_checks_still_execute():
+    """Every chapter executes at least as many checks as it did before they were hidden.
+
+    Runs after the chapter tests (same file, same rank), from the ledger each
+    chapter's kernel wrote.
+    """
+    missing = [k for k in BASELINE["chapters"] if k not in EXECUTED_CHECKS]
+    if missing:
+        pytest.fail(f"chapters not executed in this run: {missing}", pytrace=False)
+    short = {k: (EXECUTED_CHECKS[k], n) for k, n in BASELINE["chapters"].items()
+             if EXECUTED_CHECKS[k] < n}
+    assert not short, f"chapters executing fewer checks than before (executed, baseline): {short}"
 
 
 FRONT_MATTER = (ROOT / "book" / "intro.md").read_text(encoding="utf-8").split("---", 2)[1]

@@ -13,7 +13,8 @@ def test_float_array_accepts_numbers_and_lists():
     assert v.as_float_array(3, "x").shape == ()
 
 
-@pytest.mark.parametrize("bad", ["abc", None, [[1, 2], [3]], {"a": 1}])
+@pytest.mark.parametrize("bad", ["abc", None, [[1, 2], [3]], {"a": 1}, True, np.bool_(False),
+                                 [True, False], ["1.5", "2"], np.array(["1"]), [1 + 2j]])
 def test_float_array_rejects_non_numeric(bad):
     with pytest.raises(TypeError, match="`x` must be a number or an array of numbers"):
         v.as_float_array(bad, "x")
@@ -83,3 +84,12 @@ def test_broadcast_names_all_arguments():
     assert a.shape == b.shape == (3, 2)
     with pytest.raises(ValueError, match="`x1`, `x2` must broadcast"):
         v.broadcast(x1=np.zeros(3), x2=np.zeros(2))
+
+
+def test_check_size_refuses_before_allocating():
+    import math
+
+    assert v.check_size(10, 10, what="things", alternative="x") == 10
+    with pytest.raises(ValueError, match=r"refused: 3628800 hypotheses n! requested, above the "
+                                         r"limit of 1000; use the solver instead"):
+        v.check_size(math.factorial(10), 1000, what="hypotheses n!", alternative="the solver")

@@ -1,0 +1,114 @@
+"""The executed book can fail: break one core function per chapter, and the chapter must stop.
+
+Each entry perturbs one package function slightly (a variance scaled by 1 %, a
+sign flipped) in the chapter's kernel, before the chapter's first cell, and
+replaces it everywhere the package refers to it. The chapter must then fail
+*at one of its own checks* — a :class:`radarfusion_ref.checks.CheckError` —
+not at some unrelated error. This proves that the chapter's verification,
+hidden from the page, is live.
+"""
+
+from __future__ import annotations
+
+import textwrap
+
+import pytest
+from book_tools import ROOT, ChapterExecutionError, execute_chapter
+
+#: chapter → (module, function, wrapper). The wrapper is Python source of a
+#: function ``wrap(f)`` returning the perturbed function (``np``, ``dataclasses``
+#: and ``functools`` are available to it).
+MUTATIONS = {
+    "book/01_fusion": ("radarfusion_ref.fusion", "fuse", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                r = f(*a, **k)
+                return dataclasses.replace(r, variance=np.asarray(r.variance) * 1.01)
+            return g
+        """),
+    "book/02_proximity": ("radarfusion_ref.proximity", "proximity", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                return np.asarray(f(*a, **k)) * 1.01
+            return g
+        """),
+    "book/03_gating": ("radarfusion_ref.gating", "gate_threshold", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                return np.asarray(f(*a, **k)) * 1.01
+            return g
+        """),
+    "book/04_association": ("radarfusion_ref.association", "proximity_matrix", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                return np.asarray(f(*a, **k)) * 1.01
+            return g
+        """),
+    "book/05_features": ("radarfusion_ref.features", "type_likelihood", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                return np.asarray(f(*a, **k)) * 1.01
+            return g
+        """),
+    "book/06_conversion": ("radarfusion_ref.conversion", "conversion_bias", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                r = f(*a, **k)
+                return -np.asarray(r) if not dataclasses.is_dataclass(r) else r
+            return g
+        """),
+    "book/07_separated": ("radarfusion_ref.separated", "pair_statistic", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                return np.asarray(f(*a, **k)) * 1.01
+            return g
+        """),
+    "book/08_grouping": ("radarfusion_ref.grouping", "group_costs", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                return np.asarray(f(*a, **k)) * 1.01
+            return g
+        """),
+}
+
+PREAMBLE = """\
+import dataclasses, functools, importlib, sys
+import numpy as np
+{wrap}
+_module = importlib.import_module({module!r})
+_original = getattr(_module, {name!r})
+_mutant = wrap(_original)
+for _m in list(sys.modules.values()):
+    if getattr(_m, "__name__", "").startswith("radarfusion_ref"):
+        for _k, _v in list(vars(_m).items()):
+            if _v is _original:
+                setattr(_m, _k, _mutant)
+del _m, _k, _v
+"""
+
+CHECK_ERRORS = ("CheckError", "SymbolicCheckError", "MonteCarloCheckError")
+
+
+def preamble(module: str, name: str, wrap: str) -> str:
+    return PREAMBLE.format(wrap=textwrap.dedent(wrap).strip(), module=module, name=name)
+
+
+@pytest.mark.notebook
+@pytest.mark.parametrize("docname", sorted(MUTATIONS))
+def test_a_broken_function_stops_its_chapter_at_a_check(docname):
+    module, name, wrap = MUTATIONS[docname]
+    with pytest.raises(ChapterExecutionError) as info:
+        execute_chapter(ROOT / f"{docname}.md", cache_dir=None,
+                        preamble=preamble(module, name, wrap))
+    text = str(info.value)
+    assert any(err in text for err in CHECK_ERRORS), (
+        f"{docname} failed, but not at one of its checks:\n{text[-3000:]}"
+    )
