@@ -7,11 +7,13 @@ computed elsewhere in the package.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from contextlib import contextmanager
 
 import matplotlib as mpl
 import numpy as np
 
+from ._validation import _describe, as_covariance, as_float_array, as_int, as_positive
 from .montecarlo import MeanEstimate, Proportion
 
 __all__ = [
@@ -25,6 +27,7 @@ __all__ = [
     "plot_density",
     "plot_covariance_ellipse",
     "plot_groups",
+    "plot_scene",
 ]
 
 #: Colours by role, used consistently across chapters.
@@ -51,6 +54,23 @@ BOOK_STYLE = {
     "image.cmap": "viridis",
     "animation.embed_limit": 8.0,
 }
+
+
+def _as_axes(ax, name: str = "ax"):
+    """`ax` itself if it is a matplotlib Axes, else a TypeError naming it."""
+    from matplotlib.axes import Axes
+
+    if not isinstance(ax, Axes):
+        raise TypeError(f"`{name}` must be a matplotlib.axes.Axes (e.g. from plt.subplots()); "
+                        f"received {_describe(ax)}")
+    return ax
+
+
+def _as_scalar(arr, name: str) -> float:
+    """A validated 0-d array as a float, else a ValueError naming the argument."""
+    if np.ndim(arr) != 0:
+        raise ValueError(f"`{name}` must be a single number; received {_describe(arr)}")
+    return float(arr)
 
 
 def use_book_style() -> None:
@@ -163,6 +183,178 @@ def plot_covariance_ellipse(ax, mean, cov, *, n_sigma: float = 2.0, **kwargs):
     patch = Ellipse(tuple(mean), 2 * n_sigma * np.sqrt(vals[1]), 2 * n_sigma * np.sqrt(vals[0]),
                     angle=angle, **kwargs)
     ax.add_patch(patch)
+    return ax
+
+
+def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth=None,
+               n_sigma: float = 2.0, equal: bool = True, legend: bool = True,
+               colors=None, scene=None, trial: int = 0):
+    """The picture of a fusion problem: radar sites, each source's reports and error ellipses.
+
+    Chapters draw it before their first equation, so the reader sees what the
+    mathematics is about. Each source ``k`` (a radar) gets one colour and one
+    marker for its reports and their ``n_sigma`` error ellipses.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Axes to draw into.
+    sensors : array_like, shape (s, 2) or (2,), optional
+        Positions of the radar sites, drawn as filled triangles (in the colour
+        of source ``k`` when there is one site per source).
+    reports : sequence of array_like, each of shape (n_k, d) or (d,)
+        The reports of each source, ``d`` = 1 or 2 (for ``d`` > 2 the first
+        two coordinates are drawn). With ``d`` = 1 the reports of source
+        ``k`` are drawn on the horizontal row ``y = -k`` and their error
+        intervals as horizontal bars.
+    covariances : sequence of array_like, optional
+        Empty (no ellipses) or one entry per source: a ``(d, d)`` covariance
+        shared by all of its reports, or ``(n_k, d, d)``, one per report
+        (symmetric positive definite).
+    labels : sequence of str, optional
+        Legend label of each source (default ``"radar 1"``, ``"radar 2"``, ...).
+    truth : array_like, shape (n, d) or (d,), optional
+        True object positions, drawn as black crosses (vertical dotted lines
+        when ``d`` = 1).
+    n_sigma : float, optional
+        Scale of the ellipses in standard deviations (default 2).
+    equal : bool, optional
+        Equal aspect (default ``True``; ignored when ``d`` = 1).
+    legend : bool, optional
+        Draw a legend inside the axes (default ``True``).
+    colors : sequence, optional
+        One colour per source (the book's radar colours by default).
+    scene : radarfusion_ref.scenes.TwoRadarScene, optional
+        Shortcut: draw trial `trial` of a simulated scene (its two sources'
+        reports, their ``sigma**2 I`` covariances and the truth). Cannot be
+        combined with `reports`, `covariances` or `truth`.
+    trial : int, optional
+        Which trial of `scene` to draw (default 0).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes, `scene` is not a ``TwoRadarScene``,
+        or an argument is not numeric.
+    ValueError
+        If shapes disagree, a covariance is not symmetric positive definite,
+        or `n_sigma` is not a positive finite number.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig, ax = plt.subplots()
+    >>> ax = plot_scene(ax, sensors=[[0, 0], [10, 0]],
+    ...                 reports=[[[4.0, 5.0]], [[4.4, 5.3]]],
+    ...                 covariances=[np.diag([0.5, 0.1]), np.diag([0.1, 0.5])],
+    ...                 truth=[[4.2, 5.1]])
+    >>> len(ax.patches)
+    2
+    >>> plt.close(fig)
+    """
+    from .scenes import TwoRadarScene
+
+    ax = _as_axes(ax)
+    n_sigma = float(_as_scalar(as_positive(n_sigma, "n_sigma"), "n_sigma"))
+    if scene is not None:
+        if not isinstance(scene, TwoRadarScene):
+            raise TypeError("`scene` must be a radarfusion_ref.scenes.TwoRadarScene; "
+                            f"received {_describe(scene)}")
+        if len(reports) or len(covariances) or truth is not None:
+            raise ValueError("`scene` cannot be combined with `reports`, `covariances` or "
+                             "`truth`; received both")
+        t = as_int(trial, "trial", minimum=0, maximum=scene.truth.shape[0] - 1)
+        d = scene.truth.shape[-1]
+        reports = [scene.reports1[t], scene.reports2[t]]
+        covariances = [scene.sigma1**2 * np.eye(d), scene.sigma2**2 * np.eye(d)]
+        truth = scene.truth[t]
+    if isinstance(reports, np.ndarray) and reports.ndim == 3:
+        reports = list(reports)
+    if isinstance(reports, (str, bytes)) or not isinstance(reports, Sequence):
+        raise TypeError("`reports` must be a sequence with one (n_k, d) array per source; "
+                        f"received {_describe(reports)}")
+    pts = [np.atleast_2d(as_float_array(r, f"reports[{k}]", ndim_min=1))
+           for k, r in enumerate(reports)]
+    dims = {p.shape[-1] for p in pts}
+    if len(dims) > 1 or any(p.ndim != 2 for p in pts):
+        raise ValueError("`reports` must hold arrays of shape (n_k, d) with one common d; "
+                         f"received shapes {[p.shape for p in pts]}")
+    d = dims.pop() if dims else 2
+    if covariances is None:
+        covariances = ()
+    if isinstance(covariances, np.ndarray) and covariances.ndim >= 3 and len(covariances) == len(pts):
+        covariances = list(covariances)
+    if not isinstance(covariances, Sequence) or len(covariances) not in (0, len(pts)):
+        raise ValueError("`covariances` must be empty or hold one entry per source "
+                         f"({len(pts)}); received {_describe(covariances)}")
+    covs = []
+    for k, (c, p) in enumerate(zip(covariances, pts, strict=False)):
+        c = as_covariance(c, f"covariances[{k}]", dim=d)
+        if c.ndim == 2:
+            c = np.broadcast_to(c, (len(p), d, d))
+        elif c.shape[:-2] != (len(p),):
+            raise ValueError(f"`covariances[{k}]` must have shape ({d}, {d}) or "
+                             f"({len(p)}, {d}, {d}); received shape {c.shape}")
+        covs.append(c)
+    labels = list(labels) if labels is not None else []
+    if len(labels) not in (0, len(pts)):
+        raise ValueError(f"`labels` must be empty or hold one label per source ({len(pts)}); "
+                         f"received {_describe(labels)}")
+    labels = labels or [f"radar {k + 1}" for k in range(len(pts))]
+    default = [SENSOR_COLORS["radar1"], SENSOR_COLORS["radar2"]]
+    colors = list(colors) if colors is not None else (
+        default + [f"C{k}" for k in range(2, len(pts))])
+    if len(colors) < len(pts):
+        raise ValueError(f"`colors` must hold at least one colour per source ({len(pts)}); "
+                         f"received {_describe(colors)}")
+    markers = "os^vDph<>"
+    suffix = f" ($\\pm{n_sigma:g}\\sigma$)" if covs else ""
+
+    if truth is not None:
+        tr = np.atleast_2d(as_float_array(truth, "truth", ndim_min=1))
+        if tr.ndim != 2 or tr.shape[-1] != d:
+            raise ValueError(f"`truth` must have shape (n, {d}) like the reports; "
+                             f"received shape {tr.shape}")
+    if d == 1:
+        for k, p in enumerate(pts):
+            y = np.full(len(p), -float(k))
+            xerr = n_sigma * np.sqrt(covs[k][:, 0, 0]) if covs else None
+            ax.errorbar(p[:, 0], y, xerr=xerr, fmt=markers[k % len(markers)], mfc="none",
+                        color=colors[k], ms=6, capsize=3, lw=1.2, label=labels[k] + suffix)
+        if truth is not None:
+            for i, x0 in enumerate(tr[:, 0]):
+                ax.axvline(x0, color=SENSOR_COLORS["truth"], ls=":", lw=1,
+                           label="truth" if i == 0 else None)
+        if pts:
+            ax.set_yticks(-np.arange(len(pts)), labels)
+            ax.set_ylim(-len(pts) + 0.3, 0.9)
+        ax.grid(False, axis="y")
+    else:
+        if sensors is not None:
+            s = np.atleast_2d(as_float_array(sensors, "sensors", last_dims=(2,)))
+            if s.ndim != 2:
+                raise ValueError(f"`sensors` must have shape (s, 2); received shape {s.shape}")
+            scol = colors[:len(s)] if len(s) == len(pts) else ["0.25"] * len(s)
+            for i, (xy, c) in enumerate(zip(s, scol, strict=True)):
+                ax.plot(xy[0], xy[1], "^", color=c, ms=10, mec="k", mew=0.6,
+                        label="radar site" if i == 0 else None)
+        for k, p in enumerate(pts):
+            ax.plot(p[:, 0], p[:, 1], markers[k % len(markers)], mfc="none", color=colors[k],
+                    ms=6, mew=1.3, label=labels[k] + suffix)
+            for j in range(len(covs[k]) if covs else 0):
+                plot_covariance_ellipse(ax, p[j, :2], covs[k][j, :2, :2], n_sigma=n_sigma,
+                                        color=colors[k], lw=1.0, alpha=0.8)
+        if truth is not None:
+            ax.plot(tr[:, 0], tr[:, 1], "x", color=SENSOR_COLORS["truth"], ms=8, mew=1.5,
+                    label="truth")
+        if equal:
+            ax.set_aspect("equal", adjustable="datalim")
+    if legend and ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", framealpha=0.85, frameon=True)
     return ax
 
 

@@ -63,3 +63,34 @@ def test_plot_groups_marks_wrong_groups():
     plt.close(fig)
     assert n_ellipses == 6
     assert colors[:3] != ["red"] * 3 and colors[3:] == ["red"] * 3
+
+
+def test_plot_scene_draws_sites_reports_ellipses_truth():
+    from radarfusion_ref.plotting import plot_scene
+
+    fig, ax = plt.subplots()
+    truth = np.array([[4.0, 5.0], [6.0, 5.5]])
+    plot_scene(ax, sensors=[[0, 0], [10, 0]], reports=[truth + 0.1, truth - 0.1],
+               covariances=[np.diag([0.5, 0.1]), np.array([[0.5, 0.2], [0.2, 0.3]])],
+               truth=truth, n_sigma=3.0)
+    labels = ax.get_legend_handles_labels()[1]
+    n_ellipses = len(ax.patches)
+    legend = ax.get_legend()
+    aspect = ax.get_aspect()
+    plt.close(fig)
+    assert n_ellipses == 4
+    assert labels == ["radar site", r"radar 1 ($\pm3\sigma$)", r"radar 2 ($\pm3\sigma$)", "truth"]
+    assert legend is not None and aspect == 1.0
+
+
+def test_plot_scene_accepts_a_simulated_scene_in_one_and_two_dimensions():
+    from radarfusion_ref.plotting import plot_scene
+    from radarfusion_ref.scenes import two_radar_scene
+
+    fig, (ax1, ax2) = plt.subplots(1, 2)
+    plot_scene(ax1, scene=two_radar_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.2, rng=1))
+    plot_scene(ax2, scene=two_radar_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.2, dim=2,
+                                          trials=2, rng=1), trial=1)
+    n1, n2 = len(ax1.lines), len(ax2.patches)
+    plt.close(fig)
+    assert n1 >= 3 and n2 == 6
