@@ -37,7 +37,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import as_covariance, as_float_array, as_int, as_positive, as_rng, broadcast
+from ._validation import (
+    MEMORY_LIMIT,
+    _describe,
+    as_covariance,
+    as_float_array,
+    as_int,
+    as_positive,
+    as_rng,
+    broadcast,
+    check_size,
+)
 
 __all__ = [
     "FusedEstimate",
@@ -135,36 +145,85 @@ class Misweighting:
     @property
     def efficiency(self):
         """``bound / actual_variance`` in (0, 1]; 1 when the assumed variances are proportional
-        to the true ones."""
-        return np.asarray(self.bound) / self.actual_variance
+        to the true ones.
+
+        Raises ValueError if the ratio lies outside the float range (a weighting more than
+        about 1e308 times worse than the bound)."""
+        return _ratio(self.bound, self.actual_variance, "efficiency")
 
     @property
     def consistency(self):
-        """``reported_variance / actual_variance``: below 1 the centre is over-confident."""
-        return np.asarray(self.reported_variance) / self.actual_variance
+        """``reported_variance / actual_variance``: below 1 the centre is over-confident.
+
+        Raises ValueError if the ratio lies outside the float range."""
+        return _ratio(self.reported_variance, self.actual_variance, "consistency")
+
+
+def _ratio(num, den, what):
+    """A ratio of two positive normal floats, refused if it leaves the float range."""
+    with np.errstate(over="ignore", under="ignore"):
+        out = np.asarray(num) / np.asarray(den)
+    if not np.all((out > 0) & np.isfinite(out)):
+        raise ValueError(f"the {what} ({_describe(out)}) lies outside the float range: "
+                         "`var_assumed` and `var_true` differ by more than floating point can "
+                         "express")
+    return _scalar(out)
 
 
 # ----------------------------------------------------------------------------- validation
 
 
 def _scalar_iv(x, var):
-    """Validate `x` and `var` of shape (..., k); return them broadcast together."""
+    """Validate `x` and `var` of shape (..., m); return them broadcast together."""
     x = as_float_array(x, "x", ndim_min=1)
     var = as_positive(var, "var")
     x, var = broadcast(x=x, var=var)
     if x.shape[-1] == 0:
         raise ValueError(f"`x` must hold at least one report on its last axis; received shape "
                          f"{x.shape}")
-    _check_invertible(var, "var")
     return x, var
 
 
-def _check_invertible(var, name):
-    """Refuse variances so small that their reciprocals overflow (they would give NaN)."""
-    with np.errstate(over="ignore", divide="ignore"):
-        if not np.all(np.isfinite(1.0 / var)):
-            raise ValueError(f"`{name}` has entries too small to invert in floating point "
-                             f"(smallest {np.min(var):.3g}); rescale the coordinates")
+#: Smallest variance whose reciprocal, the information, is finite (about 5.6e-309).
+_TINY = float(np.nextafter(1.0 / np.finfo(float).max, 1.0))
+
+
+def _relative_information(var):
+    """Information scaled by the smallest variance: ``(var_min / var_i, var_min)``.
+
+    ``var_min / var_i`` lies in (0, 1] (exactly 1 for the best sensor), so its sum over
+    the sensors lies in [1, m] and can neither overflow nor underflow, whatever the
+    magnitude of the variances; a ratio below the float range rounds to 0, its correctly
+    rounded value. The true information is ``rel / var_min``.
+    """
+    vmin = np.min(var, axis=-1)
+    return vmin[..., None] / var, vmin
+
+
+def _normal_variance(value, name, what):
+    """Refuse a derived variance whose reciprocal (the information) overflows: its inputs
+    are too small for floating point."""
+    value = np.asarray(value)
+    if not np.all(value >= _TINY):
+        raise ValueError(f"`{name}` has entries too small to invert in floating point: the "
+                         f"{what} ({np.min(value):.3g}) is below {_TINY:.3g}, where its "
+                         "reciprocal (the information) overflows; express the coordinates in "
+                         "smaller units")
+
+
+def _weighted_sum(weights, x):
+    """``sum_i w_i x_i`` over the last axis, with `x` scaled by an exact power of two.
+
+    The weights are in [0, 1] and sum to 1, so the scaled sum lies in [-1, 1]: no term
+    and no partial sum overflows, even for reports near the largest float.
+    """
+    _, e = np.frexp(np.max(np.abs(x), axis=-1))
+    scaled = np.ldexp(x, -e[..., None])                    # |scaled| < 1, exact
+    out = np.ldexp(np.sum(weights * scaled, axis=-1), e)
+    if not np.all(np.isfinite(out)):
+        raise ValueError("`x` has reports so close to the largest float that their weighted "
+                         "mean rounds beyond it; express the coordinates in larger units")
+    return out
 
 
 def _gaussian_iv(x, cov):
@@ -258,11 +317,13 @@ def fuse(x, var) -> FusedEstimate:
     array([0.5, 3. ])
     """
     x, var = _scalar_iv(x, var)
-    info_i = 1.0 / var                       # sensor i's Fisher information
-    info = info_i.sum(axis=-1)               # I = sum_i sigma_i^-2
-    weights = info_i / info[..., None]       # w_i = sigma_i^-2 / I
-    estimate = np.sum(weights * x, axis=-1)  # x~ = sum_i w_i x_i, root of (3)
-    return FusedEstimate(_scalar(estimate), _scalar(1.0 / info), weights)
+    rel, vmin = _relative_information(var)   # sigma_i^-2 scaled by sigma_min^2: in (0, 1]
+    total = rel.sum(axis=-1)                 # I sigma_min^2, in [1, m]
+    weights = rel / total[..., None]         # w_i = sigma_i^-2 / I
+    variance = vmin / total                  # sigma~^2 = 1 / I <= sigma_min^2
+    _normal_variance(variance, "var", "fused variance")
+    estimate = _weighted_sum(weights, x)     # x~ = sum_i w_i x_i, root of (3)
+    return FusedEstimate(_scalar(estimate), _scalar(variance), weights)
 
 
 def log_likelihood(x, var, position):
@@ -312,8 +373,16 @@ def log_likelihood(x, var, position):
     except ValueError:
         raise ValueError(f"`position` must broadcast against the batch shape {x.shape[:-1]} "
                          f"of `x`; received shape {position.shape}") from None
-    resid = x - position[..., None]
-    return _scalar(-0.5 * np.sum(_LOG_2PI + np.log(var) + resid**2 / var, axis=-1))
+    # (x_i - x) / sigma_i from halves, so that the difference of two large coordinates
+    # cannot overflow before it is scaled
+    half = 0.5 * x - 0.5 * position[..., None]
+    with np.errstate(over="ignore"):
+        z = 2.0 * (half / np.sqrt(var))
+        out = -0.5 * np.sum(_LOG_2PI + np.log(var) + z * z, axis=-1)
+    if not np.all(np.isfinite(out)):
+        raise ValueError("`position` is so many standard deviations from the reports `x` that "
+                         "the log-likelihood is below the float range (about -1.8e308)")
+    return _scalar(out)
 
 
 def misweighted(var_true, var_assumed) -> Misweighting:
@@ -358,18 +427,24 @@ def misweighted(var_true, var_assumed) -> Misweighting:
     """
     var_true = as_positive(var_true, "var_true")
     var_assumed = as_positive(var_assumed, "var_assumed")
-    _check_invertible(var_true, "var_true")
-    _check_invertible(var_assumed, "var_assumed")
     if var_true.ndim < 1:
-        raise ValueError(f"`var_true` must have shape (..., k); received shape {var_true.shape}")
+        raise ValueError(f"`var_true` must have shape (..., m); received shape {var_true.shape}")
     var_true, var_assumed = broadcast(var_true=var_true, var_assumed=var_assumed)
     if var_true.shape[-1] == 0:
         raise ValueError("`var_true` must hold at least one sensor on its last axis")
-    info_a = 1.0 / var_assumed
-    weights = info_a / info_a.sum(axis=-1, keepdims=True)
-    actual = np.sum(weights**2 * var_true, axis=-1)       # Var sum w_i x_i, independent errors
-    reported = 1.0 / info_a.sum(axis=-1)
-    bound = 1.0 / np.sum(1.0 / var_true, axis=-1)
+    rel_a, amin = _relative_information(var_assumed)
+    total_a = rel_a.sum(axis=-1)
+    weights = rel_a / total_a[..., None]                  # w_i = a_i^-1 / sum_j a_j^-1
+    reported = amin / total_a                             # (sum_i a_i^-1)^-1
+    _normal_variance(reported, "var_assumed", "reported variance")
+    rel_t, tmin = _relative_information(var_true)
+    bound = tmin / rel_t.sum(axis=-1)                     # (sum_i sigma_i^-2)^-1
+    _normal_variance(bound, "var_true", "Cramér–Rao bound")
+    with np.errstate(over="ignore"):                      # Var sum w_i x_i = sum (w_i sigma_i)^2
+        actual = np.sum((weights * np.sqrt(var_true)) ** 2, axis=-1)
+    if not np.all(np.isfinite(actual)):
+        raise ValueError("`var_true` has variances so close to the largest float that the "
+                         "actual variance overflows; express the coordinates in larger units")
     return Misweighting(weights, _scalar(actual), _scalar(reported), _scalar(bound))
 
 
@@ -441,19 +516,35 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
     """
     x, cov = _gaussian_iv(x, cov)
     eye = np.eye(x.shape[-1])
-    chol = np.linalg.cholesky(cov)                # C_i = L_i L_i^T
-    white = np.linalg.solve(chol, eye)            # W_i = L_i^-1
-    white_t = np.swapaxes(white, -1, -2)
-    wx = np.linalg.solve(chol, x[..., None])      # W_i x_i
-    info = np.sum(white_t @ white, axis=-3)       # Y = sum_i W_i^T W_i
-    y = np.sum(white_t @ wx, axis=-3)             # y = sum_i C_i^-1 x_i
-    r = np.linalg.cholesky(info)                  # Y = R R^T
-    r_inv = np.linalg.solve(r, eye)               # R^-1
-    cov_f = np.swapaxes(r_inv, -1, -2) @ r_inv    # P = Y^-1 = R^-T R^-1
-    estimate = (cov_f @ y)[..., 0]                # x~ = P y
-    if not (np.isfinite(info).all() and np.isfinite(cov_f).all()):
-        raise ValueError("`cov` is numerically singular (the information "
-                         "overflowed); rescale the coordinates")
+    # Scale each C_i = c_i C_i' by its largest variance c_i, and the information by the
+    # smallest c_i: r_i = c_min / c_i lies in (0, 1], so no sum overflows or underflows.
+    c = np.max(np.diagonal(cov, axis1=-2, axis2=-1), axis=-1)          # (..., m)
+    c_min = np.min(c, axis=-1)                                         # (...)
+    root_r = np.sqrt(c_min[..., None] / c)[..., None, None]            # sqrt(r_i)
+    _, e = np.frexp(np.max(np.abs(x), axis=(-2, -1)))                  # reports / 2^e: exact
+    x_s = np.ldexp(x, -e[..., None, None])
+    try:
+        chol = np.linalg.cholesky(cov / c[..., None, None])            # C_i' = L_i L_i^T
+        white = np.linalg.solve(chol, eye) * root_r                    # W_i = sqrt(r_i) L_i^-1
+        white_t = np.swapaxes(white, -1, -2)
+        wx = white @ x_s[..., None]                                    # W_i x_i
+        info_s = np.sum(white_t @ white, axis=-3)                      # c_min Y = sum W_i^T W_i
+        y_s = np.sum(white_t @ wx, axis=-3)                            # c_min sum C_i^-1 x_i
+        r = np.linalg.cholesky(info_s)                                 # c_min Y = R R^T
+    except np.linalg.LinAlgError:
+        raise ValueError("`cov` is numerically singular: a covariance is too ill-conditioned "
+                         "for floating point; rescale the coordinates") from None
+    r_inv = np.linalg.solve(r, eye)                                    # R^-1
+    cov_s = np.swapaxes(r_inv, -1, -2) @ r_inv                         # P / c_min
+    with np.errstate(over="ignore", under="ignore"):
+        estimate = np.ldexp((cov_s @ y_s)[..., 0], e[..., None])       # x~ = P y
+        cov_f = cov_s * c_min[..., None, None]                         # P = Y^-1
+        info = info_s / c_min[..., None, None]                         # Y = sum_i C_i^-1
+    if not (np.isfinite(info).all() and np.isfinite(estimate).all()
+            and np.all(np.diagonal(cov_f, axis1=-2, axis2=-1) > 0)):
+        raise ValueError("`cov` is numerically singular for floating point: the fused "
+                         "information overflows or the fused covariance underflows; rescale "
+                         "the coordinates")
     return GaussianFusion(estimate, cov_f, info)
 
 
@@ -490,8 +581,22 @@ def sample_reports(truth, var, *, trials: int, rng=None) -> np.ndarray:
     trials = as_int(trials, "trials", minimum=1)
     rng = as_rng(rng)
     truth_k, var = broadcast(truth=truth[..., None], var=var)
+    _check_memory(trials, var.size, "sample_reports")
     noise = rng.standard_normal((trials, *var.shape))
-    return truth_k + np.sqrt(var) * noise
+    with np.errstate(over="ignore"):
+        out = truth_k + np.sqrt(var) * noise
+    if not np.all(np.isfinite(out)):
+        raise ValueError("`truth` and `var` are so large that simulated reports overflow the "
+                         "float range; express the coordinates in larger units")
+    return out
+
+
+def _check_memory(trials, per_trial, name):
+    """Refuse draws whose arrays would exceed MEMORY_LIMIT, before allocating them."""
+    check_size(8 * 2 * int(trials) * int(per_trial), MEMORY_LIMIT,
+               what=f"bytes of simulated reports in {name}",
+               alternative="fewer `trials` per call, accumulating the results over calls "
+                           "with spawned seeds")
 
 
 def sample_reports_gaussian(truth, cov, *, trials: int, rng=None) -> np.ndarray:
@@ -530,6 +635,12 @@ def sample_reports_gaussian(truth, cov, *, trials: int, rng=None) -> np.ndarray:
     except ValueError:
         raise ValueError(f"`truth` (..., d) and `cov` (..., k, d, d) must broadcast in their "
                          f"leading axes; received shapes {truth.shape} and {cov.shape}") from None
+    _check_memory(trials, int(np.prod(lead)) * truth.shape[-1], "sample_reports_gaussian")
     chol = np.linalg.cholesky(cov)
     z = rng.standard_normal((trials, *lead, truth.shape[-1], 1))
-    return truth[..., None, :] + (chol @ z)[..., 0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = truth[..., None, :] + (chol @ z)[..., 0]
+    if not np.all(np.isfinite(out)):
+        raise ValueError("`truth` and `cov` are so large that simulated reports overflow the "
+                         "float range; express the coordinates in larger units")
+    return out
