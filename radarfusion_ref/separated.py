@@ -59,19 +59,24 @@ Units: kilometres and radians throughout.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import conversion, gating
 from ._validation import (
+    MEMORY_LIMIT,
+    _describe,
     as_choice,
+    as_covariance,
     as_float_array,
     as_int,
     as_positive,
     as_probability,
     as_rng,
     broadcast,
+    check_size,
 )
 from .montecarlo import Proportion, proportion
 
@@ -81,6 +86,10 @@ __all__ = [
     "NO_DECISION",
     "OUTCOMES",
     "PAPER",
+    "BLOCK_TRIALS",
+    "MAX_TRIALS",
+    "MAX_JOINT_PAIRINGS",
+    "MAX_GRID_POINTS",
     "PAPER_TABLE1",
     "Geometry",
     "PolarReports",
@@ -130,6 +139,83 @@ PAPER_TABLE1 = {
 
 _METHODS = conversion.METHODS
 
+#: Trials per random block. Trial ``t`` takes its draws from block
+#: ``t // BLOCK_TRIALS``, whose generator is seeded by its own child of the
+#: root :class:`numpy.random.SeedSequence` (spawn key ``(k,)``), so a seed
+#: gives the same draws whatever ``chunk_size`` (or batch split) is used.
+BLOCK_TRIALS = 1 << 16
+
+#: Largest number of Monte-Carlo trials one call accepts (about two minutes
+#: of the experiment on one core); run several seeded calls and add the counts
+#: for more.
+MAX_TRIALS = 10**8
+
+#: Largest number of complete pairings (:math:`n!`) the joint rules enumerate
+#: (7! = 5040, i.e. at most 7 targets).
+MAX_JOINT_PAIRINGS = 5040
+
+#: Largest number of placements one :func:`offset_sweep` accepts.
+MAX_GRID_POINTS = 10_000
+
+_JOINT_ALTERNATIVE = ("radarfusion_ref.association.associate_joint (linear assignment, "
+                      "polynomial in the number of targets)")
+
+
+def _root_seed(rng) -> np.random.SeedSequence:
+    """The root SeedSequence of a call: from a seed, a SeedSequence or a Generator.
+
+    A Generator contributes 128 bits drawn from it, so consecutive calls with
+    one Generator get independent draws, and a seeded Generator is reproducible.
+    """
+    if isinstance(rng, np.random.SeedSequence):
+        return rng
+    if isinstance(rng, np.random.Generator):
+        return np.random.SeedSequence(rng.integers(0, 2**32, size=4, dtype=np.uint64).tolist())
+    if rng is None:
+        return np.random.SeedSequence()
+    gen = as_rng(rng)                       # validates (and refuses a RandomState)
+    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
+        return np.random.SeedSequence(int(rng))
+    return np.random.SeedSequence(gen.integers(0, 2**32, size=4, dtype=np.uint64).tolist())
+
+
+def _normal_blocks(root: np.random.SeedSequence, n: int, trials: int):
+    """Standard normals of shape (4, n, L) per block of :data:`BLOCK_TRIALS` trials."""
+    for k, start in enumerate(range(0, trials, BLOCK_TRIALS)):
+        child = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, k),
+                                       pool_size=root.pool_size)
+        yield np.random.default_rng(child).standard_normal(
+            (4, n, min(BLOCK_TRIALS, trials - start)))
+
+
+def _normal_chunks(root: np.random.SeedSequence, n: int, trials: int, chunk: int):
+    """The draws of :func:`_normal_blocks`, regrouped into pieces of `chunk` trials."""
+    buf, have = [], 0
+    for block in _normal_blocks(root, n, trials):
+        while block.shape[-1]:
+            take = min(chunk - have, block.shape[-1])
+            buf.append(block[..., :take])
+            have += take
+            block = block[..., take:]
+            if have == chunk:
+                yield buf[0] if len(buf) == 1 else np.concatenate(buf, axis=-1)
+                buf, have = [], 0
+    if buf:
+        yield buf[0] if len(buf) == 1 else np.concatenate(buf, axis=-1)
+
+
+def _scalar(value, name: str, *, positive: bool = False) -> float:
+    """One finite real number (a 0-d array or Python/numpy scalar)."""
+    arr = as_positive(value, name) if positive else as_float_array(value, name)
+    if arr.ndim:
+        raise ValueError(f"`{name}` must be a single number; received {_describe(value)}")
+    return float(arr)
+
+
+def _joint_bytes(n: int, batch: int) -> int:
+    """Working memory (bytes) of the joint rule over `batch` statistic matrices."""
+    return 8 * batch * math.factorial(n) * (n + 3)
+
 
 # --------------------------------------------------------------------------- geometry
 def radar2_position(base, base_azimuth):
@@ -165,7 +251,7 @@ def radar2_position(base, base_azimuth):
     b = as_positive(base, "base")
     a = as_float_array(base_azimuth, "base_azimuth")
     b, a = broadcast(base=b, base_azimuth=a)
-    return np.stack([b * np.cos(a), b * np.sin(a)], axis=-1)
+    return np.stack([b * np.cos(a), b * np.sin(a)], axis=-1)   # |B cos| <= B: no overflow
 
 
 def polar_from(xy, origin=(0.0, 0.0)):
@@ -186,7 +272,8 @@ def polar_from(xy, origin=(0.0, 0.0)):
     Raises
     ------
     ValueError
-        If a point coincides with the radar (range 0), or shapes are wrong.
+        If a point coincides with the radar (range 0), shapes are wrong, or the
+        coordinates are not finite (or so large that their difference overflows).
 
     Examples
     --------
@@ -197,7 +284,12 @@ def polar_from(xy, origin=(0.0, 0.0)):
     p = as_float_array(xy, "xy", ndim_min=1, last_dims=(2,))
     o = as_float_array(origin, "origin", ndim_min=1, last_dims=(2,))
     p, o = broadcast(xy=p, origin=o)
-    d = p - o
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = p - o
+    if not np.all(np.isfinite(d)):
+        raise ValueError("`xy` - `origin` overflows (a coordinate difference beyond "
+                         f"{np.finfo(float).max:.3g} km); received {_describe(p)} and "
+                         f"{_describe(o)}")
     r = np.hypot(d[..., 0], d[..., 1])
     if np.any(r <= 0):
         raise ValueError("`xy` must not coincide with the radar at `origin` (range 0); "
@@ -222,6 +314,15 @@ class Geometry:
     base: float
     base_azimuth: float
     targets: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "base", _scalar(self.base, "base", positive=True))
+        object.__setattr__(self, "base_azimuth", _scalar(self.base_azimuth, "base_azimuth"))
+        t = as_float_array(self.targets, "targets", ndim_min=2, last_dims=(None, 2))
+        if t.ndim != 2 or t.shape[0] < 1:
+            raise ValueError(f"`targets` must have shape (n, 2) with n >= 1; received shape "
+                             f"{t.shape}")
+        object.__setattr__(self, "targets", t)
 
     @property
     def radar2(self) -> np.ndarray:
@@ -266,7 +367,8 @@ def paper_geometry(offset_range=0.0, offset_cross=0.0, *, range1=PAPER["range1"]
     Raises
     ------
     ValueError
-        If `range1` or `base` is not positive, or target 2 would sit on a radar.
+        If `range1` or `base` is not positive, an argument is not one finite
+        number, or target 2 would sit on a radar.
 
     References
     ----------
@@ -281,16 +383,21 @@ def paper_geometry(offset_range=0.0, offset_cross=0.0, *, range1=PAPER["range1"]
     >>> g.radar2
     array([30.,  0.])
     """
-    r1 = float(as_positive(range1, "range1"))
-    a1 = float(as_float_array(azimuth1, "azimuth1"))
-    dr = float(as_float_array(offset_range, "offset_range"))
-    dc = float(as_float_array(offset_cross, "offset_cross"))
-    b = float(as_positive(base, "base"))
-    b0 = float(as_float_array(base_azimuth, "base_azimuth"))
+    r1 = _scalar(range1, "range1", positive=True)
+    a1 = _scalar(azimuth1, "azimuth1")
+    dr = _scalar(offset_range, "offset_range")
+    dc = _scalar(offset_cross, "offset_cross")
+    b = _scalar(base, "base", positive=True)
+    b0 = _scalar(base_azimuth, "base_azimuth")
     u = np.array([np.cos(a1), np.sin(a1)])
     v = np.array([-u[1], u[0]])
     t1 = r1 * u
-    targets = t1[None] if dr == 0.0 and dc == 0.0 else np.stack([t1, t1 + dr * u + dc * v])
+    with np.errstate(over="ignore", invalid="ignore"):
+        t2 = t1 + dr * u + dc * v
+    if not np.all(np.isfinite(t2)):
+        raise ValueError("`offset_range`, `offset_cross` put target 2 beyond the float range; "
+                         f"received {dr!r}, {dc!r}")
+    targets = t1[None] if dr == 0.0 and dc == 0.0 else np.stack([t1, t2])
     geo = Geometry(b, b0, targets)
     geo.polar1  # noqa: B018  (raises if a target sits on a radar)
     geo.polar2  # noqa: B018
@@ -337,20 +444,19 @@ def _as_geometry(geometry) -> Geometry:
 
 
 def _as_sigmas(sigma_r, sigma_beta, geometry: Geometry) -> tuple[float, float]:
-    sr = as_positive(sigma_r, "sigma_r")
-    sb = as_positive(sigma_beta, "sigma_beta")
-    if sr.ndim or sb.ndim:
-        raise ValueError("`sigma_r` and `sigma_beta` must be scalars; received shapes "
-                         f"{sr.shape} and {sb.shape}")
-    if sb >= np.pi / 4:
-        raise ValueError("`sigma_beta` must be below pi/4 rad (45 deg), where the conversion "
-                         f"formulas are meaningful; received {float(sb):.6g} rad")
+    sr = _scalar(sigma_r, "sigma_r", positive=True)
+    sb = _scalar(sigma_beta, "sigma_beta", positive=True)
+    limit = conversion.SIGMA_BETA_MAX        # the package's one limit (see conversion)
+    if sb > limit:
+        raise ValueError(f"`sigma_beta` must be an azimuth standard deviation in radians in "
+                         f"(0, {limit:g}] (conversion.SIGMA_BETA_MAX); received {sb:.6g} — did "
+                         f"you pass degrees? Use np.deg2rad.")
     rmin = min(geometry.polar1[0].min(), geometry.polar2[0].min())
     if rmin < 10 * sr:
         raise ValueError(f"`sigma_r` must be below a tenth of the shortest target range "
                          f"({rmin:.6g} km) so that measured ranges stay positive; received "
                          f"{float(sr):.6g}")
-    return float(sr), float(sb)
+    return sr, sb
 
 
 def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
@@ -364,12 +470,17 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     sigma_r : float
         Range error standard deviation :math:`\\sigma_r` (km).
     sigma_beta : float
-        Azimuth error standard deviation :math:`\\sigma_\\beta` (rad), below
-        :math:`\\pi/4`.
+        Azimuth error standard deviation :math:`\\sigma_\\beta` (rad), at most
+        :data:`radarfusion_ref.conversion.SIGMA_BETA_MAX`.
     trials : int, optional
-        Number of independent trials.
-    rng : None, int or numpy.random.Generator, optional
-        Source of randomness (SPEC 7).
+        Number of independent trials, at most :data:`MAX_TRIALS` and such that
+        the reports fit in :data:`radarfusion_ref._validation.MEMORY_LIMIT`
+        (about 5 million trials of two targets; run several calls for more).
+    rng : None, int, numpy.random.SeedSequence or numpy.random.Generator, optional
+        Source of randomness (SPEC 7). Draws are made per block of
+        :data:`BLOCK_TRIALS` trials from spawned seed sequences, exactly as in
+        :func:`association_experiment`: the same seed gives the same reports
+        there and here.
 
     Returns
     -------
@@ -378,8 +489,12 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     Raises
     ------
     ValueError
-        If a sigma is not positive, `sigma_beta` is not below :math:`\\pi/4`,
-        `sigma_r` is not below a tenth of the shortest range, or `trials` < 1.
+        If a sigma is not positive, `sigma_beta` exceeds
+        :data:`radarfusion_ref.conversion.SIGMA_BETA_MAX`, `sigma_r` is not
+        below a tenth of the shortest range, or `trials` is below 1 or above
+        its limit.
+    TypeError
+        If `geometry` is not a :class:`Geometry`.
 
     Notes
     -----
@@ -390,9 +505,9 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
         \\xi, \\eta \\sim \\mathcal N(0, 1)
 
     independently for radar :math:`k`, target :math:`j` and trial. The
-    standard normals are drawn as one array of shape ``(4, n, trials)`` in the
-    order :math:`\\hat r_1, \\hat\\beta_1, \\hat r_2, \\hat\\beta_2` (the
-    attributes are transposed views of it).
+    standard normals are drawn per block as arrays of shape ``(4, n, L)`` in
+    the order :math:`\\hat r_1, \\hat\\beta_1, \\hat r_2, \\hat\\beta_2` (the
+    attributes are transposed views of them).
 
     References
     ----------
@@ -408,9 +523,13 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     geo = _as_geometry(geometry)
     sr, sb = _as_sigmas(sigma_r, sigma_beta, geo)
     n = as_int(trials, "trials", minimum=1)
-    gen = as_rng(rng)
+    check_size(n, MAX_TRIALS, what="trials", alternative="several calls with spawned seeds")
+    n_t = geo.targets.shape[0]
+    check_size(8 * 8 * n_t * n, MEMORY_LIMIT, what="bytes of polar reports",
+               alternative="association_experiment (chunked) or several smaller calls")
+    root = _root_seed(rng)
     (r1, b1), (r2, b2) = geo.polar1, geo.polar2
-    z = gen.standard_normal((4, r1.shape[0], n))          # trial axis last: fast kernels
+    z = np.concatenate(list(_normal_blocks(root, n_t, n)), axis=-1)   # trial axis last
     r1 = r1[:, None] + sr * z[0]
     b1 = b1[:, None] + sb * z[1]
     r2 = r2[:, None] + sr * z[2]
@@ -570,8 +689,12 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     Raises
     ------
     ValueError
-        If shapes do not match, entries are not finite, or a summed
-        covariance is not positive definite.
+        If shapes do not match, entries are not finite, a covariance is not
+        symmetric or not positive definite (:func:`radarfusion_ref._validation.as_covariance`),
+        the sums are too many for :data:`radarfusion_ref._validation.MEMORY_LIMIT`,
+        or a summed covariance is numerically singular.
+    TypeError
+        If an argument is not numeric.
 
     Notes
     -----
@@ -600,6 +723,8 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     a2 = as_float_array(xy2, "xy2", ndim_min=2, last_dims=(None, 2))
     c1 = as_float_array(cov1, "cov1", ndim_min=3, last_dims=(None, 2, 2))
     c2 = as_float_array(cov2, "cov2", ndim_min=3, last_dims=(None, 2, 2))
+    c1 = as_covariance(c1, "cov1", dim=2)          # symmetric, positive definite
+    c2 = as_covariance(c2, "cov2", dim=2)
     if c1.shape[-3] != a1.shape[-2] or c2.shape[-3] != a2.shape[-2]:
         raise ValueError("`cov1`/`cov2` must have one 2x2 matrix per report of `xy1`/`xy2`; "
                          f"received shapes {c1.shape} for {a1.shape} and {c2.shape} for "
@@ -610,18 +735,40 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
         raise ValueError("`xy1`, `cov1`, `xy2`, `cov2` must have broadcastable leading axes; "
                          f"received shapes {a1.shape}, {c1.shape}, {a2.shape}, "
                          f"{c2.shape}") from None
+    lead = np.broadcast_shapes(a1.shape[:-2], c1.shape[:-3], a2.shape[:-2], c2.shape[:-3])
+    n_pairs = math.prod(lead) * a1.shape[-2] * a2.shape[-2]
+    check_size(8 * 12 * n_pairs, MEMORY_LIMIT, what="bytes of pair statistics",
+               alternative="smaller batches of reports")
     # pairs: radar-1 report on axis -2, radar-2 report on axis -1
-    d0 = a1[..., :, None, 0] - a2[..., None, :, 0]
-    d1 = a1[..., :, None, 1] - a2[..., None, :, 1]
-    s11 = c1[..., :, None, 0, 0] + c2[..., None, :, 0, 0]
-    s12 = c1[..., :, None, 0, 1] + c2[..., None, :, 0, 1]
-    s22 = c1[..., :, None, 1, 1] + c2[..., None, :, 1, 1]
+    with np.errstate(over="ignore", invalid="ignore"):
+        d0 = a1[..., :, None, 0] - a2[..., None, :, 0]
+        d1 = a1[..., :, None, 1] - a2[..., None, :, 1]
+        s11 = c1[..., :, None, 0, 0] + c2[..., None, :, 0, 0]
+        s12 = c1[..., :, None, 0, 1] + c2[..., None, :, 0, 1]
+        s22 = c1[..., :, None, 1, 1] + c2[..., None, :, 1, 1]
     d0, d1, s11, s12, s22 = np.broadcast_arrays(d0, d1, s11, s12, s22)
+    if not all(np.isfinite(x).all() for x in (d0, d1, s11, s22)):
+        raise ValueError("`xy1` - `xy2` or `cov1` + `cov2` overflows the float range; "
+                         "rescale the coordinates (e.g. to km)")
     s, logdet = _chol_quadratic(d0, d1, s11, s12, s22)
+    if not (np.isfinite(s).all() and np.isfinite(logdet).all()):
+        raise ValueError("the statistic overflows the float range: `xy1` - `xy2` is too large "
+                         "against the spread of `cov1` + `cov2`; rescale the coordinates")
     return (s, logdet) if return_logdet else s
 
 
 # --------------------------------------------------------------------------- decisions
+def _as_statistic(statistic) -> np.ndarray:
+    s = as_float_array(statistic, "statistic", ndim_min=2)
+    if s.shape[-1] != s.shape[-2] or s.shape[-1] == 0:
+        raise ValueError(f"`statistic` must have shape (..., n, n) with n >= 1; received shape "
+                         f"{s.shape}")
+    if np.any(s < 0):
+        raise ValueError(f"`statistic` must be >= 0 (a quadratic form); received "
+                         f"{_describe(s)} (smallest entry {s.min():.6g})")
+    return s
+
+
 def per_report_outcome(statistic, threshold) -> np.ndarray:
     """Per-report gating decision for each report of radar 1 (Table 1's rule).
 
@@ -644,8 +791,8 @@ def per_report_outcome(statistic, threshold) -> np.ndarray:
     Raises
     ------
     ValueError
-        If `statistic` is not a stack of square matrices or `threshold` is not
-        positive.
+        If `statistic` is not a stack of square matrices of finite entries
+        >= 0, or `threshold` is not one positive number.
 
     References
     ----------
@@ -657,10 +804,8 @@ def per_report_outcome(statistic, threshold) -> np.ndarray:
     >>> per_report_outcome([[1.0, 20.0], [3.0, 5.0]], 9.21)
     array([0, 2], dtype=int8)
     """
-    s = as_float_array(statistic, "statistic", ndim_min=2)
-    if s.shape[-1] != s.shape[-2]:
-        raise ValueError(f"`statistic` must have shape (..., n, n); received shape {s.shape}")
-    th = float(as_positive(threshold, "threshold"))
+    s = _as_statistic(statistic)
+    th = _scalar(threshold, "threshold", positive=True)
     passed = s < th
     n_pass = passed.sum(axis=-1)
     true_pass = np.diagonal(passed, axis1=-2, axis2=-1)
@@ -696,7 +841,11 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
     Raises
     ------
     ValueError
-        If `statistic` is not square, ``n`` > 7, or `logdet` has another shape.
+        If `statistic` is not square with finite entries >= 0, ``n!`` exceeds
+        :data:`MAX_JOINT_PAIRINGS` (``n`` > 7: use
+        :func:`radarfusion_ref.association.associate_joint`), the work exceeds
+        :data:`radarfusion_ref._validation.MEMORY_LIMIT`, `logdet` has another
+        shape or non-finite entries, or `threshold` is not positive.
 
     Notes
     -----
@@ -714,11 +863,14 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
     >>> joint_outcome([[1.0, 2.0], [3.0, 5.0]])       # 1+5 > 2+3: pairing swapped
     array(1, dtype=int8)
     """
-    s = as_float_array(statistic, "statistic", ndim_min=2)
+    s = _as_statistic(statistic)
     n = s.shape[-1]
-    if s.shape[-2] != n:
-        raise ValueError(f"`statistic` must have shape (..., n, n); received shape {s.shape}")
-    as_int(n, "statistic.shape[-1]", minimum=1, maximum=7)
+    check_size(math.factorial(n), MAX_JOINT_PAIRINGS,
+               what=f"pairings n! (n = {n} reports in `statistic`)", alternative=_JOINT_ALTERNATIVE)
+    check_size(_joint_bytes(n, s.size // (n * n)), MEMORY_LIMIT,
+               what="bytes of pairing costs for `statistic`",
+               alternative="smaller batches of `statistic`")
+    th = None if threshold is None else _scalar(threshold, "threshold", positive=True)
     perms = np.array(list(itertools.permutations(range(n))))      # identity first
     rows = np.arange(n)
     sum_s = s[..., rows, perms].sum(axis=-1)                       # (..., n!)
@@ -731,8 +883,7 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
         cost = sum_s + ld[..., rows, perms].sum(axis=-1)
     best = np.argmin(cost, axis=-1)
     out = np.where(best == 0, CORRECT, WRONG).astype(np.int8)
-    if threshold is not None:
-        th = float(as_positive(threshold, "threshold"))
+    if th is not None:
         best_s = np.take_along_axis(sum_s, best[..., None], axis=-1)[..., 0]
         out[best_s >= th] = NO_DECISION
     return out
@@ -843,26 +994,34 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     converts the *same* draws (common random numbers, so differences between
     methods are paired and precise), computes :math:`S` for all pairs and
     scores the decisions. Trials are processed in chunks of `chunk_size`, all
-    vectorized (no per-trial Python loop).
+    vectorized (no per-trial Python loop). The draws are made per block of
+    :data:`BLOCK_TRIALS` trials from spawned seed sequences, so the result of a
+    seed does not depend on `chunk_size`, and trial ``t`` sees the same
+    reports as trial ``t`` of :func:`simulate_polar` with that seed.
 
     Parameters
     ----------
     geometry : Geometry
-        Radars and targets (at least two targets).
+        Radars and targets (at least two, at most 7: the joint rule enumerates
+        all :math:`n!` pairings, see :data:`MAX_JOINT_PAIRINGS`).
     sigma_r, sigma_beta : float, optional
         Measurement errors (km, rad); the paper's 0.1 km and 1° by default.
     methods : sequence, optional
         Conversion names, or ``(method, cov_method)`` pairs to use one
         method's positions with another's covariances.
     trials : int, optional
-        Number of trials.
+        Number of trials, at most :data:`MAX_TRIALS`.
     p_false_reject : float, optional
         :math:`P_{\\text{lo}}` of the per-pair :math:`\\chi^2(2)` gate and of
         the joint :math:`\\chi^2(2n)` gate.
-    rng : None, int or numpy.random.Generator, optional
-        Source of randomness (SPEC 7).
+    rng : None, int, numpy.random.SeedSequence or numpy.random.Generator, optional
+        Source of randomness (SPEC 7); a Generator is advanced by one draw of
+        the root seed.
     chunk_size : int, optional
-        Trials per vectorized chunk (memory ~ 1.5 kB per trial and method).
+        Trials per vectorized chunk (memory ~ 1.5 kB per trial for two
+        targets); the working memory of one chunk must stay within
+        :data:`radarfusion_ref._validation.MEMORY_LIMIT`. It changes speed and
+        memory only, never the result.
 
     Returns
     -------
@@ -871,7 +1030,10 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     Raises
     ------
     ValueError
-        For fewer than two targets, bad sigmas, unknown methods, or bad counts.
+        For fewer than two or more than seven targets, bad sigmas, unknown
+        methods, or counts out of their limits.
+    TypeError
+        If `geometry` is not a :class:`Geometry`, or a count is not an integer.
 
     References
     ----------
@@ -887,13 +1049,22 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     if geo.targets.shape[0] < 2:
         raise ValueError("`geometry` must hold at least two targets for association; "
                          f"received {geo.targets.shape[0]}")
+    n = geo.targets.shape[0]
+    check_size(math.factorial(n), MAX_JOINT_PAIRINGS,
+               what=f"joint pairings n! (n = {n} targets in `geometry`)",
+               alternative=_JOINT_ALTERNATIVE)
     sr, sb = _as_sigmas(sigma_r, sigma_beta, geo)
     meths = _as_methods(methods)
     n_trials = as_int(trials, "trials", minimum=1)
+    check_size(n_trials, MAX_TRIALS, what="trials",
+               alternative="several calls with spawned seeds, adding the counts")
     chunk = as_int(chunk_size, "chunk_size", minimum=1)
-    p_lo = float(as_probability(p_false_reject, "p_false_reject"))
-    gen = as_rng(rng)
-    n = geo.targets.shape[0]
+    per_trial = 8 * (40 * n + 16 * n * n + math.factorial(n) * (n + 4))
+    check_size(per_trial * min(chunk, n_trials), MEMORY_LIMIT,
+               what=f"bytes of working memory for `chunk_size` = {chunk}",
+               alternative=f"a `chunk_size` of at most {MEMORY_LIMIT // per_trial}")
+    p_lo = _scalar(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
+    root = _root_seed(rng)
     th = float(gating.gate_threshold(p_lo, 2))
     th_joint = float(gating.gate_threshold(p_lo, 2 * n))
     k = len(meths)
@@ -907,12 +1078,14 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     nxt = (idx + 1) % n
     perms = np.array(list(itertools.permutations(range(n))))
     p2 = geo.radar2
-    for start in range(0, n_trials, chunk):
-        m = min(chunk, n_trials - start)
-        rep = simulate_polar(geo, sigma_r=sr, sigma_beta=sb, trials=m, rng=gen)
+    (r1t, b1t), (r2t, b2t) = geo.polar1, geo.polar2
+    r_true = np.stack([r1t, r2t])[:, :, None]                # (2, n, 1)
+    b_true = np.stack([b1t, b2t])[:, :, None]
+    for z in _normal_chunks(root, n, n_trials, chunk):     # (4, n, m), per-block seeds
+        m = z.shape[-1]
         # both radars in one array, trial axis last: shape (2, n, m)
-        r = np.stack([rep.r1.T, rep.r2.T])
-        beta = np.stack([rep.beta1.T, rep.beta2.T])
+        r = r_true + sr * z[0::2]
+        beta = b_true + sb * z[1::2]
         for q, (pm, cm) in enumerate(meths):
             xy, cov = _convert(r, beta, sr, sb, pm, cm)
             s, ld = _pair_kernel(xy, cov, p2)              # (n, n, m)
@@ -1045,6 +1218,12 @@ def approximate_outcomes(noncentrality, p_false_reject=PAPER["p_false_reject"]):
     numpy.ndarray, shape (..., 2, 3)
         For each target (row): (correct, wrong, no decision).
 
+    Raises
+    ------
+    ValueError
+        If `noncentrality` is not a stack of 2x2 arrays of finite entries >= 0,
+        or `p_false_reject` is not one probability in (0, 1).
+
     Notes
     -----
     With :math:`a_i = P\\{S_{ii} < \\kappa\\}` and :math:`b_i = P\\{S_{ij} < \\kappa\\}`
@@ -1067,7 +1246,8 @@ def approximate_outcomes(noncentrality, p_false_reject=PAPER["p_false_reject"]):
     lam = as_positive(noncentrality, "noncentrality", strict=False)
     if lam.ndim < 2 or lam.shape[-2:] != (2, 2):
         raise ValueError(f"`noncentrality` must have shape (..., 2, 2); received {lam.shape}")
-    p = np.asarray(gating.p_false_accept(lam, 2, p_false_reject))
+    p_lo = _scalar(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
+    p = np.asarray(gating.p_false_accept(lam, 2, p_lo), dtype=float)
     a = np.diagonal(p, axis1=-2, axis2=-1)
     b = p[..., [0, 1], [1, 0]]
     return np.stack([a * (1 - b), (1 - a) * b, a * b + (1 - a) * (1 - b)], axis=-1)
@@ -1094,6 +1274,8 @@ def collect(experiments, label: str, field: str = "per_report") -> Proportion:
     ------
     ValueError
         If `experiments` is empty, trial counts differ, or names are unknown.
+    TypeError
+        If an entry is not an :class:`ExperimentResult` or `label` is not a string.
 
     Examples
     --------
@@ -1102,14 +1284,25 @@ def collect(experiments, label: str, field: str = "per_report") -> Proportion:
     >>> collect(runs, "linearized").estimate.shape
     (2, 2, 3)
     """
-    runs = list(experiments)
+    try:
+        runs = list(experiments)
+    except TypeError:
+        raise TypeError("`experiments` must be a sequence of ExperimentResult; received "
+                        f"{_describe(experiments)}") from None
     if not runs:
         raise ValueError("`experiments` must hold at least one ExperimentResult; received none")
+    for r in runs:
+        if not isinstance(r, ExperimentResult):
+            raise TypeError("`experiments` must hold ExperimentResult objects (from "
+                            f"`association_experiment`); received a {type(r).__name__}")
+    if not isinstance(label, str):
+        raise TypeError(f"`label` must be a method label (str); received {_describe(label)}")
+    missing = [k for k, r in enumerate(runs) if label not in r.results]
     as_choice(field, "field", ("per_report", "joint", "joint_ungated", "true_reject",
                                "false_pass", "all_correct"))
-    if label not in runs[0].results:
-        raise ValueError(f"`label` must be one of {', '.join(map(repr, runs[0].results))}; "
-                         f"received {label!r}")
+    if missing:
+        raise ValueError(f"`label` must be one of {', '.join(map(repr, runs[0].results))} "
+                         f"in every experiment; received {label!r}")
     trials = {r.trials for r in runs}
     if len(trials) != 1:
         raise ValueError(f"`experiments` must share one trial count; received {sorted(trials)}")
@@ -1167,7 +1360,10 @@ def offset_sweep(offsets_range, offsets_cross, *, methods=("linearized", "additi
     Raises
     ------
     ValueError
-        If an axis is not 1-D and non-empty, or a grid point has both offsets zero.
+        If an axis is not 1-D and non-empty, a grid point has both offsets zero,
+        the grid has more than :data:`MAX_GRID_POINTS` points or more than
+        :data:`MAX_TRIALS` trials in all, or an argument of
+        :func:`association_experiment` is bad.
 
     Examples
     --------
@@ -1180,6 +1376,11 @@ def offset_sweep(offsets_range, offsets_cross, *, methods=("linearized", "additi
     for name, arr in (("offsets_range", ar), ("offsets_cross", ac)):
         if arr.ndim != 1 or arr.size == 0:
             raise ValueError(f"`{name}` must be a non-empty 1-D array; received shape {arr.shape}")
+    check_size(ar.size * ac.size, MAX_GRID_POINTS, what="grid points",
+               alternative="a coarse grid refined around its best point")
+    n_trials = as_int(trials, "trials", minimum=1)
+    check_size(ar.size * ac.size * n_trials, MAX_TRIALS, what="trials over the whole grid",
+               alternative="fewer grid points or trials per point")
     if np.any(ar == 0) and np.any(ac == 0):
         raise ValueError("`offsets_range` and `offsets_cross` must not both contain 0: the "
                          "grid point (0, 0) puts target 2 on target 1")
@@ -1237,7 +1438,7 @@ def fit_target2_offset(sweep: OffsetSweep, target=None, *, method: str = "linear
                          "target")
     if tgt.shape != (2,):
         raise ValueError(f"`target` must hold two probabilities; received {tgt}")
-    if method not in sweep.per_report:
+    if not isinstance(method, str) or method not in sweep.per_report:
         raise ValueError(f"`method` must be one of {', '.join(map(repr, sweep.per_report))}; "
                          f"received {method!r}")
     none = np.asarray(sweep.per_report[method].estimate)[..., 2]
