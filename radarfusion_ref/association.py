@@ -60,6 +60,8 @@ from scipy.optimize import linear_sum_assignment
 
 from . import scenes
 from ._validation import (
+    MEMORY_LIMIT,
+    _describe,
     as_choice,
     as_covariance,
     as_float_array,
@@ -67,6 +69,8 @@ from ._validation import (
     as_positive,
     as_probability,
     as_rng,
+    broadcast,
+    check_size,
 )
 from .errors import RadarFusionWarning
 from .montecarlo import Proportion, proportion
@@ -89,8 +93,53 @@ __all__ = [
     "two_radar_clutter_scene",
 ]
 
-#: Largest number of joint hypotheses :func:`associate_bruteforce` enumerates.
+#: Largest number of joint hypotheses of one cost matrix that
+#: :func:`associate_bruteforce` and the exact :func:`association_probabilities`
+#: enumerate (:math:`10! = 3\,628\,800` fits; :math:`n = 11` does not).
 MAX_HYPOTHESES = 4_000_000
+#: Largest number of *partial* matchings :func:`associate_bruteforce` scores
+#: when a gate, a non-assignment cost or forbidden pairs are given (7 x 7 fits).
+MAX_PARTIAL_MATCHINGS = 200_000
+#: Largest number of hypotheses :func:`associate_bruteforce` scores in one call,
+#: summed over a batch of cost matrices (bounds its run time).
+MAX_SCORED_HYPOTHESES = 200_000_000
+#: Largest `k` of :func:`k_best_assignments` (and ``association_probabilities(k=...)``).
+MAX_K_BEST = 100_000
+#: Planned bytes per ranked hypothesis and matrix entry in :func:`k_best_assignments`
+#: (sub-problem matrices kept for pending children): the memory limit is checked
+#: against ``_MURTY_BYTES_PER_NODE * k * n**2``.
+_MURTY_BYTES_PER_NODE = 32
+#: Working copies of the report arrays :func:`two_radar_clutter_scene` makes.
+_SCENE_COPIES = 6
+#: Working memory of one vectorized block of the enumerations, in bytes.
+_BLOCK_BYTES = 1 << 25
+
+
+def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
+    """:func:`check_size`, with the public argument named in the message."""
+    try:
+        return check_size(requested, limit, what=what, alternative=alternative)
+    except ValueError as exc:
+        raise ValueError(f"`{name}`: {exc}") from None
+
+
+def _exponents(c: np.ndarray, *extra: float) -> np.ndarray:
+    """Binary exponents ``e`` (per matrix) with ``|finite entries| < 2**e``.
+
+    The solvers work on ``ldexp(cost, -e)``: a power-of-two scaling is exact,
+    keeps every finite entry below 1 in magnitude, so no sum or difference of
+    a few entries overflows even for costs near the float maximum.
+    """
+    finite = np.where(np.isfinite(c), np.abs(c), 0.0)
+    top = finite.max(axis=(-2, -1)) if c.size else np.zeros(c.shape[:-2])
+    for x in extra:
+        top = np.maximum(top, abs(x))
+    return np.frexp(top)[1]
+
+
+def _scaled(c: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``c * 2**-e`` per matrix (exact; ``+inf`` stays ``+inf``)."""
+    return np.ldexp(c, -np.asarray(e)[..., None, None])
 
 
 # --------------------------------------------------------------------------- validation
@@ -114,10 +163,10 @@ def _as_cost(cost, name: str = "cost") -> np.ndarray:
     return arr
 
 
-def _as_threshold(threshold, name: str = "threshold") -> float | None:
-    """A gate: a number > 0 (``+inf`` allowed: no gate); None passes through."""
+def _as_threshold(threshold, name: str = "threshold") -> float:
+    """A gate: a number > 0; ``+inf`` and None both mean "no gate" (returned as ``+inf``)."""
     if threshold is None:
-        return None
+        return np.inf
     arr = as_float_array(threshold, name, allow_nonfinite=True)
     if arr.ndim != 0:
         raise ValueError(f"`{name}` must be a single number > 0; received shape {arr.shape}")
@@ -138,6 +187,38 @@ def _as_miss_cost(miss_cost, name: str = "miss_cost") -> float | None:
     if math.isnan(value) or value == -np.inf:
         raise ValueError(f"`{name}` must be a real number or +inf; received {value}")
     return None if value == np.inf else value
+
+
+def _scalar(arr: np.ndarray, name: str) -> float:
+    """A validated 0-d array as a float (one number expected)."""
+    if arr.ndim != 0:
+        raise ValueError(f"`{name}` must be a single number; received shape {arr.shape}")
+    return float(arr)
+
+
+def _as_decisions(value, name: str) -> np.ndarray:
+    """``row_to_col`` vectors: integers >= -1, at least one axis, not empty."""
+    if value is None or isinstance(value, (str, bytes, bool, np.bool_)):
+        raise TypeError(f"`{name}` must be an integer array of decisions (row_to_col, -1 for "
+                        f"unassigned); received {_describe(value)}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must be an integer array of decisions; received "
+                        f"{_describe(value)}") from None
+    if arr.dtype.kind == "f" and arr.size and np.all(np.isfinite(arr)) \
+            and np.all(arr == np.round(arr)):
+        arr = arr.astype(int)
+    if arr.dtype.kind not in "iu":
+        raise TypeError(f"`{name}` must be an integer array of decisions (row_to_col, -1 for "
+                        f"unassigned); received {_describe(value)}")
+    if arr.ndim < 1 or arr.size == 0:
+        raise ValueError(f"`{name}` must be a non-empty array of shape (..., n1); received "
+                         f"shape {arr.shape}")
+    if np.any(arr < -1):
+        raise ValueError(f"`{name}` entries must be column indices >= 0 or -1 (unassigned); "
+                         f"received {_describe(value)} (smallest entry {int(arr.min())})")
+    return arr
 
 
 # --------------------------------------------------------------------------- result
@@ -218,16 +299,22 @@ def _make_result(cost: np.ndarray, row_to_col: np.ndarray, miss_cost: float | No
     col_to_row = _inverse(row_to_col, n2)
     assigned = row_to_col >= 0
     picked = np.take_along_axis(cost, np.where(assigned, row_to_col, 0)[..., None], axis=-1)[..., 0]
-    total = np.where(assigned, picked, 0.0).sum(axis=-1)
-    if miss_cost is not None:
-        n_un = (n1 - assigned.sum(-1)) + (n2 - np.count_nonzero(col_to_row >= 0, axis=-1))
-        total = total + miss_cost * n_un
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = np.where(assigned, picked, 0.0).sum(axis=-1)
+        if miss_cost is not None:
+            n_un = (n1 - assigned.sum(-1)) + (n2 - np.count_nonzero(col_to_row >= 0, axis=-1))
+            total = total + miss_cost * n_un
+    if not np.all(np.isfinite(total)):
+        raise ValueError(
+            "`cost`: the total cost of the chosen association lies beyond the float range "
+            f"(|total| > {np.finfo(float).max:.3g}); the decisions exist but their sum cannot be "
+            "represented: divide `cost` (and `miss_cost`) by a common factor")
     total = float(total) if np.ndim(total) == 0 else total
     return Association(row_to_col, col_to_row, total)
 
 
 # --------------------------------------------------------------------------- pointwise
-def associate_pointwise(cost, threshold, *, order: str = "scan") -> Association:
+def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Association:
     """The paper's simplified pointwise association, or its greedy best-first variant.
 
     Parameters
@@ -235,9 +322,10 @@ def associate_pointwise(cost, threshold, *, order: str = "scan") -> Association:
     cost : array_like, shape (..., n1, n2)
         Proximity measures :math:`\\kappa_{ij}`; ``+inf`` forbids a pair.
         Leading axes are a batch, processed vectorized.
-    threshold : float
-        The gate :math:`\\kappa_{\\text{th}} > 0`: a pair is acceptable only if
-        its cost is strictly below it (``+inf``: no gate).
+    threshold : float or None
+        The gate :math:`\\gamma > 0` (the paper's :math:`\\kappa_{\\text{th}}`):
+        a pair is acceptable only if its cost is strictly below it. None or
+        ``+inf``: no gate (the same meaning as in :func:`associate_joint`).
     order : {"scan", "best_first"}, optional
         ``"scan"`` (the paper's rule as written): go through the hypotheses in
         list order — radar-1 report 0 against radar-2 reports 0, 1, ..., then
@@ -313,23 +401,27 @@ def associate_pointwise(cost, threshold, *, order: str = "scan") -> Association:
 
 
 # --------------------------------------------------------------------------- joint (exact)
-def _solve_batch(c: np.ndarray, th: float | None, miss: float | None) -> np.ndarray:
+def _solve_batch(c: np.ndarray, th: float, miss: float | None) -> np.ndarray:
     """Optimal ``row_to_col`` for a stack of matrices ``(B, n1, n2)`` (validated inputs).
 
     Every matrix is turned into one plain rectangular assignment problem
     (vectorized over the stack), then solved by
     :func:`scipy.optimize.linear_sum_assignment`; pairs that are not allowed or
-    not worth taking are dropped afterwards.
+    not worth taking are dropped afterwards. Costs are first scaled by a power
+    of two (exact) so that the working matrix cannot overflow.
     """
     nb, n1, n2 = c.shape
-    allowed = np.isfinite(c) if th is None else (c <= th) & np.isfinite(c)
+    allowed = (c < th) & np.isfinite(c)              # the gate of eq. (eq-gate): kappa < gamma
+    e = _exponents(c, *(() if miss is None else (miss,)))
+    c = _scaled(c, e)
     if miss is not None:
+        miss = np.ldexp(miss, -e)[:, None, None]      # per matrix, same scale as its costs
         # Partial matching with a cost `miss` per unassigned report: a pair is worth
         # taking only if c < 2*miss, and
         #   min over partial matchings of sum(c - 2 miss)
         #     = min over full assignments of sum(min(c - 2 miss, 0)),
         # so one rectangular assignment of the clipped matrix is exact (no augmentation).
-        work = np.where(allowed, np.minimum(c - 2.0 * miss, 0.0), 0.0)
+        work = np.where(allowed, np.minimum(c - 2.0 * miss, 0.0), 0.0)     # |work| < 4
         useful = allowed & (work < 0)
     elif allowed.all():
         work, useful = c, allowed                 # the plain complete assignment
@@ -340,7 +432,7 @@ def _solve_batch(c: np.ndarray, th: float | None, miss: float | None) -> np.ndar
         lo = np.min(c, axis=(1, 2), where=allowed, initial=np.inf)
         hi = np.max(c, axis=(1, 2), where=allowed, initial=-np.inf)
         lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
-        big = (min(n1, n2) + 1) * (hi - lo + 1.0)
+        big = (min(n1, n2) + 1) * (hi - lo + 1.0)            # hi - lo < 2 after scaling
         work = np.where(allowed, c - lo[:, None, None], big[:, None, None])
         useful = allowed
     k = min(n1, n2)
@@ -365,7 +457,9 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
         log-likelihoods); ``+inf`` forbids a pair; rectangular allowed.
         Leading axes are a batch (solved one matrix at a time).
     threshold : float, optional
-        Gate: pairs whose cost exceeds it are forbidden (must be > 0).
+        Gate :math:`\\gamma > 0`: a pair is allowed only if its cost is
+        strictly below it, as in :func:`associate_pointwise` and
+        :func:`radarfusion_ref.gating.in_gate`. None or ``+inf``: no gate.
     miss_cost : float, optional
         Cost charged for *each* report left unassigned, row or column alike
         (the convention of MATLAB's ``assignmunkres(cost, costOfNonAssignment)``);
@@ -379,8 +473,10 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     Raises
     ------
     ValueError
-        For NaN or ``-inf`` costs, an empty matrix, a threshold ≤ 0, or a NaN
-        / ``-inf`` miss cost.
+        For NaN or ``-inf`` costs, an empty matrix, a threshold ≤ 0, a NaN
+        / ``-inf`` miss cost, or a total cost beyond the float range (costs up
+        to the float maximum are solved exactly; only a *sum* that cannot be
+        represented is refused).
 
     Notes
     -----
@@ -504,8 +600,12 @@ def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association
     Raises
     ------
     ValueError
-        As :func:`associate_joint`, and if there are more than
-        ``MAX_HYPOTHESES`` hypotheses to enumerate (e.g. :math:`n > 10`).
+        As :func:`associate_joint`; and, before anything is allocated, if
+        there are more than ``MAX_HYPOTHESES`` complete hypotheses
+        (:math:`n > 10`), more than ``MAX_PARTIAL_MATCHINGS`` partial ones
+        (gate / miss cost / forbidden pairs, e.g. :math:`8 \\times 8`), or more
+        than ``MAX_SCORED_HYPOTHESES`` over the whole batch. The message names
+        the scalable alternative, :func:`associate_joint`.
 
     Notes
     -----
@@ -525,28 +625,32 @@ def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association
     batch = c.shape[:-2]
     flat = c.reshape(-1, n1, n2)
     nb = flat.shape[0]
-    allowed = np.isfinite(flat) if th is None else (flat <= th) & np.isfinite(flat)
+    allowed = (flat < th) & np.isfinite(flat)
     # Plain complete assignment: enumerate permutations. With a gate, a miss cost or
     # forbidden (+inf) pairs, score every partial matching instead.
-    simple = th is None and miss is None and bool(np.all(np.isfinite(flat)))
+    simple = th == np.inf and miss is None and bool(np.all(np.isfinite(flat)))
     if simple:
         transpose = n1 > n2
-        work = np.swapaxes(flat, 1, 2) if transpose else flat
-        a, b = work.shape[1:]
-        count = math.perm(b, a)
+        a, b = min(n1, n2), max(n1, n2)
+        count = _limit(math.perm(b, a), MAX_HYPOTHESES, name="cost",
+                       what=f"joint hypotheses (n!-type count for a {n1} x {n2} matrix)",
+                       alternative="associate_joint (exact linear assignment, O(n^3))")
     else:
-        count = _n_partial(n1, n2)
-    if count > MAX_HYPOTHESES:
-        raise ValueError(
-            f"`cost` of shape {c.shape[-2:]} has {count} joint hypotheses; brute force is "
-            f"limited to {MAX_HYPOTHESES} (use associate_joint)"
-        )
+        count = _limit(_n_partial(n1, n2), MAX_PARTIAL_MATCHINGS, name="cost",
+                       what=f"partial matchings (gated or with a miss cost, {n1} x {n2} matrix)",
+                       alternative="associate_joint (exact linear assignment, O(n^3))")
+    _limit(nb * count, MAX_SCORED_HYPOTHESES, name="cost",
+           what=f"hypotheses to score over a batch of {nb} matrices",
+           alternative="associate_joint (exact linear assignment, O(n^3))")
+    e = _exponents(flat, *(() if miss is None else (miss,)))
+    scaled = _scaled(flat, e)                         # exact; sums of n entries cannot overflow
     if simple:
+        work = np.swapaxes(scaled, 1, 2) if transpose else scaled
         hyps = _injections(a, b)
         best = np.full(nb, np.inf)
         best_k = np.zeros(nb, dtype=int)
         idx = np.arange(a)
-        chunk = max(1, 2**20 // a)
+        chunk = max(1, _BLOCK_BYTES // (8 * a * nb))   # bounded memory per block
         for start in range(0, hyps.shape[0], chunk):
             h = hyps[start:start + chunk]
             tot = work[:, idx, h].sum(axis=-1)            # (nb, chunk)
@@ -562,21 +666,20 @@ def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association
     hyps = _partial_matchings(n1, n2).astype(int)         # (H, n1)
     used = hyps >= 0
     safe = np.maximum(hyps, 0)
+    npairs = used.sum(axis=1)
     out = np.full((nb, n1), -1, dtype=int)
     for t in range(nb):
-        ct = np.where(allowed[t], flat[t], np.inf)
+        ct = np.where(allowed[t], scaled[t], np.inf)
         vals = np.where(used, ct[np.arange(n1), safe], 0.0)
         ok = np.all(np.isfinite(vals), axis=1)
         total = vals.sum(axis=1)
-        npairs = used.sum(axis=1)
         if miss is not None:
-            score = np.where(ok, total + miss * (n1 + n2 - 2 * npairs), np.inf)
-            k = int(np.argmin(score))
+            m_t = np.ldexp(miss, -e[t])
+            score = np.where(ok, total + m_t * (n1 + n2 - 2 * npairs), np.inf)
         else:
             top = npairs[ok].max()
             score = np.where(ok & (npairs == top), total, np.inf)
-            k = int(np.argmin(score))
-        out[t] = hyps[k]
+        out[t] = hyps[int(np.argmin(score))]
     return _make_result(c, out.reshape(*batch, n1), miss)
 
 
@@ -670,7 +773,12 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     Raises
     ------
     ValueError
-        For NaN or ``-inf`` costs, an empty matrix, or ``k < 1``.
+        For NaN or ``-inf`` costs, an empty matrix, ``k < 1``, ``k >
+        MAX_K_BEST``, a planned working memory (about ``_MURTY_BYTES_PER_NODE
+        * k * n**2`` bytes) above ``MEMORY_LIMIT``, or a hypothesis total
+        beyond the float range.
+    TypeError
+        If `k` is not an integer.
 
     Notes
     -----
@@ -711,9 +819,17 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     if c.ndim != 2:
         raise ValueError(f"`cost` must be a single matrix (n1, n2); received shape {c.shape}")
     k = as_int(k, "k", minimum=1)
+    _limit(k, MAX_K_BEST, name="k", what="ranked hypotheses",
+           alternative="association_probabilities(cost) (exact, small n) or fewer hypotheses")
     n1, n2 = c.shape
+    b0 = max(n1, n2)
+    _limit(_MURTY_BYTES_PER_NODE * k * b0 * b0, MEMORY_LIMIT, name="k",
+           what=f"bytes of Murty sub-problems (about {_MURTY_BYTES_PER_NODE} k n^2 for k = {k}, "
+                f"n = {b0})",
+           alternative="a smaller `k`, or associate_joint for the best hypothesis alone")
     transpose = n1 > n2
-    work = c.T if transpose else c
+    e = int(_exponents(c))
+    work = _scaled(c.T if transpose else c, e)             # exact power-of-two scaling
     a, b = work.shape                                      # a <= b real rows
     square = np.zeros((b, b))
     square[:a] = work
@@ -813,7 +929,13 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     assign = np.array(out_assign, dtype=int).reshape(-1, a)
     if transpose:
         assign = _inverse(assign, n1) if assign.size else np.empty((0, n1), dtype=int)
-    return KBestAssignments(assign, np.array(out_cost, dtype=float), solved)
+    with np.errstate(over="ignore"):
+        costs = np.ldexp(np.array(out_cost, dtype=float), e)
+    if not np.all(np.isfinite(costs)):
+        raise ValueError(
+            "`cost`: a ranked hypothesis's total cost lies beyond the float range "
+            f"(|total| > {np.finfo(float).max:.3g}); divide `cost` by a common factor")
+    return KBestAssignments(assign, costs, solved)
 
 
 # --------------------------------------------------------------------------- marginals
@@ -839,8 +961,10 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
     Raises
     ------
     ValueError
-        For invalid costs, ``k < 1``, no feasible assignment, or too many
-        hypotheses to enumerate exactly.
+        For invalid costs, ``k < 1``, no feasible assignment, or, before
+        anything is allocated, more than ``MAX_HYPOTHESES`` hypotheses to
+        enumerate exactly (the message points to the `k`-best route) or a `k`
+        beyond the limits of :func:`k_best_assignments`.
 
     Notes
     -----
@@ -866,31 +990,44 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
     if c.ndim != 2:
         raise ValueError(f"`cost` must be a single matrix (n1, n2); received shape {c.shape}")
     n1, n2 = c.shape
+    transpose = n1 > n2
+    w = c.T if transpose else c
+    a, b = w.shape
+    e = int(_exponents(c))
+    ws = _scaled(w, e)                  # exact; hypothesis sums of scaled costs cannot overflow
+    p = np.zeros((a, b))
     if k is None:
-        transpose = n1 > n2
-        w = c.T if transpose else c
-        a, b = w.shape
-        if math.perm(b, a) > MAX_HYPOTHESES:
-            raise ValueError(
-                f"`cost` of shape {c.shape} has {math.perm(b, a)} hypotheses, too many for exact "
-                "enumeration; pass `k` for the k-best approximation"
-            )
-        hyps = _injections(a, b).astype(int)
-        costs = w[np.arange(a), hyps].sum(axis=1)
-        assign = _inverse(hyps, n1) if transpose else hyps
+        _limit(math.perm(b, a), MAX_HYPOTHESES, name="cost",
+               what=f"joint hypotheses to enumerate exactly (a {n1} x {n2} matrix)",
+               alternative="association_probabilities(cost, k=...) (Murty's k best)")
+        hyps = _injections(a, b)                             # int8, cached, read-only
+        rows = np.arange(a)
+        chunk = max(1, _BLOCK_BYTES // (8 * a))
+        blocks = range(0, hyps.shape[0], chunk)
+        best = min(float(ws[rows, hyps[s0:s0 + chunk]].sum(axis=1).min()) for s0 in blocks)
+        if not np.isfinite(best):
+            raise ValueError("`cost` admits no feasible complete assignment (every hypothesis "
+                             "uses a forbidden +inf pair)")
+        for s0 in blocks:                                    # memory bounded per block
+            h = hyps[s0:s0 + chunk].astype(np.intp)
+            with np.errstate(over="ignore"):
+                wts = np.exp(-np.ldexp(ws[rows, h].sum(axis=1) - best, e))
+            for i in range(a):
+                p[i] += np.bincount(h[:, i], weights=wts, minlength=b)
     else:
-        kb = k_best_assignments(c, k)
+        kb = k_best_assignments(ws, k)          # rows = the shorter side; scaled: same ranking
         assign, costs = kb.assignments, kb.costs
-    finite = np.isfinite(costs)
-    if not finite.any():
-        raise ValueError("`cost` admits no feasible complete assignment")
-    assign, costs = assign[finite], costs[finite]
-    wts = np.exp(-(costs - costs.min()))
-    wts /= wts.sum()
-    p = np.zeros((n1, n2))
-    h, i = np.nonzero(assign >= 0)
-    np.add.at(p, (i, assign[h, i]), wts[h])
-    return p
+        finite = np.isfinite(costs)
+        if not finite.any():
+            raise ValueError("`cost` admits no feasible complete assignment (every hypothesis "
+                             "uses a forbidden +inf pair)")
+        assign, costs = assign[finite], costs[finite]
+        with np.errstate(over="ignore"):
+            wts = np.exp(-np.ldexp(costs - costs.min(), e))
+        for i in range(a):
+            p[i] += np.bincount(assign[:, i], weights=wts, minlength=b)
+    p /= p[0].sum()
+    return p.T if transpose else p
 
 
 # --------------------------------------------------------------------------- non-assignment cost
@@ -965,26 +1102,33 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     """
     p1 = as_probability(p_detect1, "p_detect1", open_interval=False)
     p2 = as_probability(p_detect2, "p_detect2", open_interval=False)
-    for name, p in (("p_detect1", p1), ("p_detect2", p2)):
+    for name, p, raw in (("p_detect1", p1, p_detect1), ("p_detect2", p2, p_detect2)):
         if np.any(p <= 0):
-            raise ValueError(f"`{name}` must lie in (0, 1]; received {p}")
+            raise ValueError(f"`{name}` must lie in (0, 1]; received {_describe(raw)}")
     lam1 = as_positive(false_density1, "false_density1", strict=False)
     lam2 = as_positive(false_density2, "false_density2", strict=False)
     beta = as_positive(object_density, "object_density")
     s = as_float_array(innovation_cov, "innovation_cov")
     if s.ndim < 2:
         s = as_positive(s, "innovation_cov")
-        logdet = np.log(2 * np.pi * s)
+        logdet = np.log(2 * np.pi) + np.log(s)                 # no overflow of 2 pi S
     else:
         s = as_covariance(s, "innovation_cov")
         d = s.shape[-1]
-        chol = np.linalg.cholesky(s)
-        logdet = d * np.log(2 * np.pi) + 2 * np.sum(
+        scale = np.max(np.abs(s), axis=(-2, -1))                # Cholesky of S / scale
+        chol = np.linalg.cholesky(s / scale[..., None, None])
+        logdet = d * (np.log(2 * np.pi) + np.log(scale)) + 2 * np.sum(
             np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
-    u1 = lam1 + beta * p1 * (1 - p2)
-    u2 = lam2 + beta * p2 * (1 - p1)
+    p1, p2, lam1, lam2, beta, logdet = broadcast(
+        p_detect1=p1, p_detect2=p2, false_density1=lam1, false_density2=lam2,
+        object_density=beta, innovation_cov=logdet)
+    # Log domain throughout: ln u_r = ln(rho_F,r + rho_T P_r (1 - P_other)) by logaddexp,
+    # so neither tiny nor huge densities overflow or underflow.
     with np.errstate(divide="ignore"):
-        m = np.log(beta * p1 * p2) - np.log(u1) - np.log(u2) - 0.5 * logdet
+        lb = np.log(beta)
+        log_u1 = np.logaddexp(np.log(lam1), lb + np.log(p1) + np.log1p(-p2))
+        log_u2 = np.logaddexp(np.log(lam2), lb + np.log(p2) + np.log1p(-p1))
+    m = lb + np.log(p1) + np.log(p2) - log_u1 - log_u2 - 0.5 * logdet
     if np.any(m <= 0):
         warnings.warn(
             "non-assignment cost <= 0: no pair with proximity >= 0 beats leaving both "
@@ -1102,10 +1246,10 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, sigma1: float, si
     >>> s.reports1.shape[0], s.true_row_to_col.shape == s.owner1.shape
     (3, True)
     """
-    pd1 = float(as_probability(p_detect1, "p_detect1", open_interval=False))
-    pd2 = float(as_probability(p_detect2, "p_detect2", open_interval=False))
-    lam1 = float(as_positive(false_density1, "false_density1", strict=False))
-    lam2 = float(as_positive(false_density2, "false_density2", strict=False))
+    pd1 = _scalar(as_probability(p_detect1, "p_detect1", open_interval=False), "p_detect1")
+    pd2 = _scalar(as_probability(p_detect2, "p_detect2", open_interval=False), "p_detect2")
+    lam1 = _scalar(as_positive(false_density1, "false_density1", strict=False), "false_density1")
+    lam2 = _scalar(as_positive(false_density2, "false_density2", strict=False), "false_density2")
     rng = as_rng(rng)
     base = scenes.two_radar_scene(n_objects, spacing=spacing, sigma1=sigma1, sigma2=sigma2,
                                   trials=trials, dim=dim, layout=layout, rng=rng)
@@ -1120,10 +1264,21 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, sigma1: float, si
     volume = float(np.prod(high - low))
     owner1_obj = np.broadcast_to(np.arange(n), (t, n))
 
+    # The false reports' memory is checked before any is drawn: expected count, then
+    # (after the Poisson draw, before the positions are allocated) the actual one.
+    for name, lam in (("false_density1", lam1), ("false_density2", lam2)):
+        _limit(math.ceil(lam * volume) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name=name,
+               what=f"bytes of false reports (expected {lam * volume:.3g} per trial, "
+                    f"{t} trials, d = {d})",
+               alternative="fewer `trials` per call (draw the trials in batches)")
+
     def build(reports, owners, pd, lam):
         detected = rng.random((t, n)) < pd
         nfalse = rng.poisson(lam * volume, size=t)
         fmax = int(nfalse.max()) if t else 0
+        _limit((n + fmax) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name="trials",
+               what=f"bytes of reports ({n} objects + up to {fmax} false reports per trial)",
+               alternative="fewer `trials` per call (draw the trials in batches)")
         fpos = low + (high - low) * rng.random((t, fmax, d))
         fvalid = np.arange(fmax)[None, :] < nfalse[:, None]
         allpos = np.concatenate([reports, fpos], axis=1)
@@ -1173,7 +1328,16 @@ def proximity_matrix(reports1, reports2, sigma1: float, sigma2: float) -> np.nda
     if r1.shape[-1] != r2.shape[-1]:
         raise ValueError("`reports1` and `reports2` must have the same last dimension d; "
                          f"received shapes {r1.shape} and {r2.shape}")
-    eye = np.eye(r1.shape[-1])
+    try:
+        batch = np.broadcast_shapes(r1.shape[:-2], r2.shape[:-2])
+    except ValueError:
+        raise ValueError("`reports1` and `reports2` must have broadcastable leading (batch) "
+                         f"axes; received shapes {r1.shape} and {r2.shape}") from None
+    n1, n2, d = r1.shape[-2], r2.shape[-2], r1.shape[-1]
+    _limit(math.prod(batch) * n1 * n2 * d * 8 * 4, MEMORY_LIMIT, name="reports1",
+           what=f"bytes of pair differences ({math.prod(batch)} x {n1} x {n2} pairs, d = {d})",
+           alternative="fewer trials per call (split the batch)")
+    eye = np.eye(d)
     v1 = float(as_positive(sigma1, "sigma1")) ** 2
     v2 = float(as_positive(sigma2, "sigma2")) ** 2
     out = mahalanobis_sq(r1[..., :, None, :], r2[..., None, :, :], v1 * eye, v2 * eye)
@@ -1193,12 +1357,24 @@ def all_correct(decided, truth) -> np.ndarray:
     -------
     numpy.ndarray of bool, shape (...)
 
+    Raises
+    ------
+    TypeError
+        If either is not an integer array (bools, strings, fractional floats).
+    ValueError
+        If either is empty, has entries below -1, or the shapes differ.
+
     Examples
     --------
     >>> all_correct([[0, 1], [1, 0]], [[0, 1], [0, 1]])
     array([ True, False])
     """
-    return np.all(np.asarray(decided) == np.asarray(truth), axis=-1)
+    d = _as_decisions(decided, "decided")
+    t = _as_decisions(truth, "truth")
+    if d.shape != t.shape:
+        raise ValueError(f"`decided` and `truth` must have the same shape (..., n1); received "
+                         f"{d.shape} and {t.shape}")
+    return np.all(d == t, axis=-1)
 
 
 @dataclass(frozen=True)
@@ -1234,15 +1410,26 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
         Proximity measures of each simulated scene.
     truth : array_like of int, shape (trials, n)
         Correct ``row_to_col`` of each scene.
-    threshold : float
-        Pointwise gate :math:`\\kappa_{\\text{th}}` (1 hypothesis, e.g.
-        ``gating.gate_threshold(P_lo, d)``).
-    joint_threshold : float
-        Joint gate on :math:`\\kappa_n^*` (e.g. ``gating.gate_threshold(P_lo, n * d)``).
+    threshold : float or None
+        Pointwise gate :math:`\\gamma` (1 hypothesis, e.g.
+        ``gating.gate_threshold(P_lo, d)``); None or ``+inf``: no gate.
+    joint_threshold : float or None
+        Joint gate on :math:`\\kappa_n^*` (e.g. ``gating.gate_threshold(P_lo, n * d)``);
+        None or ``+inf``: no joint test.
 
     Returns
     -------
     DecisionComparison
+        Each field a :class:`~radarfusion_ref.montecarlo.Proportion` carrying
+        its trial count and 95 % Wilson interval.
+
+    Raises
+    ------
+    ValueError
+        For an invalid `kappa` (see :func:`associate_joint`), a `truth` of the
+        wrong shape or with indices out of range, or a threshold <= 0.
+    TypeError
+        For a non-integer `truth`.
 
     Examples
     --------
@@ -1252,10 +1439,15 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     1.0
     """
     c = _as_cost(kappa, "kappa")
-    truth = np.asarray(truth)
-    if c.ndim != 3 or truth.shape != c.shape[:-1]:
-        raise ValueError("`kappa` must have shape (trials, n1, n2) and `truth` (trials, n1); "
-                         f"received {c.shape} and {truth.shape}")
+    if c.ndim != 3:
+        raise ValueError(f"`kappa` must have shape (trials, n1, n2); received shape {c.shape}")
+    truth = _as_decisions(truth, "truth")
+    if truth.shape != c.shape[:-1]:
+        raise ValueError(f"`truth` must have shape (trials, n1) = {c.shape[:-1]} to match "
+                         f"`kappa`; received shape {truth.shape}")
+    if np.any(truth >= c.shape[-1]):
+        raise ValueError(f"`truth` entries must be radar-2 indices < n2 = {c.shape[-1]} or -1; "
+                         f"received largest entry {int(truth.max())}")
     th = _as_threshold(threshold)
     jth = _as_threshold(joint_threshold, "joint_threshold")
     pw = associate_pointwise(c, th, order="scan")

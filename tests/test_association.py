@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
@@ -51,7 +51,7 @@ def augmented_optimum(cost, miss, threshold=None):
     big = np.inf
     cc = c.copy()
     if threshold is not None:
-        cc[cc > threshold] = big
+        cc[cc >= threshold] = big      # the gate is strict: kappa < gamma
     top_right = np.full((n1, n1), big)
     np.fill_diagonal(top_right, miss)
     bottom_left = np.full((n2, n2), big)
@@ -69,7 +69,7 @@ def check_feasible(result, cost, threshold=None):
     vals = np.asarray(cost)[pairs[:, 0], pairs[:, 1]] if len(pairs) else np.zeros(0)
     assert np.all(np.isfinite(vals))
     if threshold is not None:
-        assert np.all(vals <= threshold)
+        assert np.all(vals < threshold)
 
 
 cost_values = st.one_of(st.integers(0, 4).map(float),
@@ -92,7 +92,6 @@ def cost_matrices(draw, max_n=5, allow_inf=True):
 # ----------------------------------------------------------------------------- joint == brute force
 
 
-@settings(max_examples=150, deadline=None)
 @given(cost_matrices(),
        st.one_of(st.none(), st.floats(0.1, 10.0)),
        st.one_of(st.none(), st.floats(-1.0, 6.0)))
@@ -104,7 +103,6 @@ def test_joint_equals_bruteforce(cost, threshold, miss):
     check_feasible(j, cost, threshold)
 
 
-@settings(max_examples=80, deadline=None)
 @given(cost_matrices(allow_inf=False))
 def test_joint_complete_equals_itertools_enumeration(cost):
     best = min(t for _, t in enumerate_complete(cost))
@@ -113,17 +111,15 @@ def test_joint_complete_equals_itertools_enumeration(cost):
     assert j.n_assigned == min(cost.shape)
 
 
-@settings(max_examples=100, deadline=None)
 @given(cost_matrices(), st.floats(-1.0, 6.0), st.one_of(st.none(), st.floats(0.1, 10.0)))
 def test_miss_cost_equals_augmented_matrix(cost, miss, threshold):
     j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
     assert j.total_cost == pytest.approx(augmented_optimum(cost, miss, threshold), abs=1e-9)
 
 
-@settings(max_examples=60, deadline=None)
 @given(cost_matrices(max_n=4), st.floats(0.1, 10.0))
 def test_threshold_only_is_maximum_cardinality(cost, threshold):
-    allowed = np.isfinite(cost) & (cost <= threshold)
+    allowed = np.isfinite(cost) & (cost < threshold)
     n1, n2 = cost.shape
     best = 0
     for k in range(min(n1, n2), 0, -1):
@@ -258,7 +254,6 @@ def scan_reference(c, th):
     return out
 
 
-@settings(max_examples=100, deadline=None)
 @given(cost_matrices(max_n=6), st.floats(0.1, 12.0))
 def test_pointwise_against_plain_python(cost, th):
     np.testing.assert_array_equal(A.associate_pointwise(cost, th).row_to_col,
@@ -287,7 +282,6 @@ def test_greedy_is_not_joint_ml():
 # ----------------------------------------------------------------------------- k best
 
 
-@settings(max_examples=120, deadline=None)
 @given(cost_matrices(max_n=5), st.integers(1, 130))
 def test_murty_equals_sorted_bruteforce(cost, k):
     every = sorted(t for _, t in enumerate_complete(cost) if np.isfinite(t))
