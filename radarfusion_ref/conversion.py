@@ -57,12 +57,15 @@ its eigenvectors point along range (variance :math:`a + b`) and across range
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ._validation import (
+    MEMORY_LIMIT,
+    _describe,
     as_choice,
     as_covariance,
     as_float_array,
@@ -70,12 +73,14 @@ from ._validation import (
     as_positive,
     as_rng,
     broadcast,
+    check_size,
 )
 from .errors import RadarFusionWarning
 from .montecarlo import MeanEstimate, mean
 
 __all__ = [
     "LERRO_THRESHOLD",
+    "MAX_BATCH",
     "METHODS",
     "SIGMA_BETA_MAX",
     "ConversionMoments",
@@ -94,8 +99,20 @@ __all__ = [
 #: The conversion methods accepted by :func:`polar_to_cartesian`.
 METHODS = ("linearized", "additive", "multiplicative", "first_order", "first_order_printed")
 
-#: Largest azimuth standard deviation accepted (radians, ≈ 28.6°). See :func:`polar_to_cartesian`.
+#: Largest azimuth standard deviation accepted, in radians (≈ 28.6°): the package's one
+#: limit on :math:`\sigma_\beta` (:mod:`radarfusion_ref.separated` imports it from here).
+#: Why 0.5 and not π/4: at :math:`\sigma_\beta = 0.5` an azimuth error beyond ±90° (a report
+#: folded behind the radar's cross-range line, which no 2×2 covariance can describe) has
+#: probability :math:`2\Phi(-\pi/(2\sigma_\beta)) \approx 1.7\times 10^{-3}`; at π/4 it is
+#: 4.6 %, one report in 22. The first-order correction's dropped term
+#: :math:`\sigma_\beta^4/8` is 0.8 % of the range at 0.5 and 4.7 % at π/4. And the smaller
+#: limit also catches azimuth deviations from 0.5 to 0.79 passed in degrees by mistake.
 SIGMA_BETA_MAX = 0.5
+
+#: Largest number of batch elements (broadcast inputs × trials) one call works on at once:
+#: about 256 bytes of working memory each, so one call stays within
+#: :data:`radarfusion_ref._validation.MEMORY_LIMIT` (1 GiB).
+MAX_BATCH = MEMORY_LIMIT // 256
 
 #: Lerro & Bar-Shalom's rule of thumb (as usually quoted): the linearized
 #: conversion is adequate while :math:`r\sigma_\beta^2/\sigma_r` stays below this value.
@@ -187,21 +204,40 @@ class ConversionTrials:
 
 
 # --------------------------------------------------------------------------- validation
-def _polar_iv(r, beta, sigma_r, sigma_beta):
-    """Validate and broadcast the four polar arguments (shared by the public functions)."""
+def _polar_iv(r, beta, sigma_r, sigma_beta, *, strict: bool = False, trials: int = 1):
+    """Validate and broadcast the four polar arguments (shared by the public functions).
+
+    ``strict=True`` requires ``sigma_r > 0`` and ``sigma_beta > 0`` (for functions that
+    need a positive-definite covariance); `trials` multiplies the batch size checked
+    against :data:`MAX_BATCH` before anything is allocated."""
     r = as_positive(r, "r", strict=False)
     beta = as_float_array(beta, "beta")
-    sigma_r = as_positive(sigma_r, "sigma_r", strict=False)
-    sigma_beta = _sigma_beta_iv(sigma_beta)
+    sigma_r = as_positive(sigma_r, "sigma_r", strict=strict)
+    sigma_beta = _sigma_beta_iv(sigma_beta, strict=strict)
+    _check_batch(trials, r=r, beta=beta, sigma_r=sigma_r, sigma_beta=sigma_beta)
     return broadcast(r=r, beta=beta, sigma_r=sigma_r, sigma_beta=sigma_beta)
 
 
-def _sigma_beta_iv(sigma_beta):
-    sigma_beta = as_positive(sigma_beta, "sigma_beta", strict=False)
+def _check_batch(trials: int, **arrays) -> int:
+    """Refuse, before allocating, a broadcast batch (× trials) above :data:`MAX_BATCH`."""
+    try:
+        shape = np.broadcast_shapes(*(np.shape(v) for v in arrays.values()))
+    except ValueError:
+        broadcast(**arrays)          # raises the package's message naming the arguments
+        raise
+    size = int(np.prod(shape, dtype=object)) * int(trials)
+    check_size(size, MAX_BATCH, what="batch elements (broadcast inputs × trials)",
+               alternative="several calls on slices of the batch (or fewer trials per call, "
+                           "pooling calls seeded from SeedSequence.spawn)")
+    return size
+
+
+def _sigma_beta_iv(sigma_beta, *, strict: bool = False):
+    sigma_beta = as_positive(sigma_beta, "sigma_beta", strict=strict)
     if np.any(sigma_beta > SIGMA_BETA_MAX):
         raise ValueError(
             f"`sigma_beta` must be an azimuth standard deviation in radians in "
-            f"[0, {SIGMA_BETA_MAX}] (SIGMA_BETA_MAX); received largest entry "
+            f"{'(' if strict else '['}0, {SIGMA_BETA_MAX}] (SIGMA_BETA_MAX); received largest entry "
             f"{float(np.max(sigma_beta)):.6g} — did you pass degrees? Use np.deg2rad."
         )
     return sigma_beta
@@ -210,54 +246,122 @@ def _sigma_beta_iv(sigma_beta):
 # --------------------------------------------------------------------------- building blocks
 def _gain(method: str, s: np.ndarray) -> np.ndarray:
     """Scalar factor g with converted position = g · r̂ (cos β̂, sin β̂); s = σβ²."""
-    lam = np.exp(-s / 2)
-    if method == "linearized":
+    t = s / 2                         # E cos w = e^{−t}
+    if method == "linearized":        # eq. (1): no correction
         return np.ones_like(s)
-    if method == "additive":          # r̂u − r̂u(e^{−s} − e^{−s/2})
-        return 1.0 + lam - lam**2
-    if method == "multiplicative":    # e^{s/2} r̂u
-        return 1.0 / lam
+    if method == "additive":          # r̂u − r̂u(e^{−s} − e^{−t}) = r̂u (1 + e^{−t}(1 − e^{−t}))
+        return 1.0 - np.exp(-t) * np.expm1(-t)
+    if method == "multiplicative":    # e^{t} r̂u: exactly unbiased
+        return np.exp(t)
     if method == "first_order":       # eq. (3) with the derived sign
-        return 1.0 + s / 2
-    return 1.0 - s / 2                # "first_order_printed": eq. (3) as printed
+        return 1.0 + t
+    return 1.0 - t                    # "first_order_printed": eq. (3) as printed
 
 
-def _am_matrix(a, b, beta):
-    """Stack a I + b M(β), M = [[cos 2β, sin 2β], [sin 2β, −cos 2β]], shape (..., 2, 2)."""
-    c2, s2 = np.cos(2 * beta), np.sin(2 * beta)
-    out = np.empty((*np.shape(a), 2, 2))
-    out[..., 0, 0] = a + b * c2
-    out[..., 1, 1] = a - b * c2
-    out[..., 0, 1] = out[..., 1, 0] = b * s2
+def _bias_factor(method: str, s: np.ndarray) -> np.ndarray:
+    """g e^{−s/2} − 1, the bias given the truth in units of the range, free of cancellation."""
+    t = s / 2
+    if method == "linearized":
+        return np.expm1(-t)
+    if method == "multiplicative":
+        return np.zeros_like(s)
+    if method == "additive":          # (e^{−t} − 1)(1 − e^{−s})
+        return -np.expm1(-t) * np.expm1(-s)
+    if method == "first_order_printed":
+        return np.expm1(-t) - t * np.exp(-t)
+    # first_order: (1 + t) e^{−t} − 1 = Σ_{k≥2} (−1)^{k+1} (k − 1) t^k / k!  (a series for small t)
+    small = t < 1e-2
+    ts = np.where(small, t, 0.0)
+    series = sum((-1) ** (k + 1) * (k - 1) * ts**k / math.factorial(k) for k in range(2, 11))
+    return np.where(small, series, (1 + t) * np.exp(-t) - 1)
+
+
+def _principal_variances(method, r, sr2, s):
+    """Variances along the line of sight and across it of the method's covariance.
+
+    Evaluated at the measurement (r = r̂), s = σβ²; written with expm1 so that no
+    difference of nearly equal numbers loses the small cross-range variance."""
+    em = -np.expm1(-s)                                 # 1 − e^{−s}
+    if method == "linearized":                         # eq. (2a–c): J diag(σr², σβ²) Jᵀ
+        return sr2, r**2 * s
+    if method == "multiplicative":                     # Mo et al.: MSE given the measurement
+        big = np.where(s < 1e-4, 1.5 * s**2 - 0.5 * s**3 + 0.375 * s**4,
+                       np.expm1(s) + 0.5 * np.expm1(-2 * s))   # e^{s} − 3/2 + e^{−2s}/2
+        along = r**2 * big + 0.5 * sr2 * (1 + np.exp(-2 * s))
+        return along, -0.5 * (r**2 + sr2) * np.expm1(-2 * s)
+    # additive / first_order / first_order_printed: eq. (4a–c), Lerro & Bar-Shalom's R^a
+    along = (-0.5 * r**2 * em * np.expm1(-3 * s)
+             + sr2 * (1 - 0.5 * np.exp(-s) + np.exp(-4 * s) - 0.5 * np.exp(-3 * s)))
+    cross = (0.5 * r**2 * em * (1 + np.exp(-3 * s))
+             + sr2 * (-np.expm1(-4 * s) + 0.5 * np.exp(-s) * np.expm1(-2 * s)))
+    return along, cross
+
+
+def _truth_variances(method, r, sr2, s):
+    """Principal variances of Cov[x̂ | r, β] (given the TRUE position), s = σβ²."""
+    g2 = _gain(method, s) ** 2
+    em = -np.expm1(-s)
+    along = g2 * (0.5 * r**2 * em**2 + 0.5 * sr2 * (1 + np.exp(-2 * s)))
+    return along, -0.5 * g2 * (r**2 + sr2) * np.expm1(-2 * s)
+
+
+def _rotate(along, cross, beta):
+    """Stack the covariances with variance `along` on the line of sight u(β) and `cross`
+    across it: R diag(along, cross) Rᵀ, shape (..., 2, 2)."""
+    c, s = np.cos(beta), np.sin(beta)
+    out = np.empty((*np.shape(along), 2, 2))
+    out[..., 0, 0] = along * c**2 + cross * s**2
+    out[..., 1, 1] = along * s**2 + cross * c**2
+    out[..., 0, 1] = out[..., 1, 0] = (along - cross) * c * s
     return out
 
 
-def _cov_coefficients(method, r, sr2, s):
-    """(a, b) of the method's covariance a I + b M(β̂), evaluated at the measurement."""
-    lam2 = np.exp(-s)          # (E cos w)^2
-    q = np.exp(-2 * s)         # E cos 2w
-    if method == "linearized":                        # eq. (2a–c)
-        return 0.5 * (sr2 + r**2 * s), 0.5 * (sr2 - r**2 * s)
-    if method == "multiplicative":                    # Mo et al., measured-conditioned
-        k = (1.0 / lam2 - 2.0) * r**2
-        return 0.5 * k + 0.5 * (r**2 + sr2), 0.5 * k + 0.5 * (r**2 + sr2) * q
-    # additive / first_order / first_order_printed: eq. (4a–c), Lerro & Bar-Shalom R^a
-    a = 0.5 * (r**2 + 2 * sr2) - 0.5 * (r**2 + sr2) * lam2
-    b = 0.5 * (r**2 + 2 * sr2) * q**2 - 0.5 * (r**2 + sr2) * lam2 * q
-    return a, b
+def _scale(r, sigma_r):
+    """Exponents e with r / 2^e and σr / 2^e at most 1: variances are computed in units of
+    4^e and scaled back exactly (ldexp), so r near 1e154 neither overflows r² nor loses it."""
+    return np.frexp(np.maximum(r, sigma_r))[1]
 
 
-def _warn_singular(cov, method):
-    a = 0.5 * (cov[..., 0, 0] + cov[..., 1, 1])
-    det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] ** 2
-    disc = np.sqrt(np.maximum(a**2 - det, 0.0))
-    low, high = a - disc, a + disc
+def _unscale(v_scaled, e, what):
+    """v · 4^e, refusing a result that overflows or underflows float64."""
+    v = np.ldexp(v_scaled, 2 * e)
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"the {what} overflows float64 (above 1.8e308): `r`/`sigma_r` are too "
+                         "large for their variances to be represented; express them in a "
+                         "larger unit (km instead of m)")
+    if np.any((v == 0) & (v_scaled > 0)):
+        raise ValueError(f"the {what} underflows float64 (below 5e-324): `r`/`sigma_r` "
+                         "are too small for their variances to be represented; express them "
+                         "in a smaller unit")
+    return v
+
+
+def _convert(method, r, beta, sigma_r, sigma_beta):
+    """Position g r̂ u(β̂) and the principal variances of the method's covariance."""
+    s = sigma_beta**2
+    g = _gain(method, s)
+    with np.errstate(over="ignore"):
+        gr = g * r
+    if not np.all(np.isfinite(gr)):
+        raise ValueError(f"`r` is too large: the converted position overflows float64; "
+                         f"received largest entry {float(np.max(r)):.6g}")
+    xy = np.stack([gr * np.cos(beta), gr * np.sin(beta)], axis=-1)
+    e = _scale(r, sigma_r)
+    along, cross = _principal_variances(method, np.ldexp(r, -e), np.ldexp(sigma_r, -e)**2, s)
+    along = _unscale(along, e, "along-range variance")
+    cross = _unscale(cross, e, "cross-range variance")
+    return xy, along, cross
+
+
+def _warn_singular(along, cross, method):
+    low, high = np.minimum(along, cross), np.maximum(along, cross)
     bad = low <= 1e-12 * high
     if np.any(bad):
         warnings.warn(
             f"{int(np.count_nonzero(bad))} of {bad.size} covariances from method "
-            f"{method!r} are singular (zero range with 'linearized', or a zero "
-            "`sigma_r`/`sigma_beta`); a Cholesky factorisation of them will fail",
+            f"{method!r} are singular or nearly so (ratio of principal variances at most "
+            "1e-12: zero range with 'linearized', or a zero or tiny `sigma_r`/`sigma_beta`); "
+            "a Cholesky factorisation of them will fail",
             RadarFusionWarning, stacklevel=3)
 
 
@@ -355,13 +459,9 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     """
     method = as_choice(method, "method", METHODS)
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta)
-    s = sigma_beta**2
-    g = _gain(method, s)
-    xy = np.stack([g * r * np.cos(beta), g * r * np.sin(beta)], axis=-1)
-    a, b = _cov_coefficients(method, r, sigma_r**2, s)
-    cov = _am_matrix(a, b, beta)
-    _warn_singular(cov, method)
-    return ConvertedMeasurement(xy, cov, method)
+    xy, along, cross = _convert(method, r, beta, sigma_r, sigma_beta)
+    _warn_singular(along, cross, method)
+    return ConvertedMeasurement(xy, _rotate(along, cross, beta), method)
 
 
 def conversion_moments(r, beta, sigma_r, sigma_beta, *, method: str = "linearized"
@@ -410,18 +510,24 @@ def conversion_moments(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     """
     method = as_choice(method, "method", METHODS)
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta)
+    return _moments(method, r, beta, sigma_r, sigma_beta)
+
+
+def _moments(method, r, beta, sigma_r, sigma_beta) -> ConversionMoments:
     s = sigma_beta**2
-    g = _gain(method, s)
-    lam = np.exp(-s / 2)
+    bf = _bias_factor(method, s)
     u = np.stack([np.cos(beta), np.sin(beta)], axis=-1)
-    mean_xy = (g * lam * r)[..., None] * u
-    bias = ((g * lam - 1.0) * r)[..., None] * u
-    e2 = r**2 + sigma_r**2
-    a = g**2 * (0.5 * e2 - 0.5 * lam**2 * r**2)
-    b = g**2 * (0.5 * e2 * np.exp(-2 * s) - 0.5 * lam**2 * r**2)
-    cov = _am_matrix(a, b, beta)
-    mse = cov + bias[..., :, None] * bias[..., None, :]
-    return ConversionMoments(mean_xy, bias, cov, mse, method)
+    mean_xy = ((1.0 + bf) * r)[..., None] * u
+    bias = (bf * r)[..., None] * u
+    e = _scale(r, sigma_r)
+    rn, srn = np.ldexp(r, -e), np.ldexp(sigma_r, -e)
+    along, cross = _truth_variances(method, rn, srn**2, s)
+    # the bias lies along the line of sight: it adds (bf r)² to the along-range MSE only
+    along_mse = _unscale(along + (bf * rn) ** 2, e, "mean squared error")
+    along = _unscale(along, e, "along-range variance")
+    cross = _unscale(cross, e, "cross-range variance")
+    return ConversionMoments(mean_xy, bias, _rotate(along, cross, beta),
+                             _rotate(along_mse, cross, beta), method)
 
 
 def conversion_bias(r, beta, sigma_beta, *, method: str = "linearized") -> np.ndarray:
@@ -467,7 +573,13 @@ def conversion_bias(r, beta, sigma_beta, *, method: str = "linearized") -> np.nd
     >>> conversion_bias(150.0, 0.0, np.deg2rad(1.0), method="multiplicative").round(12)
     array([0., 0.])
     """
-    return conversion_moments(r, beta, 0.0, sigma_beta, method=method).bias
+    method = as_choice(method, "method", METHODS)
+    r, beta, sigma_beta = broadcast(r=as_positive(r, "r", strict=False),
+                                    beta=as_float_array(beta, "beta"),
+                                    sigma_beta=_sigma_beta_iv(sigma_beta))
+    _check_batch(1, r=r)
+    bf = _bias_factor(method, sigma_beta**2)
+    return (bf * r)[..., None] * np.stack([np.cos(beta), np.sin(beta)], axis=-1)
 
 
 def nonlinearity_index(r, sigma_r, sigma_beta) -> np.ndarray:
@@ -491,6 +603,14 @@ def nonlinearity_index(r, sigma_r, sigma_beta) -> np.ndarray:
     -------
     numpy.ndarray
 
+    Raises
+    ------
+    ValueError
+        Negative `r`, non-positive `sigma_r`, `sigma_beta` outside
+        ``[0, SIGMA_BETA_MAX]``, or an index above the float range (the
+        product is formed from mantissas and exponents, so no intermediate
+        overflows or underflows).
+
     Examples
     --------
     >>> float(nonlinearity_index(150.0, 0.1, np.deg2rad(1.0))).__round__(3)
@@ -500,7 +620,14 @@ def nonlinearity_index(r, sigma_r, sigma_beta) -> np.ndarray:
     sigma_r = as_positive(sigma_r, "sigma_r")
     sigma_beta = _sigma_beta_iv(sigma_beta)
     r, sigma_r, sigma_beta = broadcast(r=r, sigma_r=sigma_r, sigma_beta=sigma_beta)
-    return r * sigma_beta**2 / sigma_r
+    (mr, er), (ms, es), (mb, eb) = np.frexp(r), np.frexp(sigma_r), np.frexp(sigma_beta)
+    with np.errstate(over="ignore"):
+        out = np.ldexp(mr * mb * mb / ms, er + 2 * eb - es)
+    if not np.all(np.isfinite(out)):
+        raise ValueError("`r`·`sigma_beta`²/`sigma_r` exceeds the float range (1.8e308); "
+                         f"received r up to {float(np.max(r)):.3g} and sigma_r down to "
+                         f"{float(np.min(sigma_r)):.3g}")
+    return out
 
 
 def simulate_polar(r, beta, sigma_r, sigma_beta, *, trials: int, rng=None):
@@ -521,14 +648,33 @@ def simulate_polar(r, beta, sigma_r, sigma_beta, *, trials: int, rng=None):
     -------
     r_hat, beta_hat : numpy.ndarray, shape (..., trials)
 
+    Raises
+    ------
+    ValueError
+        As :func:`polar_to_cartesian`; ``r < 8 sigma_r``; `trials` < 1; a batch
+        (broadcast inputs × `trials`) above :data:`MAX_BATCH`, refused before
+        anything is drawn.
+    TypeError
+        Non-numeric input, a non-integer `trials`, or an `rng` that is not
+        ``None``, a seed, a SeedSequence or a Generator.
+
+    Notes
+    -----
+    The draws are ``r + sigma_r z_r`` and ``beta + sigma_beta z_beta`` with all
+    range deviates drawn first, then all azimuth deviates, each in C order of the
+    shape ``(..., trials)``: a seed fixes the result for a given batch shape and
+    `trials`. :func:`conversion_monte_carlo` draws once through this function and
+    only then works through the trials in chunks, so its results do not depend
+    on its `chunk_size`.
+
     Examples
     --------
     >>> r_hat, b_hat = simulate_polar([100.0, 150.0], 0.3, 0.1, 0.01, trials=5, rng=1)
     >>> r_hat.shape
     (2, 5)
     """
-    r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta)
     trials = as_int(trials, "trials", minimum=1)
+    r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, trials=trials)
     rng = as_rng(rng)
     if np.any(r < MIN_RANGE_OVER_SIGMA * sigma_r):
         raise ValueError(
@@ -536,7 +682,11 @@ def simulate_polar(r, beta, sigma_r, sigma_beta, *, trials: int, rng=None):
             f"range error never produces a negative range; received smallest r/sigma_r "
             f"{float(np.min(r / np.where(sigma_r > 0, sigma_r, np.inf))):.4g}")
     shape = (*r.shape, trials)
-    r_hat = r[..., None] + sigma_r[..., None] * rng.standard_normal(shape)
+    with np.errstate(over="ignore"):
+        r_hat = r[..., None] + sigma_r[..., None] * rng.standard_normal(shape)
+    if not np.all(np.isfinite(r_hat)):
+        raise ValueError("`r` is too large: simulated ranges overflow float64; received "
+                         f"largest entry {float(np.max(r)):.6g}")
     beta_hat = beta[..., None] + sigma_beta[..., None] * rng.standard_normal(shape)
     return r_hat, beta_hat
 
@@ -573,6 +723,8 @@ def nees(error, cov) -> np.ndarray:
     """
     e = as_float_array(error, "error", ndim_min=1)
     d = e.shape[-1]
+    if d < 1:
+        raise ValueError(f"`error` must have shape (..., d) with d >= 1; received shape {e.shape}")
     c = as_float_array(cov, "cov", ndim_min=2, last_dims=(d, d))
     try:
         shape = np.broadcast_shapes(e.shape[:-1], c.shape[:-2])
@@ -580,10 +732,19 @@ def nees(error, cov) -> np.ndarray:
         raise ValueError(
             f"`error` (..., d) and `cov` (..., d, d) must have broadcasting batch shapes; "
             f"received shapes {e.shape} and {c.shape}") from None
+    check_size(int(np.prod(shape, dtype=object)) * d * d, MAX_BATCH,
+               what="broadcast `error` × `cov` entries",
+               alternative="several calls on slices of the batch")
+    # scale each matrix by a power of 4 (and its error by the power of 2): exact, and the
+    # factorisation then never overflows or underflows, whatever the unit
+    big = np.max(np.abs(c), axis=(-2, -1))
+    k = np.frexp(np.where(big > 0, big, 1.0))[1] // 2
+    c = np.ldexp(c, -2 * k[..., None, None])
+    e = np.ldexp(e, -np.broadcast_to(k, shape)[..., None]) if shape else np.ldexp(e, -k)
     if d != 2:
         chol = np.linalg.cholesky(np.broadcast_to(as_covariance(c, "cov"), (*shape, d, d)))
         z = np.linalg.solve(chol, np.broadcast_to(e, (*shape, d))[..., None])[..., 0]
-        return np.sum(z**2, axis=-1)
+        return _finite_nees(np.sum(z**2, axis=-1))
     # d = 2: the Cholesky factor in closed form (fast on millions of trials)
     c00, c01, c10, c11 = c[..., 0, 0], c[..., 0, 1], c[..., 1, 0], c[..., 1, 1]
     scale = np.maximum(np.abs(c).max(axis=(-2, -1)), np.finfo(float).tiny)
@@ -593,22 +754,31 @@ def nees(error, cov) -> np.ndarray:
         schur = c11 - l10**2
         ok = (c00 > 0) & (schur > 0) & (np.abs(c01 - c10) <= 1e-9 * scale)
     if not np.all(ok):
-        as_covariance(c, "cov", dim=2)     # raises the package's standard message
+        as_covariance(cov, "cov", dim=2)     # raises the package's standard message
         raise ValueError("`cov` must be symmetric positive definite; the Cholesky "
-                         "factorisation failed for some matrices")
-    z0 = e[..., 0] / l00
-    z1 = (e[..., 1] - l10 * z0) / np.sqrt(schur)
-    return z0**2 + z1**2
+                         f"factorisation failed for {int(np.count_nonzero(~ok))} matrices "
+                         "(numerically singular)")
+    with np.errstate(over="ignore"):
+        z0 = e[..., 0] / l00
+        z1 = (e[..., 1] - l10 * z0) / np.sqrt(schur)
+        return _finite_nees(z0**2 + z1**2)
+
+
+def _finite_nees(value):
+    if not np.all(np.isfinite(value)):
+        raise ValueError("NEES exceeds the float range (1.8e308): `error` is too large for "
+                         "`cov`; received an error more than 1e154 standard deviations out")
+    return value
 
 
 def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -> np.ndarray:
     """Expected NEES when the method's covariance is evaluated at the TRUE position.
 
-    :math:`\\operatorname{tr}\\big(C(r, \\beta)^{-1}\\,\\mathrm{MSE}(r, \\beta)\\big)`, with
-    :math:`C` the covariance :func:`polar_to_cartesian` would attach to a report
+    :math:`\\operatorname{tr}\\big(\\Sigma(r, \\beta)^{-1}\\,\\mathrm{MSE}(r, \\beta)\\big)`, with
+    :math:`\\Sigma` the covariance :func:`polar_to_cartesian` would attach to a report
     lying exactly at the truth and MSE the exact mean squared error matrix of
-    :func:`conversion_moments`. It is 2 when :math:`C` is the true MSE. In
-    practice :math:`C` is evaluated at the measurement, and the Monte-Carlo mean
+    :func:`conversion_moments`. It is 2 when :math:`\\Sigma` is the true MSE. In
+    practice :math:`\\Sigma` is evaluated at the measurement, and the Monte-Carlo mean
     NEES of :func:`conversion_monte_carlo` is the relevant figure; the two
     agree for ``"linearized"`` but not for the measured-conditioned covariances
     of ``"additive"`` and ``"multiplicative"`` (see the book's chapter).
@@ -617,6 +787,8 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
     ----------
     r, beta, sigma_r, sigma_beta : array_like
         TRUE range and azimuth and the error standard deviations (broadcast).
+        The covariance must be positive definite: ``sigma_r > 0``,
+        ``sigma_beta > 0``, and ``r > 0`` for ``"linearized"``.
     method : str
         One of :data:`METHODS` (keyword-only).
 
@@ -625,22 +797,48 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
     numpy.ndarray
         Shape of the broadcast inputs.
 
+    Raises
+    ------
+    ValueError
+        As :func:`polar_to_cartesian`; a zero `sigma_r` or `sigma_beta`, a zero
+        `r` with ``"linearized"``, or a covariance numerically singular
+        (principal variances in a ratio below 1e-300).
+
+    Notes
+    -----
+    Both matrices have their principal axes along and across the line of sight
+    :math:`u(\\beta)`, so the trace is the sum of two ratios of principal
+    variances, computed without any factorisation:
+    :math:`\\mathrm{MSE}_\\parallel/\\Sigma_\\parallel + \\mathrm{MSE}_\\perp/\\Sigma_\\perp`.
+
     Examples
     --------
     >>> round(float(nees_at_truth(150.0, 0.0, 0.1, 1e-4)), 4)
     2.0
     """
-    conv = polar_to_cartesian(r, beta, sigma_r, sigma_beta, method=method)
-    mse = conversion_moments(r, beta, sigma_r, sigma_beta, method=method).mse
-    chol = np.linalg.cholesky(conv.cov)
-    half = np.linalg.solve(chol, mse)                       # L⁻¹ MSE
-    inner = np.linalg.solve(chol, np.swapaxes(half, -1, -2))  # L⁻¹ (L⁻¹ MSE)ᵀ = L⁻¹ MSE L⁻ᵀ
-    return np.trace(inner, axis1=-2, axis2=-1)
+    method = as_choice(method, "method", METHODS)
+    r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, strict=True)
+    if method == "linearized" and np.any(r == 0):
+        raise ValueError("`r` must be > 0 for method 'linearized' (its covariance at zero "
+                         f"range is singular); received {_describe(r)}")
+    s = sigma_beta**2
+    e = _scale(r, sigma_r)
+    rn, sr2 = np.ldexp(r, -e), np.ldexp(sigma_r, -e) ** 2
+    along_c, cross_c = _principal_variances(method, rn, sr2, s)
+    along_t, cross_t = _truth_variances(method, rn, sr2, s)
+    along_m = along_t + (_bias_factor(method, s) * rn) ** 2
+    tiny = np.finfo(float).tiny
+    if np.any(along_c <= tiny * along_m) or np.any(cross_c <= tiny * cross_t):
+        raise ValueError("the method's covariance is numerically singular for these "
+                         "`sigma_r`/`sigma_beta`/`r` (a principal variance below 1e-308 of the "
+                         "error's): its expected NEES is beyond the float range")
+    return along_m / along_c + cross_t / cross_c
 
 
 def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
                            methods=("linearized", "additive", "multiplicative"),
-                           trials: int = 10_000, rng=None) -> dict[str, ConversionTrials]:
+                           trials: int = 10_000, rng=None,
+                           chunk_size: int | None = None) -> dict[str, ConversionTrials]:
     """Monte Carlo of the conversion error and NEES for several methods.
 
     All methods see the same simulated measurements (common random numbers),
@@ -650,19 +848,40 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
     ----------
     r, beta, sigma_r, sigma_beta : array_like
         TRUE range and azimuth and the error standard deviations (broadcast
-        to a batch shape ``(...)``; ``r >= 8 sigma_r``).
+        to a batch shape ``(...)``; ``r >= 8 sigma_r``; ``sigma_r > 0`` and
+        ``sigma_beta > 0``, since NEES needs a positive-definite covariance).
     methods : sequence of str
         Methods from :data:`METHODS` (keyword-only).
     trials : int
-        Measurements per batch element.
+        Measurements per batch element (≥ 1; batch × trials at most
+        :data:`MAX_BATCH`).
     rng : None, int, SeedSequence or numpy.random.Generator
         Randomness (SPEC 7).
+    chunk_size : int, optional
+        Trials converted at a time (working memory); ``None`` chooses about
+        2**16 batch elements per chunk. At most :data:`MAX_BATCH`. The results
+        do not depend on it: all measurements are drawn first
+        (:func:`simulate_polar`), then converted chunk by chunk.
 
     Returns
     -------
     dict of str to ConversionTrials
         ``error`` with shape ``(..., trials, 2)`` and ``nees`` with shape
         ``(..., trials)`` for each method.
+
+    Raises
+    ------
+    ValueError
+        As :func:`simulate_polar`; a zero `sigma_r` or `sigma_beta`; an
+        unknown method; an empty `methods`; a `chunk_size` below 1 or above
+        :data:`MAX_BATCH`; results above 1 GiB (refused before drawing).
+
+    Notes
+    -----
+    The NEES of each trial is computed in the covariance's principal axes,
+    :math:`(\\mathbf e\\cdot u)^2/\\Sigma_\\parallel + (\\mathbf e\\cdot u_\\perp)^2/\\Sigma_\\perp`
+    with :math:`u = u(\\hat\\beta)`, which equals :math:`\\mathbf e^\\mathsf T\\Sigma^{-1}\\mathbf e`
+    and needs no factorisation.
 
     Examples
     --------
@@ -672,14 +891,41 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
     """
     if isinstance(methods, str):
         methods = (methods,)
+    if isinstance(methods, (bytes, np.ndarray)) or not hasattr(methods, "__iter__"):
+        raise TypeError(f"`methods` must be a sequence of method names; received "
+                        f"{_describe(methods)}")
     methods = tuple(as_choice(m, "methods", METHODS) for m in methods)
-    r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta)
+    if not methods:
+        raise ValueError("`methods` must name at least one method; received an empty sequence")
+    trials = as_int(trials, "trials", minimum=1)
+    r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, strict=True,
+                                             trials=trials)
+    batch = max(int(r.size), 1)
+    check_size(batch * trials * (16 + 24 * len(methods)), MEMORY_LIMIT,
+               what="bytes of measurements and results (batch × trials × (16 + 24 × methods))",
+               alternative="fewer trials per call, pooling calls seeded from SeedSequence.spawn")
+    if chunk_size is None:
+        chunk = max(1, (1 << 16) // batch)
+    else:
+        chunk = as_int(chunk_size, "chunk_size", minimum=1, maximum=MAX_BATCH)
+    chunk = min(chunk, trials)
     r_hat, beta_hat = simulate_polar(r, beta, sigma_r, sigma_beta, trials=trials, rng=rng)
     truth = np.stack([r * np.cos(beta), r * np.sin(beta)], axis=-1)[..., None, :]
-    out = {}
-    for m in methods:
-        conv = polar_to_cartesian(r_hat, beta_hat, sigma_r[..., None], sigma_beta[..., None],
-                                  method=m)
-        err = conv.xy - truth
-        out[m] = ConversionTrials(m, err, nees(err, conv.cov))
-    return out
+    sr, sb = sigma_r[..., None], sigma_beta[..., None]
+    out = {m: (np.empty((*r.shape, trials, 2)), np.empty((*r.shape, trials))) for m in methods}
+    for lo in range(0, trials, chunk):
+        sl = slice(lo, min(lo + chunk, trials))
+        rh, bh = r_hat[..., sl], beta_hat[..., sl]
+        u = np.stack([np.cos(bh), np.sin(bh)], axis=-1)
+        for m in methods:
+            xy, along, cross = _convert(m, rh, bh, sr, sb)
+            err = xy - truth
+            ea = np.sum(err * u, axis=-1)                             # along the line of sight
+            ec = err[..., 1] * u[..., 0] - err[..., 0] * u[..., 1]    # across it
+            if np.any(along <= 0) or np.any(cross <= 0):
+                raise ValueError("a converted covariance is singular (a measured range of 0 "
+                                 "with 'linearized', or `sigma_r`/`sigma_beta` too small for "
+                                 "float64 at these ranges)")
+            out[m][0][..., sl, :] = err
+            out[m][1][..., sl] = _finite_nees(ea**2 / along + ec**2 / cross)
+    return {m: ConversionTrials(m, err, ne) for m, (err, ne) in out.items()}
