@@ -184,8 +184,9 @@ def _scalar_iv(x, var):
     return x, var
 
 
-#: Smallest variance whose reciprocal, the information, is finite (about 5.6e-309).
-_TINY = float(np.nextafter(1.0 / np.finfo(float).max, 1.0))
+#: Smallest positive normal float (about 2.2e-308). A derived variance below it would be
+#: subnormal, carried with fewer significant bits, so it is refused instead of returned.
+_TINY = float(np.finfo(float).tiny)
 
 
 def _relative_information(var):
@@ -201,14 +202,14 @@ def _relative_information(var):
 
 
 def _normal_variance(value, name, what):
-    """Refuse a derived variance whose reciprocal (the information) overflows: its inputs
-    are too small for floating point."""
+    """Refuse a derived variance below the smallest normal float: it would have lost
+    precision (and its reciprocal, the information, may overflow)."""
     value = np.asarray(value)
     if not np.all(value >= _TINY):
-        raise ValueError(f"`{name}` has entries too small to invert in floating point: the "
-                         f"{what} ({np.min(value):.3g}) is below {_TINY:.3g}, where its "
-                         "reciprocal (the information) overflows; express the coordinates in "
-                         "smaller units")
+        raise ValueError(f"`{name}` has entries too small for floating point: the {what} "
+                         f"({np.min(value):.3g}) is below the smallest normal float "
+                         f"{_TINY:.3g} (its reciprocal, the information, would overflow or "
+                         "lose precision); express the coordinates in smaller units")
 
 
 def _weighted_sum(weights, x):
@@ -541,7 +542,7 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
         cov_f = cov_s * c_min[..., None, None]                         # P = Y^-1
         info = info_s / c_min[..., None, None]                         # Y = sum_i C_i^-1
     if not (np.isfinite(info).all() and np.isfinite(estimate).all()
-            and np.all(np.diagonal(cov_f, axis1=-2, axis2=-1) > 0)):
+            and np.all(np.diagonal(cov_f, axis1=-2, axis2=-1) >= _TINY)):
         raise ValueError("`cov` is numerically singular for floating point: the fused "
                          "information overflows or the fused covariance underflows; rescale "
                          "the coordinates")

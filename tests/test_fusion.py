@@ -481,12 +481,12 @@ def test_other_entry_points_reject_bad_input():
 
 
 def test_chapter_literalincludes_show_the_code_after_the_docstring():
-    """The chapter shows the body of two functions from a marker line; keep them in step."""
+    """The chapter and its sub-pages show function bodies from a marker line; keep them in step."""
     import inspect
 
     from radarfusion_ref import fusion
 
-    text = (ROOT / "book" / "01_fusion.md").read_text()
+    text = "".join(p.read_text() for p in sorted((ROOT / "book").glob("01_fusion*.md")))
     found = re.findall(r":pyobject: (\w+)\n:prepend: (.*)\n:start-at: (.*)\n", text)
     assert {name for name, _, _ in found} == {"fuse", "fuse_gaussian"}
     for name, signature, marker in found:
@@ -495,3 +495,14 @@ def test_chapter_literalincludes_show_the_code_after_the_docstring():
         start = [i for i, line in enumerate(lines) if line.strip() == marker]
         assert len(start) == 1, name
         assert lines[start[0] - 1].strip() == '"""', name    # right after the docstring
+
+
+def test_misweighted_literalinclude_marker_is_in_the_function():
+    import inspect
+
+    from radarfusion_ref import fusion
+
+    text = (ROOT / "book" / "01_fusion_misweight.md").read_text()
+    (marker,) = re.findall(r":pyobject: misweighted\n:start-at: (.*)\n", text)
+    lines = [line.strip() for line in inspect.getsource(fusion.misweighted).splitlines()]
+    assert lines.count(marker) == 1
