@@ -9,7 +9,8 @@ from book_tools import ROOT, is_notebook, notebook_docnames, toc_docnames
 
 from radarfusion_ref import catalog
 
-CHAPTER_DOCS = [d for d in notebook_docnames() if re.search(r"/\d\d_", d)]
+# a chapter is book/NN_<stem>; its sub-pages book/NN_<stem>_<topic> are sections of it
+CHAPTER_DOCS = [d for d in notebook_docnames() if re.search(r"/\d\d_[a-z]+$", d)]
 
 
 def test_catalog_matches_the_table_of_contents():

@@ -1,0 +1,135 @@
+"""The chapter shape of CONTRIBUTING.md, measured on the sources and on the built pages.
+
+The source half runs with the unit tests; the built-page half needs the executed book
+(marker ``book``). ``python tests/book_metrics.py`` prints the same numbers as a table.
+"""
+
+from __future__ import annotations
+
+import re
+import textwrap
+
+import pytest
+from book_metrics import html_metrics, page_metrics, source_metrics
+from book_tools import ROOT, notebook_docnames
+
+from radarfusion_ref import catalog
+
+MAX_VISIBLE_CHECKS = 3
+MAX_CHECK_SHARE = 0.20
+MAX_READING_MINUTES = 35.0
+MIN_EXERCISES = 4
+MIN_PLAYER_FRAMES = 24
+
+#: Every page of a chapter (the chapter and its sub-pages), and the chapters' main pages.
+CHAPTER_PAGES = [d for d in notebook_docnames() if re.search(r"/\d\d_", d)]
+MAIN_PAGES = {c.docname: c.number for c in catalog.CHAPTERS}
+ALL_NOTEBOOKS = notebook_docnames()
+
+
+@pytest.mark.parametrize("docname", CHAPTER_PAGES)
+def test_checks_are_out_of_the_reading_flow(docname):
+    m = source_metrics(ROOT / f"{docname}.md")
+    assert m.visible_checks <= MAX_VISIBLE_CHECKS, (
+        f"{docname}: {m.visible_checks} visible check cells (at most {MAX_VISIBLE_CHECKS})")
+    assert m.check_share <= MAX_CHECK_SHARE, (
+        f"{docname}: {m.visible_checks} of {m.visible_code} visible code cells are checks "
+        f"(at most {MAX_CHECK_SHARE:.0%})")
+
+
+@pytest.mark.parametrize("docname", CHAPTER_PAGES)
+def test_a_page_takes_at_most_35_minutes(docname):
+    m = source_metrics(ROOT / f"{docname}.md")
+    assert m.reading_minutes <= MAX_READING_MINUTES, (
+        f"{docname}: {m.reading_minutes} min ({m.prose_words} words, "
+        f"{m.visible_code_lines} visible code lines)")
+
+
+@pytest.mark.parametrize("docname", sorted(MAIN_PAGES))
+def test_a_chapter_has_the_lesson_shape(docname):
+    m = source_metrics(ROOT / f"{docname}.md")
+    assert m.learn_know, f"{docname}: 'What you will learn' / 'You should already know'"
+    assert m.summary, f"{docname}: a 'Summary: key takeaways' admonition"
+    assert m.exercises >= MIN_EXERCISES, f"{docname}: {m.exercises} exercises"
+    text = (ROOT / f"{docname}.md").read_text(encoding="utf-8")
+    for kind in ("Check your understanding", "Derive", "Code", "Explore"):
+        assert re.search(rf"```\{{exercise-start\}}\s*{kind}", text), (
+            f"{docname}: no '{kind}' exercise")
+    assert "checks.summary()" in text, f"{docname}: the page's verification verdict"
+
+
+@pytest.mark.parametrize("docname", ALL_NOTEBOOKS)
+def test_no_dead_controls_on_the_page(docname):
+    assert source_metrics(ROOT / f"{docname}.md").dead_controls == 0
+
+
+def test_the_metrics_see_what_they_measure(tmp_path):
+    """The metric counts a visible check, a hidden one, prose and a solution correctly."""
+    front = (ROOT / "book" / "intro.md").read_text(encoding="utf-8").split("---", 2)[1]
+    page = tmp_path / "page.md"
+    page.write_text(f"---{front}---\n" + textwrap.dedent("""\
+        # A page
+
+        one two three four
+
+        ```{code-cell} ipython3
+        check_close(a, b, what="x")
+        ```
+
+        ```{code-cell} ipython3
+        :tags: [remove-input]
+        require(p, 0.5, "coin")
+        ```
+
+        ```{code-cell} ipython3
+        x = 1
+        y = 2
+        ```
+
+        ```{code-cell} ipython3
+        :tags: [remove-cell]
+        controls(view)
+        ```
+
+        ```{solution-start} ex
+        :class: dropdown
+        ```
+
+        hidden words here
+
+        ```{code-cell} ipython3
+        assert x == 1
+        ```
+
+        ```{solution-end}
+        ```
+        """), encoding="utf-8")
+    m = source_metrics(page)
+    assert (m.code_cells, m.visible_code, m.visible_checks) == (5, 2, 1)
+    assert m.dead_controls == 0
+    assert m.visible_code_lines == 3
+    assert m.prose_words == 7  # "# A page" and "one two three four"
+
+
+def test_the_html_metrics_see_what_they_measure():
+    html = ('<main><img src="data:image/png;base64,AA"><div class="math notranslate">x</div>'
+            '<span>Exercise 3.1</span><script type="application/vnd.jupyter.widget-state+json">'
+            '{"a": 1}</script> var frames = new Array(30); var frames = new Array(12);</main>')
+    m = html_metrics(html)
+    assert m == {"figure_first": True, "first_exercise": "3.1", "widget_state_bytes": 8,
+                 "player_frames": 12}
+    assert html_metrics('<main><div class="math">x</div><img src="x/_images/a.png">')[
+        "figure_first"] is False
+
+
+@pytest.mark.book
+@pytest.mark.parametrize("docname", ALL_NOTEBOOKS)
+def test_built_page_teaches_on_its_own(built_book, docname):
+    m = page_metrics(ROOT / f"{docname}.md")
+    assert m.widget_state_bytes == 0, f"{docname}: {m.widget_state_bytes} B of widget state"
+    if m.player_frames is not None:
+        assert m.player_frames >= MIN_PLAYER_FRAMES, f"{docname}: a player of {m.player_frames}"
+    if docname in MAIN_PAGES:
+        assert m.figure_first, f"{docname}: no figure before the first display equation"
+        assert m.first_exercise == f"{MAIN_PAGES[docname]}.1", (
+            f"{docname}: first exercise numbered {m.first_exercise}")
