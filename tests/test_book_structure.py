@@ -82,6 +82,24 @@ def test_errata_page_includes_every_chapter_fragment():
     assert included == {c.stem for c in catalog.CHAPTERS}
 
 
+def test_errata_page_has_a_heading_per_paper():
+    errata = (ROOT / "book" / "errata.md").read_text(encoding="utf-8")
+    assert len(re.findall(r"^## ", errata, flags=re.M)) == len(catalog.PAPERS)
+
+
+@pytest.mark.parametrize("chapter", catalog.CHAPTERS, ids=lambda c: c.stem)
+def test_every_erratum_has_printed_corrected_and_evidence(chapter):
+    text = (ROOT / "book" / "errata" / f"{chapter.stem}.md").read_text(encoding="utf-8")
+    assert not re.search(r"^#{1,2} ", text, flags=re.M), "fragments use ### headings only"
+    entries = re.split(r"^### ", text, flags=re.M)[1:]
+    for entry in entries:
+        title = entry.splitlines()[0]
+        for part in ("Printed", "Corrected", "Evidence"):
+            assert re.search(rf"^{part}\n: ", entry, flags=re.M), f"{title}: no {part}"
+        evidence = entry.split("\nEvidence\n", 1)[1]
+        assert "{ref}" in evidence, f"{title}: evidence links no executed cell"
+
+
 def test_every_module_has_an_api_page():
     modules = {p.stem for p in ROOT.glob("radarfusion_ref/*.py") if not p.stem.startswith("_")}
     pages = {p.stem for p in (ROOT / "book" / "api").glob("*.md")} - {"index"}
