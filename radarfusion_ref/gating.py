@@ -3,29 +3,46 @@
 A pointwise hypothesis :math:`G_k` ("report 1 and report 2 belong to one
 object") is accepted when its proximity measure :math:`\\kappa` (a squared
 Mahalanobis distance, see :mod:`radarfusion_ref.proximity`) falls below a gate
-:math:`\\kappa_{\\text{th}}`. Under a true hypothesis :math:`\\kappa \\sim
-\\chi^2(m)`; under a false one :math:`\\kappa \\sim \\chi'^2(m, V)`, a
-noncentral chi-square with noncentrality :math:`V`. The gate is set from the
-probability :math:`P_{\\text{lo}}` of falsely rejecting a true hypothesis
-(Grachov & Korneev 2010, text after eq. (7) and Fig. 1):
+:math:`\\gamma`. Under a true hypothesis :math:`\\kappa \\sim \\chi^2_\\nu`; under a
+false one :math:`\\kappa \\sim \\chi'^2_\\nu(\\lambda)`, a noncentral chi-square with
+noncentrality :math:`\\lambda`. The gate is set from the probability
+:math:`P_{\\text{lo}}` of falsely rejecting a true hypothesis (Grachov & Korneev
+2010, text after eq. (7) and Fig. 1; the book's eq-gate):
 
 .. math::
 
-    P\\{\\chi^2(m) > \\kappa_{\\text{th}}\\} = P_{\\text{lo}}.
+    P\\{\\chi^2_\\nu > \\gamma\\} = P_{\\text{lo}}.
+
+The paper's :math:`\\kappa_{\\text{th}}`, :math:`m` and :math:`V` are the book's
+:math:`\\gamma`, :math:`\\nu` and :math:`\\lambda`.
 
 .. rubric:: Public functions
 
-* :func:`gate_threshold` — :math:`\\kappa_{\\text{th}}` from :math:`P_{\\text{lo}}` and the
+* :func:`gate_threshold` — :math:`\\gamma` from :math:`P_{\\text{lo}}` and the
   degrees of freedom;
 * :func:`in_gate` — the accept/reject decision for observed statistics;
 * :func:`p_false_accept` — the probability that a false hypothesis with
-  noncentrality :math:`V` passes the gate (1 − power);
-* :func:`required_noncentrality` — the :math:`V` a false hypothesis needs for its
-  acceptance probability to drop to a target (root-finding);
+  noncentrality :math:`\\lambda` passes the gate (1 − power);
+* :func:`required_noncentrality` — the :math:`\\lambda` a false hypothesis needs for
+  its acceptance probability to drop to a target (root-finding in the log domain);
 * :func:`gate_mahalanobis_2d` — the chunked, vectorized 2-D squared-Mahalanobis
   + gate kernel used by Monte-Carlo experiments and the benchmark.
 
 All functions broadcast over their array arguments.
+
+.. rubric:: Numerical range and limits
+
+* :func:`p_false_accept` is correct down to the smallest double: where
+  scipy's noncentral chi-square CDF falls below 1e-200 (it underflows to 0
+  near 1e-146), the probability is summed in the log domain as a Poisson
+  mixture of regularised incomplete gamma functions, and where the bound
+  :math:`P \\le \\Phi(\\sqrt\\gamma - \\sqrt\\lambda)` is below the smallest double
+  the result is 0.
+* :func:`required_noncentrality` solves :math:`\\ln P_{\\text{fa}}(\\lambda) =
+  \\ln p`, so targets down to the smallest double have their true root instead
+  of a clamped constant; it refuses more than :data:`MAX_ROOTS` roots per call.
+* :func:`gate_mahalanobis_2d` refuses a `chunk_size` above :data:`MAX_CHUNK`
+  before allocating its work buffers.
 
 .. rubric:: References
 
@@ -37,19 +54,23 @@ All functions broadcast over their array arguments.
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize, special, stats
 
 from ._validation import (
+    _describe,
     as_covariance,
     as_float_array,
     as_int,
     as_positive,
     as_probability,
     broadcast,
+    check_size,
     unwrap,
 )
 
 __all__ = [
+    "MAX_CHUNK",
+    "MAX_ROOTS",
     "gate_mahalanobis_2d",
     "gate_threshold",
     "in_gate",
@@ -57,25 +78,107 @@ __all__ = [
     "required_noncentrality",
 ]
 
+#: Largest `chunk_size` of :func:`gate_mahalanobis_2d`: 2**20 pairs, three
+#: work buffers of 8 MiB each. Larger chunks buy nothing (memory does not grow
+#: with the number of pairs anyway).
+MAX_CHUNK = 1 << 20
+
+#: Most roots :func:`required_noncentrality` solves in one call (each is a
+#: scalar root search of about a millisecond).
+MAX_ROOTS = 100_000
+
+#: Below this, scipy's noncentral chi-square CDF is re-evaluated in the log domain.
+_CDF_FLOOR = 1e-200
+#: exp(_LOG_ZERO) is 0 in double precision (the smallest subnormal is exp(-744.4)).
+_LOG_ZERO = -760.0
+#: Longest Poisson-mixture window summed for one extreme-tail probability.
+_MAX_TERMS = 1 << 20
+
 
 def _as_dof(value, name: str = "dof") -> np.ndarray:
     """Degrees of freedom: integer-valued numbers >= 1 (scalar or array)."""
     if isinstance(value, bool) or (isinstance(value, np.ndarray) and value.dtype == bool):
         raise TypeError(f"`{name}` must be an integer or an array of integers >= 1; "
-                        f"received {value!r}")
+                        f"received {_describe(value)}")
     arr = as_float_array(value, name)
     if np.any(arr != np.round(arr)) or np.any(arr < 1):
         bad = arr[(arr != np.round(arr)) | (arr < 1)].ravel()[0]
         raise ValueError(
-            f"`{name}` must be an integer >= 1 (or an array of them); received {value!r} "
-            f"(offending entry {bad:.6g})"
+            f"`{name}` must be an integer >= 1 (or an array of them); received "
+            f"{_describe(value)} (offending entry {bad:.6g})"
         )
     return arr
 
 
+def _log_gammainc(a, x):
+    """log P(a, x), the regularised lower incomplete gamma function, for arrays a > 0, x > 0.
+
+    scipy's ``gammainc`` where it is above 1e-290; below, the series
+    :math:`P(a, x) = x^a e^{-x}/\\Gamma(a + 1) \\sum_k x^k / ((a + 1)\\cdots(a + k))`
+    in the log domain (it underflows only where x is well below a, so the series
+    converges fast).
+    """
+    a, x = np.broadcast_arrays(np.asarray(a, float), np.asarray(x, float))
+    with np.errstate(divide="ignore"):
+        p = special.gammainc(a, x)
+        out = np.log(np.where(p > 1e-290, p, 1.0))
+    low = ~(p > 1e-290)
+    if np.any(low):
+        aa, xx = a[low], x[low]
+        k = np.arange(1, 401)
+        terms = np.cumsum(np.log(xx)[:, None] - np.log(aa[:, None] + k[None, :]), axis=1)
+        series = special.logsumexp(np.concatenate([np.zeros((aa.size, 1)), terms], axis=1),
+                                   axis=1)
+        out[low] = aa * np.log(xx) - xx - special.gammaln(aa + 1) + series
+    return out
+
+
+def _log_ncx2_cdf_tail(t, nu, lam):
+    """log P{chi'^2_nu(lam) < t} for one (t, nu, lam) whose probability is tiny.
+
+    Returns a finite number; values below ``_LOG_ZERO`` mean "0 in double
+    precision" (they are the upper bound log Phi(sqrt t - sqrt lam) there, so
+    the function stays monotone for root finding).
+    """
+    bound = float(special.log_ndtr(np.sqrt(t) - np.sqrt(lam)))
+    if bound < _LOG_ZERO:
+        return bound
+    x, a0, h = 0.5 * t, 0.5 * nu, 0.5 * lam
+    # the dominant Poisson term: j (a0 + j) = h x, or the Poisson mode h if smaller
+    j_star = min(h, 0.5 * (-a0 + np.sqrt(a0 * a0 + 4.0 * h * x)))
+    width = int(40.0 * np.sqrt(j_star + 1.0)) + 60
+    lo, hi = max(0, int(j_star) - width), int(j_star) + width + 1
+    check_size(hi - lo, _MAX_TERMS, what="Poisson-mixture terms (extreme tail, huge `dof`)",
+               alternative="a smaller `dof`, or scipy.stats.ncx2 with its normal range")
+    j = np.arange(lo, hi, dtype=float)
+    log_w = -h + j * np.log(h) - special.gammaln(j + 1.0)
+    return float(special.logsumexp(log_w + _log_gammainc(a0 + j, x)))
+
+
+def _log_p_accept(th, nu, lam):
+    """log P{chi'^2_nu(lam) < th}, elementwise over broadcast arrays (lam >= 0)."""
+    th, nu, lam = np.broadcast_arrays(np.asarray(th, float), np.asarray(nu, float),
+                                      np.asarray(lam, float))
+    out = np.empty(th.shape)
+    central = lam == 0
+    if np.any(central):
+        out[central] = _log_gammainc(0.5 * nu[central], 0.5 * th[central])
+    nc = ~central
+    if np.any(nc):
+        with np.errstate(all="ignore"):
+            bound = special.log_ndtr(np.sqrt(th[nc]) - np.sqrt(lam[nc]))
+            direct = np.where(bound < _LOG_ZERO, 0.0,
+                              stats.ncx2.cdf(th[nc], nu[nc], np.where(lam[nc] > 0, lam[nc], 1)))
+            vals = np.log(np.where(direct > _CDF_FLOOR, direct, 1.0))
+        redo = ~(np.isfinite(direct) & (direct > _CDF_FLOOR))
+        for i in np.flatnonzero(redo):
+            vals[i] = _log_ncx2_cdf_tail(th[nc][i], nu[nc][i], lam[nc][i])
+        out[nc] = vals
+    return out
+
 
 def gate_threshold(p_false_reject, dof=1):
-    """Gate :math:`\\kappa_{\\text{th}}` for a given false-rejection probability.
+    """Gate :math:`\\gamma` for a given false-rejection probability (eq-gate).
 
     Parameters
     ----------
@@ -83,30 +186,32 @@ def gate_threshold(p_false_reject, dof=1):
         :math:`P_{\\text{lo}}`, the probability of rejecting a true hypothesis,
         in the open interval (0, 1). The paper uses 0.01 and 0.005.
     dof : int or array_like of int, optional
-        Degrees of freedom :math:`m \\ge 1` of the chi-square law (1 for one
+        Degrees of freedom :math:`\\nu \\ge 1` of the chi-square law (1 for one
         scalar coordinate; :math:`d` for a :math:`d`-dimensional position;
         :math:`n` for the sum over the :math:`n` pairs of a joint hypothesis).
 
     Returns
     -------
     float or numpy.ndarray
-        :math:`\\kappa_{\\text{th}}`, broadcast over the arguments.
+        :math:`\\gamma`, broadcast over the arguments.
 
     Raises
     ------
     ValueError
         If `p_false_reject` is outside (0, 1) or `dof` is not an integer >= 1.
+    TypeError
+        If an argument is not numeric (bools and strings included).
 
     Notes
     -----
-    The upper :math:`P_{\\text{lo}}` quantile of :math:`\\chi^2(m)`:
+    The upper :math:`P_{\\text{lo}}` quantile of :math:`\\chi^2_\\nu`:
 
     .. math::
 
-        \\kappa_{\\text{th}} = F^{-1}_{\\chi^2(m)}(1 - P_{\\text{lo}}),
+        \\gamma = F^{-1}_{\\chi^2_\\nu}(1 - P_{\\text{lo}}),
 
     computed with :func:`scipy.stats.chi2.isf` (accurate also for tiny
-    :math:`P_{\\text{lo}}`).
+    :math:`P_{\\text{lo}}`, down to the smallest double).
 
     References
     ----------
@@ -133,27 +238,29 @@ def in_gate(statistic, dof=1, p_false_reject=0.01):
     statistic : float or array_like
         Proximity measures :math:`\\kappa \\ge 0` (squared Mahalanobis distances).
     dof : int or array_like of int, optional
-        Degrees of freedom of the chi-square law of `statistic` under a true
-        hypothesis. Default 1.
+        Degrees of freedom :math:`\\nu` of the chi-square law of `statistic`
+        under a true hypothesis. Default 1.
     p_false_reject : float or array_like, optional
         :math:`P_{\\text{lo}}` in (0, 1). Default 0.01.
 
     Returns
     -------
     bool or numpy.ndarray of bool
-        ``statistic < gate_threshold(p_false_reject, dof)``, broadcast.
+        ``statistic < gate_threshold(p_false_reject, dof)``, broadcast. For a
+        fixed statistic the decision is monotone: a larger `p_false_reject`
+        (a smaller gate) never accepts what a smaller one rejects.
 
     Raises
     ------
     ValueError
-        If `statistic` is negative or not finite, or the other arguments are
-        invalid (see :func:`gate_threshold`).
+        If `statistic` is negative or not finite, the shapes do not broadcast,
+        or the other arguments are invalid (see :func:`gate_threshold`).
 
     Notes
     -----
-    The paper's rule: :math:`\\kappa_k^* < \\kappa_{\\text{th}}` — the hypothesis is
-    taken as true; :math:`\\kappa_k^* > \\kappa_{\\text{th}}` — it is rejected.
-    (Equality has probability zero.)
+    The paper's rule: :math:`\\kappa_k^* < \\gamma` — the hypothesis is taken as
+    true; :math:`\\kappa_k^* > \\gamma` — it is rejected. (Equality has
+    probability zero.)
 
     Examples
     --------
@@ -161,9 +268,10 @@ def in_gate(statistic, dof=1, p_false_reject=0.01):
     array([ True, False])
     """
     k = as_positive(statistic, "statistic", strict=False)
-    th = np.asarray(gate_threshold(p_false_reject, dof))
-    k, th = broadcast(statistic=k, threshold=th)
-    return unwrap(k < th)
+    p = as_probability(p_false_reject, "p_false_reject")
+    m = _as_dof(dof)
+    k, m, p = broadcast(statistic=k, dof=m, p_false_reject=p)
+    return unwrap(k < stats.chi2.isf(p, m))
 
 
 def p_false_accept(noncentrality, dof=1, p_false_reject=0.01):
@@ -172,37 +280,41 @@ def p_false_accept(noncentrality, dof=1, p_false_reject=0.01):
     Parameters
     ----------
     noncentrality : float or array_like
-        :math:`V \\ge 0`, the noncentrality of the proximity measure under the
-        false hypothesis (for scalars, :math:`V = (x_1 - x_2)^2/(\\sigma_1^2 +
-        \\sigma_2^2)` with the two objects' true coordinates).
+        :math:`\\lambda \\ge 0`, the noncentrality of the proximity measure under
+        the false hypothesis (for scalars, :math:`\\lambda = (x_1 - x_2)^2/
+        (\\sigma_1^2 + \\sigma_2^2)` with the two objects' true positions).
     dof : int or array_like of int, optional
-        Degrees of freedom. Default 1.
+        Degrees of freedom :math:`\\nu`. Default 1.
     p_false_reject : float or array_like, optional
         :math:`P_{\\text{lo}}` that sets the gate. Default 0.01.
 
     Returns
     -------
     float or numpy.ndarray
-        :math:`P\\{\\chi'^2(m, V) < \\kappa_{\\text{th}}\\}`; the power of the gate
-        against this false hypothesis is one minus it. At :math:`V = 0` it
-        equals :math:`1 - P_{\\text{lo}}`.
+        :math:`P\\{\\chi'^2_\\nu(\\lambda) < \\gamma\\}`; the power of the gate
+        against this false hypothesis is one minus it. At :math:`\\lambda = 0` it
+        equals :math:`1 - P_{\\text{lo}}`. Correct (to about 1e-12 relative) down
+        to the smallest double, and exactly 0 only below it.
 
     Raises
     ------
     ValueError
-        If `noncentrality` is negative or not finite, or the other arguments are
-        invalid.
+        If `noncentrality` is negative or not finite, the shapes do not
+        broadcast, or the other arguments are invalid.
 
     Notes
     -----
     .. math::
 
-        P_{\\text{fa}}(V) = F_{\\chi'^2(m, V)}\\bigl(\\kappa_{\\text{th}}\\bigr),
-        \\qquad \\kappa_{\\text{th}} = F^{-1}_{\\chi^2(m)}(1 - P_{\\text{lo}}).
+        P_{\\text{fa}}(\\lambda) = F_{\\chi'^2_\\nu(\\lambda)}(\\gamma),
+        \\qquad \\gamma = F^{-1}_{\\chi^2_\\nu}(1 - P_{\\text{lo}}).
 
-    It decreases monotonically in :math:`V` — the paper's remark that false
-    hypotheses with small :math:`V` are accepted with high probability, the
-    weakness of pointwise gating.
+    It decreases monotonically in :math:`\\lambda` — the paper's remark that
+    false hypotheses with small :math:`\\lambda` are accepted with high
+    probability, the weakness of pointwise gating. scipy's ``ncx2.cdf`` is used
+    where it is above 1e-200; below, the Poisson mixture
+    :math:`\\sum_j e^{-\\lambda/2}(\\lambda/2)^j/j!\\; P(\\nu/2 + j, \\gamma/2)` is summed in the
+    log domain over the terms that matter.
 
     References
     ----------
@@ -214,74 +326,99 @@ def p_false_accept(noncentrality, dof=1, p_false_reject=0.01):
     0.99
     >>> round(p_false_accept(10.0, 1, 0.01), 4)
     0.2788
+    >>> f"{p_false_accept(1000.0, 1, 0.01):.4e}"    # scipy's ncx2.cdf alone gives 0.0
+    '8.4083e-186'
     """
     v = as_positive(noncentrality, "noncentrality", strict=False)
-    th = np.asarray(gate_threshold(p_false_reject, dof))
+    p = as_probability(p_false_reject, "p_false_reject")
     m = _as_dof(dof)
-    v, m, th = broadcast(noncentrality=v, dof=m, threshold=th)
-    out = np.where(v > 0, stats.ncx2.cdf(th, m, np.where(v > 0, v, 1.0)), stats.chi2.cdf(th, m))
+    v, m, p = broadcast(noncentrality=v, dof=m, p_false_reject=p)
+    th = stats.chi2.isf(p, m)
+    out = np.where(v > 0, 0.0, stats.chi2.cdf(th, m))
+    pos = v > 0
+    if np.any(pos):
+        out[pos] = np.exp(_log_p_accept(th[pos], m[pos], v[pos]))
     return unwrap(out)
 
 
 def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
-    """Noncentrality :math:`V` at which a false hypothesis is accepted with probability `p_accept`.
+    """Noncentrality :math:`\\lambda` at which a false hypothesis is accepted with probability `p_accept`.
 
     Parameters
     ----------
     p_accept : float or array_like
         Target false-acceptance probability, in :math:`(0, 1 - P_{\\text{lo}})`
-        (at :math:`V = 0` the acceptance probability is already
-        :math:`1 - P_{\\text{lo}}`, and it only falls as :math:`V` grows).
+        (at :math:`\\lambda = 0` the acceptance probability is already
+        :math:`1 - P_{\\text{lo}}`, and it only falls as :math:`\\lambda` grows).
+        Any positive double is allowed, down to the smallest subnormal.
     dof : int or array_like of int, optional
-        Degrees of freedom. Default 1.
+        Degrees of freedom :math:`\\nu`. Default 1.
     p_false_reject : float or array_like, optional
         :math:`P_{\\text{lo}}`. Default 0.01.
     xtol : float, optional
-        Absolute tolerance on :math:`V` for :func:`scipy.optimize.brentq`.
+        Absolute tolerance on :math:`\\lambda` for :func:`scipy.optimize.brentq`,
+        finite and > 0.
 
     Returns
     -------
     float or numpy.ndarray
-        The unique root :math:`V^*` of :math:`P_{\\text{fa}}(V) = p_{\\text{accept}}`.
+        The unique root :math:`\\lambda^*` of :math:`P_{\\text{fa}}(\\lambda) =
+        p_{\\text{accept}}`.
 
     Raises
     ------
     ValueError
-        If `p_accept` is not in :math:`(0, 1 - P_{\\text{lo}})` or the other
-        arguments are invalid.
+        If `p_accept` is not in :math:`(0, 1 - P_{\\text{lo}})`, `xtol` is not
+        positive and finite, the broadcast shape holds more than
+        :data:`MAX_ROOTS` roots, or the other arguments are invalid.
 
     Notes
     -----
-    :math:`P_{\\text{fa}}(V)` is continuous and strictly decreasing from
-    :math:`1 - P_{\\text{lo}}` at :math:`V = 0` to 0, so the root is unique; it is
-    bracketed by doubling an upper bound and found with Brent's method.
+    :math:`P_{\\text{fa}}(\\lambda)` is continuous and strictly decreasing from
+    :math:`1 - P_{\\text{lo}}` at :math:`\\lambda = 0` to 0, so the root is unique.
+    The equation is solved as :math:`\\ln P_{\\text{fa}}(\\lambda) = \\ln
+    p_{\\text{accept}}` (log-domain tail, see :func:`p_false_accept`), bracketed
+    by doubling an upper bound and found with Brent's method — so a target such
+    as 1e-300 gets its own root instead of the constant where the CDF would
+    underflow.
 
     Examples
     --------
     >>> v = required_noncentrality(0.05, 1, 0.01)
     >>> round(v, 3), round(p_false_accept(v, 1, 0.01), 6)
     (17.814, 0.05)
+    >>> round(required_noncentrality(1e-300, 1, 0.01), 1)
+    1570.0
     """
     pa = as_probability(p_accept, "p_accept")
     p = as_probability(p_false_reject, "p_false_reject")
     m = _as_dof(dof)
+    tol = float(as_positive(xtol, "xtol")) if np.ndim(xtol) == 0 else None
+    if tol is None:
+        raise ValueError(f"`xtol` must be a positive number; received {_describe(xtol)}")
     pa, m, p = broadcast(p_accept=pa, dof=m, p_false_reject=p)
+    check_size(pa.size, MAX_ROOTS, what="roots (entries of the broadcast arguments)",
+               alternative="a coarser grid of `p_accept` and interpolation")
     if np.any(pa >= 1 - p):
         raise ValueError(
-            "`p_accept` must be below 1 - p_false_reject (the acceptance probability at V = 0); "
-            f"received p_accept={unwrap(pa)!r} with p_false_reject={unwrap(p)!r}"
+            "`p_accept` must be below 1 - p_false_reject (the acceptance probability at "
+            f"lambda = 0); received p_accept={_describe(unwrap(pa))} with "
+            f"p_false_reject={_describe(unwrap(p))}"
         )
     out = np.empty(pa.shape)
     for idx in np.ndindex(pa.shape):
         th = stats.chi2.isf(p[idx], m[idx])
+        log_target = np.log(pa[idx])
 
-        def f(v, th=th, idx=idx):
-            return stats.ncx2.cdf(th, m[idx], v) - pa[idx] if v > 0 else (1 - p[idx]) - pa[idx]
+        def f(v, th=th, idx=idx, log_target=log_target):
+            if v <= 0:
+                return np.log1p(-p[idx]) - log_target
+            return _log_p_accept(th, m[idx], v)[()] - log_target
 
         hi = max(1.0, th)
         while f(hi) > 0:
             hi *= 2.0
-        out[idx] = optimize.brentq(f, 0.0, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+        out[idx] = optimize.brentq(f, 0.0, hi, xtol=tol, rtol=4 * np.finfo(float).eps)
     return unwrap(out)
 
 
@@ -290,10 +427,10 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     """Chunked squared-Mahalanobis distance and chi-square gate for 2-D pairs.
 
     The fast kernel behind the chapter's Monte-Carlo runs and the benchmark:
-    for ``N`` pairs of 2-D positions sharing one innovation covariance
-    :math:`S = C_1 + C_2`, compute :math:`\\kappa = (\\hat x_1 - \\hat x_2)^T S^{-1}
-    (\\hat x_1 - \\hat x_2)` (through the Cholesky factor of :math:`S`, never an
-    inverse) and the gate decision with 2 degrees of freedom.
+    for ``N`` pairs of 2-D positions sharing one covariance
+    :math:`S = \\Sigma_1 + \\Sigma_2`, compute :math:`\\kappa = (\\hat x_1 - \\hat x_2)^T
+    S^{-1} (\\hat x_1 - \\hat x_2)` (through the Cholesky factor of :math:`S`, never
+    an inverse) and the gate decision with 2 degrees of freedom.
 
     Parameters
     ----------
@@ -303,10 +440,11 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
         :math:`S`, symmetric positive definite (for per-pair covariances use
         :func:`radarfusion_ref.proximity.mahalanobis_sq`).
     p_false_reject : float, optional
-        :math:`P_{\\text{lo}}`. Default 0.01.
+        :math:`P_{\\text{lo}}` in (0, 1). Default 0.01.
     chunk_size : int, optional
-        Pairs per chunk; work buffers hold ``chunk_size`` pairs, so memory
-        beyond the inputs and the ``N``-byte result does not grow with ``N``.
+        Pairs per chunk, from 1 to :data:`MAX_CHUNK` (2**20); work buffers hold
+        ``chunk_size`` pairs, so memory beyond the inputs and the ``N``-byte
+        result does not grow with ``N``. The result does not depend on it.
     return_statistic : bool, optional
         Also return :math:`\\kappa` (an ``N``-float array).
 
@@ -319,22 +457,30 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     ------
     ValueError
         If the shapes are not ``(N, 2)``, ``(N, 2)``, ``(2, 2)``, `cov` is not
-        positive definite, or any entry is not finite.
+        symmetric positive definite, an entry is not finite, `chunk_size` is
+        below 1 or above :data:`MAX_CHUNK` (checked before anything is
+        allocated), or a :math:`\\kappa` exceeds the largest double.
+    TypeError
+        If an argument is not numeric, `chunk_size` is not an integer, or
+        `return_statistic` is not a bool.
 
     Notes
     -----
     With :math:`S = L L^T`, :math:`L = \\begin{pmatrix} l_{11} & 0 \\\\ l_{21} &
-    l_{22}\\end{pmatrix}` and :math:`\\delta = \\hat x_1 - \\hat x_2`:
+    l_{22}\\end{pmatrix}` and :math:`\\Delta = \\hat x_1 - \\hat x_2`:
 
     .. math::
 
-        z_1 = \\delta_1 / l_{11}, \\quad z_2 = (\\delta_2 - l_{21} z_1)/l_{22},
+        z_1 = \\Delta_1 / l_{11}, \\quad z_2 = (\\Delta_2 - l_{21} z_1)/l_{22},
         \\quad \\kappa = z_1^2 + z_2^2 .
 
     Each chunk is processed with in-place ufuncs into preallocated buffers,
     so the working set stays in cache, and the inputs are checked for NaN/inf
     chunk by chunk (through :math:`\\kappa`), so the only memory that grows with
-    ``N`` is the 1-byte-per-pair result.
+    ``N`` is the 1-byte-per-pair result. A chunk whose :math:`\\kappa` overflows
+    with finite inputs is recomputed with the scaled route of
+    :func:`~radarfusion_ref.proximity.mahalanobis_sq`, which returns the correct
+    value or refuses when :math:`\\kappa` itself exceeds the largest double.
 
     Examples
     --------
@@ -343,6 +489,8 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     >>> acc, k
     (array([ True, False]), array([ 1., 16.]))
     """
+    from .proximity import mahalanobis_sq
+
     # finiteness is checked chunk by chunk below, so no N-sized temporary is made here
     a = as_float_array(x1, "x1", last_dims=(None, 2), allow_nonfinite=True)
     b = as_float_array(x2, "x2", last_dims=(None, 2), allow_nonfinite=True)
@@ -353,7 +501,15 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     if s.ndim != 2:
         raise ValueError(f"`cov` must have shape (2, 2); received shape {s.shape}")
     chunk = as_int(chunk_size, "chunk_size", minimum=1)
-    th = float(gate_threshold(p_false_reject, 2))
+    check_size(chunk, MAX_CHUNK, what="pairs per chunk (`chunk_size`)",
+               alternative=f"chunk_size <= {MAX_CHUNK} (memory does not grow with N anyway)")
+    if not isinstance(return_statistic, (bool, np.bool_)):
+        raise TypeError(f"`return_statistic` must be a bool; received "
+                        f"{_describe(return_statistic)}")
+    p = as_probability(p_false_reject, "p_false_reject")
+    if p.ndim != 0:
+        raise ValueError(f"`p_false_reject` must be a scalar; received {_describe(p)}")
+    th = float(stats.chi2.isf(p, 2))
     L = np.linalg.cholesky(s)
     inv_l11, l21, inv_l22 = 1.0 / L[0, 0], L[1, 0], 1.0 / L[1, 1]
     n = a.shape[0]
@@ -379,6 +535,8 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
             if not np.isfinite(kk).all():     # NaN/inf in an input makes kappa non-finite
                 for name, arr in (("x1", a), ("x2", b)):
                     as_float_array(arr[start:stop], f"{name}[{start}:{stop}]")
+                # finite inputs: an intermediate overflowed; the scaled route is exact or refuses
+                kk[:] = mahalanobis_sq(a[start:stop], b[start:stop], 0.5 * s, 0.5 * s)
             np.less(kk, th, out=accepted[start:stop])
             if kappa is not None:
                 kappa[start:stop] = kk
