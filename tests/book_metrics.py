@@ -133,7 +133,8 @@ def html_metrics(html: str) -> dict:
     eq = _DISPLAY_MATH_HTML.search(body)
     img = _OUTPUT_IMAGE.search(body)
     figure_first = img is not None and (eq is None or img.start() < eq.start())
-    first = re.search(r"Exercise\s*(?:<[^>]+>\s*)*(\d+(?:\.\d+)*)", body)
+    first = re.search(r'class="exercise[^"]*".*?<span class="caption-number">Exercise\s*'
+                      r'(\d+(?:\.\d+)*)', body, flags=re.S)
     state = sum(len(m.group(1)) for m in _WIDGET_STATE.finditer(html))
     frames = [int(n) for n in _PLAYER.findall(body)]
     return {"figure_first": figure_first, "first_exercise": first.group(1) if first else None,
@@ -141,13 +142,22 @@ def html_metrics(html: str) -> dict:
 
 
 def _docname(path: Path) -> str:
-    return str(path.resolve().relative_to(ROOT).with_suffix(""))
+    """``book/01_fusion`` for a page of this book or of another checkout of it."""
+    path = path.resolve()
+    return str(path.relative_to(_book_root(path)).with_suffix(""))
+
+
+def _book_root(path: Path) -> Path:
+    """The directory holding ``book/`` (this checkout, or another one)."""
+    return next((p.parent for p in path.resolve().parents if p.name == "book"),
+                path.resolve().parent)
 
 
 def page_metrics(path: Path, html_dir: Path | None = None) -> PageMetrics:
     """Source metrics, plus the built page's when `html_dir` holds it."""
     m = source_metrics(path)
-    html_dir = html_dir if html_dir is not None else ROOT / "_build" / "html"
+    if html_dir is None:
+        html_dir = _book_root(path) / "_build" / "html"
     page = html_dir / f"{m.page}.html"
     if page.exists():
         for k, v in html_metrics(page.read_text(encoding="utf-8")).items():

@@ -113,7 +113,8 @@ def test_the_metrics_see_what_they_measure(tmp_path):
 
 def test_the_html_metrics_see_what_they_measure():
     html = ('<main><img src="data:image/png;base64,AA"><div class="math notranslate">x</div>'
-            '<span>Exercise 3.1</span><script type="application/vnd.jupyter.widget-state+json">'
+            '<span>Exercise 9.9</span><div class="exercise admonition" id="e"><p>'
+            '<span class="caption-number">Exercise 3.1 </span></p></div><script type="application/vnd.jupyter.widget-state+json">'
             '{"a": 1}</script> var frames = new Array(30); var frames = new Array(12);</main>')
     m = html_metrics(html)
     assert m == {"figure_first": True, "first_exercise": "3.1", "widget_state_bytes": 8,
