@@ -48,9 +48,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import logsumexp
+from scipy.special import expit, logsumexp
 
 from ._validation import (
+    _describe,
     as_choice,
     as_float_array,
     as_int,
@@ -116,8 +117,132 @@ def _types_iv(type_means, type_vars, priors):
 
 
 def _log_normal(x, mean_, var):
-    """log N(x; mean, var), elementwise."""
+    """log N(x; mean, var), elementwise (moderate arguments only; see `_log_quadratic`)."""
     return -0.5 * (_LOG_2PI + np.log(var) + (x - mean_) ** 2 / var)
+
+
+def _difference(a, b):
+    """``a - b`` without overflow to inf when both are huge and of opposite signs.
+
+    The result is returned as ``(value, log2_scale)`` with ``a - b = value * 2**log2_scale``
+    and ``|value| <= 2`` (the scale is a power of two, so scaling is exact).
+    """
+    big = np.maximum(np.abs(a), np.abs(b))
+    _, e = np.frexp(big)
+    return np.ldexp(a, -e) - np.ldexp(b, -e), e
+
+
+def _log_quadratic(x, mean_, log_var):
+    """``log((x - mean)**2 / var)`` from ``log var``, finite over the whole float range.
+
+    ``-inf`` where ``x == mean``. Never overflows: the difference is taken at a
+    power-of-two scale and the square is formed in the log domain.
+    """
+    diff, e = _difference(x, mean_)
+    with np.errstate(divide="ignore"):
+        return 2.0 * (np.log(np.abs(diff)) + e * np.log(2.0)) - log_var
+
+
+def _log_var_sum(tvars, var):
+    """``log(tvars + var)`` without overflow (``var`` may be 0)."""
+    with np.errstate(divide="ignore"):
+        return np.logaddexp(np.log(tvars), np.log(var))
+
+
+def _signed_log(a, b):
+    """``a - b`` as ``(log|a - b|, sign)``, without overflow (see :func:`_difference`)."""
+    diff, e = _difference(a, b)
+    with np.errstate(divide="ignore"):
+        return np.log(np.abs(diff)) + e * np.log(2.0), np.sign(diff)
+
+
+def _relative_log_joint(xs, means, log_vars, log_priors, ref):
+    """``log_joint[..., k] - log_joint[..., ref]`` of the Gaussian type model, exactly.
+
+    ``log_joint[k] = log p_k - 1/2 sum_j (log V_jk + (x_j - m_k)**2 / V_jk)`` with
+    ``V_jk = exp(log_vars[j][..., k])``. The difference of the quadratic terms
+    ``D_jk = (x_j - m_k)**2/V_jk - (x_j - m_r)**2/V_jr`` is formed without
+    overflow or cancellation. For near-equal variances (``|ln V_jk - ln V_jr| <= 1``)
+
+    .. math::
+
+        D_{jk} = V_{jk}^{-1}\\,[e_k^2 - 2 u e_k - u^2 \\operatorname{expm1}(\\ln V_{jk} - \\ln V_{jr})],
+        \\qquad u = x_j - m_r,\\ e_k = m_k - m_r,
+
+    which stays exact when the means nearly coincide relative to the feature
+    (no ``x - m`` cancellation); otherwise as the difference of the two terms.
+    Every product is formed as a sum of logarithms, and the terms are added by a
+    signed ``logsumexp``, so nothing overflows before the final ``exp`` (whose
+    ``+-inf`` is then the exact limit).
+    """
+    mr = np.take_along_axis(np.broadcast_to(means, log_vars[0].shape), ref[..., None], axis=-1)
+    le, se = _signed_log(means, mr)                             # m_k - m_r
+    log2 = np.log(2.0)
+    logs, signs = [], []
+    total_dlv = 0.0
+    for x, lv in zip(xs, log_vars, strict=True):
+        lvr = np.take_along_axis(lv, ref[..., None], axis=-1)
+        dlv = lv - lvr
+        total_dlv = total_dlv + dlv
+        lu, su = _signed_log(x[..., None], mr)                  # u = x - m_r
+        lk, _ = _signed_log(x[..., None], means)                # x - m_k
+        close = np.abs(dlv) <= 1.0
+        em1 = np.expm1(np.where(close, dlv, 0.0))
+        with np.errstate(divide="ignore"):
+            l_em1 = np.log(np.abs(em1))
+        # close: (e^2 - 2 u e - u^2 expm1(dlv)) / V_k ; far: (x-m_k)^2/V_k - (x-m_r)^2/V_r
+        terms = [(np.where(close, 2 * le, 2 * lk) - lv, np.where(close, se * se, 1.0)),
+                 (np.where(close, log2 + lu + le - lv, 2 * lu - lvr),
+                  np.where(close, -su * se, -(su * su))),
+                 (np.where(close, 2 * lu + l_em1 - lv, -np.inf),
+                  np.where(close, -np.sign(em1) * su * su, 0.0))]
+        for lg, sg in terms:
+            logs.append(np.broadcast_to(lg, lv.shape))
+            signs.append(np.broadcast_to(sg, lv.shape))
+    a = np.stack(logs, axis=0)
+    b = np.stack(signs, axis=0)
+    a = np.where(b == 0, -np.inf, a)
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        mag, sgn = logsumexp(a, axis=0, b=b, return_sign=True)
+        d = np.where(sgn == 0, 0.0, sgn * np.exp(mag))           # may be +-inf: exact limit
+        lp = np.broadcast_to(log_priors, d.shape)
+        lpr = np.take_along_axis(lp, ref[..., None], axis=-1)
+        rel = (lp - lpr) - 0.5 * total_dlv - 0.5 * d
+    return np.where(np.isneginf(lp), -np.inf, rel)
+
+
+def _log_posterior(xs, means, log_vars, log_priors):
+    """Normalised log posterior of the types, ``(..., L)``, over the whole float range.
+
+    Parameters are as in :func:`_relative_log_joint`. The reference type is first
+    taken from a cheap estimate of the log-joint, then replaced by the best type
+    of the exact differences, so every difference is <= 0 and ``exp`` of them
+    cannot overflow; the log-sum of those is then between 0 and ``log L``.
+    """
+    shape = np.broadcast_shapes(*(np.shape(x) for x in xs),
+                                *(np.shape(lv)[:-1] for lv in log_vars))
+    xs = [np.broadcast_to(x, shape) for x in xs]
+    log_vars = [np.broadcast_to(lv, (*shape, means.size)) for lv in log_vars]
+    feasible = np.isfinite(log_priors)
+    # a cheap first guess of the best type: log-joint where representable, else least q
+    with np.errstate(over="ignore"):
+        log_q = [_log_quadratic(x[..., None], means, lv) for x, lv in zip(xs, log_vars,
+                                                                          strict=True)]
+        q_sum = logsumexp(np.stack(log_q), axis=0)
+        guess = log_priors - 0.5 * sum(log_vars) - 0.5 * np.exp(q_sum)
+    guess = np.where(feasible, guess, -np.inf)
+    finite = np.isfinite(guess)
+    by_q = np.argmin(np.where(feasible, q_sum, np.inf), axis=-1)
+    ref = np.where(finite.any(axis=-1), np.argmax(np.where(finite, guess, -np.inf), axis=-1),
+                   by_q)
+    rel = _relative_log_joint(xs, means, log_vars, log_priors, ref)
+    ref2 = np.argmax(np.where(np.isnan(rel), -np.inf, rel), axis=-1)
+    if np.any(ref2 != ref):
+        rel = _relative_log_joint(xs, means, log_vars, log_priors, ref2)
+    if np.any(np.isnan(rel) | (rel == np.inf)):
+        raise FloatingPointError("type posterior: the log-likelihood differences could not be "
+                                 "formed in floating point; please report the input")
+    return rel - logsumexp(rel, axis=-1, keepdims=True)
 
 
 # ----------------------------------------------------------------------------- fusion
@@ -187,8 +312,24 @@ def fused_feature(feature1, feature_var1, feature2, feature_var2) -> FusedFeatur
     v1 = as_positive(feature_var1, "feature_var1")
     v2 = as_positive(feature_var2, "feature_var2")
     f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
-    fe = fuse(np.stack([f1, f2], axis=-1), np.stack([v1, v2], axis=-1))
-    return FusedFeature(unwrap(fe.estimate), unwrap(fe.variance))
+    value, var = _fuse_two(f1, v1, f2, v2)
+    return FusedFeature(unwrap(value), unwrap(var))
+
+
+def _fuse_two(f1, v1, f2, v2):
+    """Inverse-variance mean of two values and its variance, over the whole float range.
+
+    The weights are logistic functions of ``ln v1 - ln v2`` (no information
+    ``1/v`` is formed, so neither 1e-320 nor 1e308 overflows), the value a convex
+    combination (never beyond the inputs), the variance
+    ``exp(ln v1 + ln v2 - ln(v1 + v2))`` (never above ``min(v1, v2)``).
+    """
+    lv1, lv2 = np.log(v1), np.log(v2)
+    w1 = expit(lv2 - lv1)                    # v2 / (v1 + v2)
+    w2 = expit(lv1 - lv2)
+    value = w1 * f1 + w2 * f2
+    var = np.exp(lv1 + lv2 - np.logaddexp(lv1, lv2))
+    return value, var
 
 
 # ----------------------------------------------------------------------------- recognition
@@ -241,7 +382,13 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
     v = as_positive(feature_var, "feature_var", strict=False)
     f, v = broadcast(feature=f, feature_var=v)
     means, tvars, _ = _types_iv(type_means, type_vars, None)
-    out = _log_normal(f[..., None], means, tvars + v[..., None])
+    log_var = _log_var_sum(tvars, v[..., None])
+    with np.errstate(over="ignore"):
+        out = -0.5 * (_LOG_2PI + log_var + np.exp(_log_quadratic(f[..., None], means, log_var)))
+    if log and np.any(np.isinf(out)):
+        raise ValueError("the log-likelihood is below the floating-point range (about -1.8e308) "
+                         "for some `feature`; use type_posterior for normalised probabilities "
+                         f"(received feature {_describe(f)})")
     return out if log else np.exp(out)
 
 
@@ -309,8 +456,8 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
     v = as_positive(feature_var, "feature_var", strict=False)
     f, v = broadcast(feature=f, feature_var=v)
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
-    log_joint = _log_normal(f[..., None], means, tvars + v[..., None]) + log_priors
-    log_post = log_joint - logsumexp(log_joint, axis=-1, keepdims=True)
+    # log of the widened variances σ_Πk² + v, then exact differences against the best type
+    log_post = _log_posterior([f], means, [_log_var_sum(tvars, v[..., None])], log_priors)
     return log_post if log else np.exp(log_post)
 
 
@@ -368,9 +515,8 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
     v2 = as_positive(feature_var2, "feature_var2")
     f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
-    log_joint = (_log_normal(f1[..., None], means, tvars + v1[..., None])
-                 + _log_normal(f2[..., None], means, tvars + v2[..., None]) + log_priors)
-    log_post = log_joint - logsumexp(log_joint, axis=-1, keepdims=True)
+    log_post = _log_posterior([f1, f2], means, [_log_var_sum(tvars, v1[..., None]),
+                                                _log_var_sum(tvars, v2[..., None])], log_priors)
     return log_post if log else np.exp(log_post)
 
 
@@ -410,19 +556,30 @@ class CombinedProximity:
 
 def _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors):
     """-2 ln LR("one object" vs "two objects") of two feature reports (Π integrated out)."""
-    n1 = _log_normal(f1[..., None], means, tvars + v1[..., None])
-    n2 = _log_normal(f2[..., None], means, tvars + v2[..., None])
-    apart = logsumexp(n1 + log_priors, axis=-1) + logsumexp(n2 + log_priors, axis=-1)
+    lv1, lv2 = _log_var_sum(tvars, v1[..., None]), _log_var_sum(tvars, v2[..., None])
     if model == "spread":
-        same = logsumexp(n1 + n2 + log_priors, axis=-1)
+        # -2 ln sum_k P(T_k | Π̂1) P(T_k | Π̂2) / p_k, from the single-report posteriors
+        lp1 = _log_posterior([f1], means, [lv1], log_priors)
+        lp2 = _log_posterior([f2], means, [lv2], log_priors)
+        with np.errstate(invalid="ignore"):
+            terms = np.where(np.isneginf(log_priors), -np.inf, lp1 + lp2 - log_priors)
+        out = -2.0 * logsumexp(terms, axis=-1)
     else:
-        fe = fuse(np.stack(np.broadcast_arrays(f1, f2), axis=-1),
-                  np.stack(np.broadcast_arrays(v1, v2), axis=-1))
-        fused, fused_var = np.asarray(fe.estimate), np.asarray(fe.variance)
-        same = (_log_normal(f1 - f2, 0.0, v1 + v2)
-                + logsumexp(_log_normal(fused[..., None], means, tvars + fused_var[..., None])
-                            + log_priors, axis=-1))
-    return -2.0 * (same - apart)
+        # N(Π̂1 - Π̂2; 0, v1 + v2) sum_k p_k N(Π̃; Π_k, σ_Πk² + ṽ) over the two marginals
+        fused, fused_var = _fuse_two(f1, v1, f2, v2)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            apart = (logsumexp(_log_normal(f1[..., None], means, np.exp(lv1)) + log_priors, -1)
+                     + logsumexp(_log_normal(f2[..., None], means, np.exp(lv2)) + log_priors,
+                                 -1))
+            same = (_log_normal(f1 - f2, 0.0, v1 + v2)
+                    + logsumexp(_log_normal(fused[..., None], means,
+                                            tvars + fused_var[..., None]) + log_priors, -1))
+            out = -2.0 * (same - apart)
+    if not np.all(np.isfinite(out)):
+        raise ValueError("the marginal feature term is beyond the floating-point range for "
+                         "some `feature1`, `feature2` (reports too far from every type "
+                         "relative to its spread); use kind='profile' or rescale the feature")
+    return out
 
 
 def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, feature_var2, *,

@@ -48,7 +48,7 @@ MUTATIONS = {
                 return np.asarray(f(*a, **k)) * 1.01
             return g
         """),
-    "book/05_features": ("radarfusion_ref.features", "type_likelihood", """
+    "book/05_features": ("radarfusion_ref.features", "type_posterior", """
         def wrap(f):
             @functools.wraps(f)
             def g(*a, **k):
