@@ -1115,9 +1115,12 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     else:
         s = as_covariance(s, "innovation_cov")
         d = s.shape[-1]
-        scale = np.max(np.abs(s), axis=(-2, -1))                # Cholesky of S / scale
-        chol = np.linalg.cholesky(s / scale[..., None, None])
-        logdet = d * (np.log(2 * np.pi) + np.log(scale)) + 2 * np.sum(
+        # ln det S = 2 sum ln sd_i + ln det R with the correlation matrix R: no overflow or
+        # underflow whatever the variances' scales (1e-300 beside 1e300 included).
+        sd = np.sqrt(np.diagonal(s, axis1=-2, axis2=-1))
+        corr = s / sd[..., :, None] / sd[..., None, :]
+        chol = np.linalg.cholesky(corr)
+        logdet = d * np.log(2 * np.pi) + 2 * np.sum(np.log(sd), axis=-1) + 2 * np.sum(
             np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
     p1, p2, lam1, lam2, beta, logdet = broadcast(
         p_detect1=p1, p_detect2=p2, false_density1=lam1, false_density2=lam2,

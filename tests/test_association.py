@@ -539,3 +539,392 @@ def test_compare_decisions_separated_and_hand_case():
 def test_all_correct():
     np.testing.assert_array_equal(A.all_correct([[0, -1], [0, 1]], [[0, -1], [0, -1]]),
                                   [True, False])
+
+
+# ============================================================================= property and fuzz suite
+# Every public function of the module: valid generated input gives finite results with
+# the function's invariants; invalid generated input raises ValueError / TypeError naming
+# the public argument. The example budget is the CI profile of tests/conftest.py.
+
+PUBLIC = ("associate_pointwise", "associate_joint", "associate_bruteforce", "k_best_assignments",
+          "association_probabilities", "non_assignment_cost", "two_radar_clutter_scene",
+          "proximity_matrix", "all_correct", "compare_decisions")
+
+
+def test_every_public_function_is_covered():
+    functions = {n for n in A.__all__ if callable(getattr(A, n)) and n[0].islower()}
+    assert functions == set(PUBLIC)
+
+
+def assert_matching(row_to_col, col_to_row, n2):
+    """row_to_col is a valid (partial) matching and col_to_row its inverse."""
+    r2c = np.asarray(row_to_col)
+    assert r2c.dtype.kind == "i"
+    assert np.all((r2c >= -1) & (r2c < n2))
+    used = r2c[r2c >= 0]
+    assert len(set(used.tolist())) == used.size                 # no column used twice
+    c2r = np.asarray(col_to_row)
+    for i, j in enumerate(r2c):
+        if j >= 0:
+            assert c2r[j] == i
+    assert np.count_nonzero(c2r >= 0) == used.size
+
+
+thresholds = st.one_of(st.none(), st.just(np.inf), st.floats(0.05, 12.0))
+
+
+@given(cost_matrices(max_n=5), thresholds, st.sampled_from(["scan", "best_first"]))
+def test_property_pointwise_is_a_gated_matching(cost, threshold, order):
+    r = A.associate_pointwise(cost, threshold, order=order)
+    assert_matching(r.row_to_col, r.col_to_row, cost.shape[1])
+    th = np.inf if threshold is None else threshold
+    vals = cost[r.pairs[:, 0], r.pairs[:, 1]]
+    assert np.all(vals < th) and np.isfinite(r.total_cost)
+    assert r.total_cost == pytest.approx(vals.sum())
+    # maximal: no acceptable pair is left between two free reports
+    free = np.ix_(r.unassigned_rows, r.unassigned_cols)
+    assert not np.any(cost[free] < th)
+
+
+@given(cost_matrices(max_n=5), thresholds, st.one_of(st.none(), st.floats(-1.0, 6.0)))
+def test_property_joint_is_a_matching_and_the_brute_force_optimum(cost, threshold, miss):
+    j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
+    b = A.associate_bruteforce(cost, threshold=threshold, miss_cost=miss)
+    for r in (j, b):
+        assert_matching(r.row_to_col, r.col_to_row, cost.shape[1])
+        assert np.isfinite(r.total_cost)
+    assert j.total_cost == pytest.approx(b.total_cost, rel=1e-9, abs=1e-9)
+
+
+@given(cost_matrices(max_n=4), st.integers(1, 30))
+def test_property_k_best_are_distinct_matchings_in_order(cost, k):
+    r = A.k_best_assignments(cost, k)
+    assert np.all(np.isfinite(r.costs)) and np.all(np.diff(r.costs) >= -1e-9)
+    for a in r.assignments:
+        assert_matching(a, A._inverse(a[None], cost.shape[1])[0], cost.shape[1])
+    assert len({tuple(a) for a in r.assignments}) == r.k
+
+
+@given(cost_matrices(max_n=4))
+def test_property_association_probabilities_sum_to_one(cost):
+    n1, n2 = cost.shape
+    feasible = any(np.isfinite(t) for _, t in enumerate_complete(cost))
+    if not feasible:
+        with pytest.raises(ValueError, match="`cost`"):
+            A.association_probabilities(cost)
+        return
+    for p in (A.association_probabilities(cost), A.association_probabilities(cost, k=30)):
+        assert np.all(np.isfinite(p)) and np.all((p >= 0) & (p <= 1 + 1e-12))
+        short = p.sum(axis=1) if n1 <= n2 else p.sum(axis=0)
+        np.testing.assert_allclose(short, 1.0, rtol=1e-12)
+        assert np.all(p[~np.isfinite(cost)] == 0)        # a forbidden pair has probability 0
+
+
+@given(st.integers(1, 6), st.integers(1, 6), st.integers(1, 3),
+       st.floats(0.01, 10.0), st.floats(0.01, 10.0))
+def test_property_proximity_matrix(n1, n2, d, s1, s2):
+    rng = np.random.default_rng(n1 * 100 + n2 * 10 + d)
+    r1, r2 = rng.normal(size=(n1, d)), rng.normal(size=(n2, d))
+    k = A.proximity_matrix(r1, r2, s1, s2)
+    ref = ((r1[:, None, :] - r2[None, :, :]) ** 2).sum(-1) / (s1**2 + s2**2)
+    np.testing.assert_allclose(k, ref, rtol=1e-12, atol=1e-300)
+    assert k.shape == (n1, n2) and np.all(k >= 0)
+
+
+@pytest.mark.filterwarnings("ignore::radarfusion_ref.errors.RadarFusionWarning")
+@given(st.floats(0.05, 1.0), st.floats(0.05, 1.0), st.floats(0.0, 5.0), st.floats(0.0, 5.0),
+       st.floats(1e-3, 1e3), st.floats(1e-4, 1e2))
+def test_property_non_assignment_cost_is_finite_and_matches_the_formula(p1, p2, f1, f2, rho, s):
+    if (p1 == 1.0 and f2 == 0.0) or (p2 == 1.0 and f1 == 0.0):
+        return                                                # documented +inf cases
+    got = A.non_assignment_cost(p_detect1=p1, p_detect2=p2, false_density1=f1,
+                                false_density2=f2, object_density=rho, innovation_cov=s)
+    u1, u2 = f1 + rho * p1 * (1 - p2), f2 + rho * p2 * (1 - p1)
+    ref = math.log(rho * p1 * p2 / (u1 * u2)) - 0.5 * math.log(2 * math.pi * s)
+    assert math.isfinite(got) and got == pytest.approx(ref, rel=1e-10, abs=1e-10)
+
+
+@given(st.integers(1, 5), st.integers(1, 4), st.floats(0.1, 3.0), st.floats(0.0, 0.5),
+       st.floats(0.5, 1.0))
+def test_property_clutter_scene_and_decision_helpers(n, trials, spacing, rho_f, pd):
+    sc = A.two_radar_clutter_scene(n, spacing=spacing, sigma1=0.1, sigma2=0.2, p_detect1=pd,
+                                   p_detect2=pd, false_density1=rho_f, false_density2=rho_f,
+                                   trials=trials, rng=n + trials)
+    t2c = sc.true_row_to_col
+    for t in range(trials):
+        assert_matching(t2c[t], A._inverse(t2c[t][None], sc.owner2.shape[1])[0],
+                        sc.owner2.shape[1])
+    assert np.all(A.all_correct(t2c, t2c))
+    k = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.1, 0.2))
+    if np.all(sc.valid1) and np.all(sc.valid2) and k.shape[-1] == k.shape[-2]:
+        r = A.compare_decisions(k, t2c, threshold=None, joint_threshold=None)
+        for p in (r.pointwise, r.greedy, r.joint, r.joint_ml):
+            assert p.trials == trials and 0 <= p.estimate <= 1
+    again = A.two_radar_clutter_scene(n, spacing=spacing, sigma1=0.1, sigma2=0.2, p_detect1=pd,
+                                      p_detect2=pd, false_density1=rho_f, false_density2=rho_f,
+                                      trials=trials, rng=n + trials)
+    np.testing.assert_array_equal(again.reports1, sc.reports1)     # same seed, same scene
+
+
+# ----------------------------------------------------------------------------- threshold None
+
+def test_threshold_none_means_no_gate_everywhere():
+    c = np.array([[0.5, 50.0, np.inf], [3.0, 0.2, 7.0]])
+    for order in ("scan", "best_first"):
+        a = A.associate_pointwise(c, None, order=order)
+        b = A.associate_pointwise(c, np.inf, order=order)
+        np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
+    np.testing.assert_array_equal(A.associate_pointwise(c).row_to_col,
+                                  A.associate_pointwise(c, None).row_to_col)
+    for f in (A.associate_joint, A.associate_bruteforce):
+        np.testing.assert_array_equal(f(c, threshold=None).row_to_col,
+                                      f(c, threshold=np.inf).row_to_col)
+    # the gate is strict everywhere: kappa == gamma is outside
+    for r in (A.associate_pointwise([[1.0]], 1.0), A.associate_joint([[1.0]], threshold=1.0),
+              A.associate_bruteforce([[1.0]], threshold=1.0)):
+        assert r.n_assigned == 0
+
+
+# ----------------------------------------------------------------------------- numerical range
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-150, 1e150, 1e290, 1e300])
+def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
+    rng = np.random.default_rng(21)
+    c = rng.uniform(1.0, 8.0, size=(5, 5))
+    c[1, 3] = np.inf
+    ref_j = A.associate_joint(c)
+    got_j = A.associate_joint(c * scale)
+    np.testing.assert_array_equal(got_j.row_to_col, ref_j.row_to_col)
+    assert got_j.total_cost == pytest.approx(ref_j.total_cost * scale, rel=1e-12)
+    for kw in ({"threshold": 6.0}, {"miss_cost": 2.5}, {"threshold": 6.0, "miss_cost": 2.0}):
+        skw = {k: v * scale for k, v in kw.items()}
+        ref = A.associate_joint(c, **kw)
+        for f in (A.associate_joint, A.associate_bruteforce):
+            got = f(c * scale, **skw)
+            np.testing.assert_array_equal(got.row_to_col, ref.row_to_col)
+            assert np.isfinite(got.total_cost)
+            assert got.total_cost == pytest.approx(ref.total_cost * scale, rel=1e-12)
+    np.testing.assert_array_equal(A.associate_pointwise(c * scale, 6.0 * scale).row_to_col,
+                                  A.associate_pointwise(c, 6.0).row_to_col)
+    kb_ref, kb = A.k_best_assignments(c, 10), A.k_best_assignments(c * scale, 10)
+    np.testing.assert_array_equal(kb.assignments, kb_ref.assignments)
+    np.testing.assert_allclose(kb.costs, kb_ref.costs * scale, rtol=1e-12)
+
+
+def test_costs_near_the_float_maximum():
+    big = np.finfo(float).max / 4                                  # ~4.5e307, finite
+    c = np.array([[big, big / 2], [big / 2, big]])
+    for f in (A.associate_joint, A.associate_bruteforce):
+        r = f(c)                                                   # used to claim infeasibility
+        np.testing.assert_array_equal(r.row_to_col, [1, 0])
+        assert r.total_cost == big
+    c2 = np.array([[big, 1.0], [np.inf, big]])
+    for f in (A.associate_joint, A.associate_bruteforce):
+        np.testing.assert_array_equal(f(c2, threshold=np.inf).row_to_col, [0, 1])
+        np.testing.assert_array_equal(f(c2, miss_cost=big / 8).row_to_col, [1, -1])
+    np.testing.assert_allclose(A.association_probabilities(c), [[0, 1], [1, 0]])
+    np.testing.assert_allclose(A.association_probabilities(np.full((3, 3), 1e308)), 1 / 3)
+    np.testing.assert_allclose(A.k_best_assignments(c, 2).costs, [big, 2 * big])
+
+
+def test_a_total_beyond_the_float_range_is_refused_not_inf():
+    c = np.full((3, 3), np.finfo(float).max / 2)
+    for call in (lambda: A.associate_joint(c), lambda: A.associate_bruteforce(c),
+                 lambda: A.associate_pointwise(c), lambda: A.k_best_assignments(c, 1)):
+        with pytest.raises(ValueError, match=r"`cost`.*float range"):
+            call()
+
+
+@pytest.mark.filterwarnings("ignore::radarfusion_ref.errors.RadarFusionWarning")
+def test_non_assignment_cost_extremes_against_mpmath():
+    mp = pytest.importorskip("mpmath")
+    mp.mp.dps = 50
+    cases = [(0.9, 0.8, 1e300, 1e-300, 1e300, 1e-300), (0.5, 0.5, 1e-300, 1e-300, 1e-300, 1e300),
+             (1e-300, 0.3, 0.0, 1e300, 1e300, 1e300), (0.9, 0.9, 1e308, 1e308, 1e308, 1e308)]
+    for p1, p2, f1, f2, rho, s in cases:
+        got = A.non_assignment_cost(p_detect1=p1, p_detect2=p2, false_density1=f1,
+                                    false_density2=f2, object_density=rho, innovation_cov=s)
+        P1, P2, F1, F2, R, S = (mp.mpf(v) for v in (p1, p2, f1, f2, rho, s))
+        u1, u2 = F1 + R * P1 * (1 - P2), F2 + R * P2 * (1 - P1)
+        ref = mp.log(R * P1 * P2 / (u1 * u2)) - mp.log(2 * mp.pi * S) / 2
+        assert math.isfinite(got) and got == pytest.approx(float(ref), rel=1e-12)
+    s = np.diag([1e300, 1e-300])                                    # det 1: log det exact
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RadarFusionWarning)
+        got = A.non_assignment_cost(p_detect1=0.9, p_detect2=0.9, false_density1=0.1,
+                                    false_density2=0.1, object_density=1.0, innovation_cov=s)
+    ref = math.log(0.81 / (0.1 + 0.09) ** 2) - math.log(2 * math.pi)
+    assert got == pytest.approx(ref, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- resource limits
+
+def test_enumeration_limits_are_checked_before_allocation():
+    with pytest.raises(ValueError, match=r"`cost`.*limit of 4000000.*associate_joint"):
+        A.associate_bruteforce(np.zeros((11, 11)))
+    with pytest.raises(ValueError, match=r"`cost`.*partial matchings.*associate_joint"):
+        A.associate_bruteforce(np.zeros((8, 8)), threshold=1.0)
+    with pytest.raises(ValueError, match=r"`cost`.*over a batch.*associate_joint"):
+        A.associate_bruteforce(np.broadcast_to(np.zeros((9, 9)), (1000, 9, 9)))
+    with pytest.raises(ValueError, match=r"`cost`.*k=\.\.\."):
+        A.association_probabilities(np.zeros((11, 11)))
+    with pytest.raises(ValueError, match=r"`k`.*limit"):
+        A.k_best_assignments(np.eye(3), A.MAX_K_BEST + 1)
+    with pytest.raises(ValueError, match=r"`k`.*bytes of Murty"):
+        A.k_best_assignments(np.zeros((1000, 1000)), 10_000)
+    with pytest.raises(ValueError, match=r"`false_density1`.*bytes.*trials"):
+        A.two_radar_clutter_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.1,
+                                  false_density1=1e12, trials=10)
+    wide = np.broadcast_to(np.zeros(2), (100_000, 2))             # no memory behind it
+    with pytest.raises(ValueError, match=r"`reports1`.*bytes.*split the batch"):
+        A.proximity_matrix(wide, wide, 1.0, 1.0)
+
+
+def test_exact_marginals_at_ten_objects_stay_within_memory():
+    import resource
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    p = A.association_probabilities(np.random.default_rng(3).random((10, 10)))
+    grown_mib = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
+    np.testing.assert_allclose(p.sum(axis=1), 1.0)
+    assert grown_mib < 600, f"exact marginals at n = 10 grew the process by {grown_mib:.0f} MiB"
+
+
+# ----------------------------------------------------------------------------- generated bad input
+
+BAD_NUMBERS = st.sampled_from([np.nan, -np.inf, "1.5", True, None, [1.0, 2.0], -1.0, 0.0])
+BAD_COSTS = st.sampled_from([
+    [[1.0, np.nan]], [[-np.inf, 1.0]], np.zeros((0, 2)), np.zeros((2, 0)), [1.0, 2.0], 3.0,
+    "abc", [[True, False]], None, [["1", "2"]]])
+
+
+@given(BAD_COSTS, st.sampled_from(["associate_pointwise", "associate_joint",
+                                   "associate_bruteforce", "k_best_assignments",
+                                   "association_probabilities"]))
+def test_fuzz_bad_costs_name_the_argument(bad, name):
+    call = {"k_best_assignments": lambda c: A.k_best_assignments(c, 2)}.get(
+        name, getattr(A, name))
+    with pytest.raises((ValueError, TypeError), match="`cost`"):
+        call(bad)
+
+
+@given(st.sampled_from([0.0, -1.0, np.nan, -np.inf, "1", True, [1.0, 2.0]]),
+       st.sampled_from(["pointwise", "joint", "bruteforce", "compare"]))
+def test_fuzz_bad_thresholds_name_the_argument(bad, where):
+    c = np.eye(2)
+    if where == "pointwise":
+        call, arg = (lambda: A.associate_pointwise(c, bad)), "threshold"
+    elif where == "joint":
+        call, arg = (lambda: A.associate_joint(c, threshold=bad)), "threshold"
+    elif where == "bruteforce":
+        call, arg = (lambda: A.associate_bruteforce(c, threshold=bad)), "threshold"
+    else:
+        call, arg = (lambda: A.compare_decisions(c[None], [[0, 1]], threshold=1.0,
+                                                 joint_threshold=bad)), "joint_threshold"
+    with pytest.raises((ValueError, TypeError), match=f"`{arg}`"):
+        call()
+
+
+@given(st.sampled_from([np.nan, -np.inf, "1", True, [1.0, 2.0]]))
+def test_fuzz_bad_miss_cost(bad):
+    with pytest.raises((ValueError, TypeError), match="`miss_cost`"):
+        A.associate_joint(np.eye(2), miss_cost=bad)
+
+
+@given(st.sampled_from([0, -3, 2.5, "2", True, None]))
+def test_fuzz_bad_k(bad):
+    with pytest.raises((ValueError, TypeError), match="`k`"):
+        A.k_best_assignments(np.eye(2), bad)
+    if bad is not None:
+        with pytest.raises((ValueError, TypeError), match="`k`"):
+            A.association_probabilities(np.eye(2), k=bad)
+
+
+NAC_OK = dict(p_detect1=0.9, p_detect2=0.9, false_density1=0.1, false_density2=0.1,
+              object_density=1.0, innovation_cov=0.1)
+NAC_BAD = {
+    "p_detect1": [0.0, 1.5, -0.1, np.nan, "0.5", True],
+    "p_detect2": [0.0, 2.0, np.inf],
+    "false_density1": [-1.0, np.nan, np.inf, "x"],
+    "false_density2": [-0.5, None],
+    "object_density": [0.0, -1.0, np.inf, False],
+    "innovation_cov": [0.0, -1.0, [[1.0, 2.0], [2.0, 1.0]], [[1.0, 0.5], [0.0, 1.0]],
+                       [[-1.0, 0.0], [0.0, -1.0]], np.nan],
+}
+
+
+@given(st.sampled_from([(k, v) for k, vs in NAC_BAD.items() for v in vs]))
+def test_fuzz_non_assignment_cost_bad_input(case):
+    name, bad = case
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        A.non_assignment_cost(**dict(NAC_OK, **{name: bad}))
+
+
+def test_non_assignment_cost_shape_mismatch():
+    with pytest.raises(ValueError, match=r"`p_detect1`.*broadcast"):
+        A.non_assignment_cost(**dict(NAC_OK, p_detect1=[0.9, 0.8], p_detect2=[0.9, 0.8, 0.7]))
+
+
+SCENE_OK = dict(spacing=1.0, sigma1=0.1, sigma2=0.1)
+SCENE_BAD = [("n_objects", 0), ("n_objects", 2.5), ("spacing", 0.0), ("sigma1", -1.0),
+             ("sigma2", np.nan), ("p_detect1", 1.5), ("p_detect2", "1"), ("false_density1", -1.0),
+             ("false_density2", np.inf), ("trials", 0), ("dim", 0), ("layout", "grid"),
+             ("rng", "seed"), ("p_detect1", [0.5, 0.6])]
+
+
+@given(st.sampled_from(SCENE_BAD))
+def test_fuzz_clutter_scene_bad_input(case):
+    name, bad = case
+    kw = dict(SCENE_OK)
+    n = 3
+    if name == "n_objects":
+        n = bad
+    else:
+        kw[name] = bad
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        A.two_radar_clutter_scene(n, **kw)
+
+
+PM_BAD = [("reports1", [[np.nan, 0.0]]), ("reports1", [1.0, 2.0]), ("reports2", "x"),
+          ("reports2", [[0.0, 1.0, 2.0]]), ("sigma1", 0.0), ("sigma2", -1.0), ("sigma1", True),
+          ("reports1", np.zeros((2, 1, 2)))]
+
+
+@given(st.sampled_from(PM_BAD))
+def test_fuzz_proximity_matrix_bad_input(case):
+    name, bad = case
+    kw = dict(reports1=np.zeros((3, 1, 2)) if name != "reports2" else [[0.0, 1.0]],
+              reports2=[[0.0, 1.0]] if name != "reports1" else np.zeros((4, 1, 2)),
+              sigma1=0.1, sigma2=0.1)
+    if name == "reports1" and np.shape(bad) == (2, 1, 2):
+        kw["reports2"] = np.zeros((3, 1, 2))                          # batch axes 2 vs 3
+    kw[name] = bad
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        A.proximity_matrix(**kw)
+
+
+DEC_BAD = [[[0.5, 1.0]], [[True, False]], [["0", "1"]], None, [[-2, 0]], [], "01",
+           [[0, 1, 2]]]
+
+
+@given(st.sampled_from(DEC_BAD), st.sampled_from(["decided", "truth"]))
+def test_fuzz_decision_helpers_bad_input(bad, which):
+    good = [[0, 1]]
+    args = {"decided": good, "truth": good, which: bad}
+    with pytest.raises((ValueError, TypeError), match=f"`{which}`|`decided` and `truth`"):
+        A.all_correct(args["decided"], args["truth"])
+    if which == "truth":
+        with pytest.raises((ValueError, TypeError), match="`truth`"):
+            A.compare_decisions(np.eye(2)[None], bad, threshold=1.0, joint_threshold=2.0)
+
+
+def test_compare_decisions_bad_shapes_and_indices():
+    k = np.ones((3, 2, 2))
+    with pytest.raises(ValueError, match="`kappa`"):
+        A.compare_decisions(np.ones((2, 2)), [0, 1], threshold=1.0, joint_threshold=1.0)
+    with pytest.raises(ValueError, match=r"`truth`.*shape"):
+        A.compare_decisions(k, [[0, 1]], threshold=1.0, joint_threshold=1.0)
+    with pytest.raises(ValueError, match=r"`truth`.*< n2"):
+        A.compare_decisions(k, [[0, 5]] * 3, threshold=1.0, joint_threshold=1.0)
+    with pytest.raises(ValueError, match="`decided` and `truth`"):
+        A.all_correct([[0, 1]], [[0, 1], [1, 0]])
+    np.testing.assert_array_equal(A.all_correct(np.array([[0.0, 1.0]]), [[0, 1]]), [True])
