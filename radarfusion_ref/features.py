@@ -51,6 +51,7 @@ import numpy as np
 from scipy.special import expit, logsumexp
 
 from ._validation import (
+    MEMORY_LIMIT,
     _describe,
     as_choice,
     as_float_array,
@@ -58,6 +59,7 @@ from ._validation import (
     as_positive,
     as_rng,
     broadcast,
+    check_size,
     unwrap,
 )
 from .fusion import fuse
@@ -89,6 +91,32 @@ FEATURE_MODELS = ("shared", "spread")
 
 _LOG_2PI = np.log(2.0 * np.pi)
 
+#: Largest number of bins :func:`reliability_curve` accepts. A reliability diagram
+#: needs tens of bins; more only splits the predictions into bins too small to
+#: estimate a frequency, and the limit is checked before anything is allocated.
+MAX_BINS = 10_000
+
+#: Working arrays of one type posterior, each of the output's size (for the
+#: memory limit :data:`radarfusion_ref._validation.MEMORY_LIMIT`).
+_WORK_ARRAYS = 24
+
+
+def _check_memory(shape, n_types, what):
+    """Refuse a batch whose working memory would exceed the package's limit."""
+    n = int(np.prod(shape, dtype=object)) * int(n_types)
+    check_size(n * 8 * _WORK_ARRAYS, MEMORY_LIMIT,
+               what=f"bytes of working memory ({what}: {n} feature-type pairs)",
+               alternative=f"calls on chunks of the features (at most about "
+                           f"{MEMORY_LIMIT // (8 * _WORK_ARRAYS * max(int(n_types), 1))} "
+                           "features per call)")
+
+
+def _as_flag(value, name):
+    """A plain bool option (``log``); refuse strings and numbers, which are always truthy."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"`{name}` must be True or False; received {_describe(value)}")
+    return bool(value)
+
 
 # ----------------------------------------------------------------------------- validation
 def _types_iv(type_means, type_vars, priors):
@@ -96,7 +124,7 @@ def _types_iv(type_means, type_vars, priors):
     means = as_float_array(type_means, "type_means")
     if means.ndim != 1 or means.size == 0:
         raise ValueError("`type_means` must be a non-empty 1-D array (one mean per type); "
-                         f"received shape {means.shape}")
+                         f"received {_describe(means)}")
     tvars = as_positive(type_vars, "type_vars")
     if tvars.shape != means.shape:
         raise ValueError(f"`type_vars` must have the same shape as `type_means`, {means.shape}; "
@@ -109,9 +137,10 @@ def _types_iv(type_means, type_vars, priors):
         raise ValueError(f"`priors` must have the same shape as `type_means`, {means.shape}; "
                          f"received shape {p.shape}")
     if np.any(p < 0):
-        raise ValueError(f"`priors` must be >= 0; received {p}")
+        raise ValueError(f"`priors` must be >= 0; received {_describe(p)}")
     if abs(p.sum() - 1.0) > 1e-8:
-        raise ValueError(f"`priors` must sum to 1; received {p} (sum {p.sum():.10g})")
+        raise ValueError(f"`priors` must sum to 1 (within 1e-8); received {_describe(p)} "
+                         f"(sum {p.sum():.10g})")
     with np.errstate(divide="ignore"):
         return means, tvars, np.log(p)
 
@@ -355,7 +384,11 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
     ------
     ValueError
         Negative `feature_var`, non-positive `type_vars`, an empty or
-        non-1-D `type_means`, mismatched shapes.
+        non-1-D `type_means`, mismatched shapes, a batch above the memory
+        limit; with ``log=True``, a log-likelihood below the float range (its
+        likelihood, returned with ``log=False``, is then 0 to double precision).
+    TypeError
+        Non-numeric input, or a `log` that is not a bool.
 
     Notes
     -----
@@ -382,6 +415,8 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
     v = as_positive(feature_var, "feature_var", strict=False)
     f, v = broadcast(feature=f, feature_var=v)
     means, tvars, _ = _types_iv(type_means, type_vars, None)
+    log = _as_flag(log, "log")
+    _check_memory(f.shape, means.size, "type likelihood")
     log_var = _log_var_sum(tvars, v[..., None])
     with np.errstate(over="ignore"):
         out = -0.5 * (_LOG_2PI + log_var + np.exp(_log_quadratic(f[..., None], means, log_var)))
@@ -421,6 +456,8 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
     ValueError
         As :func:`type_likelihood`; `priors` of the wrong shape, negative or
         not summing to 1.
+    TypeError
+        Non-numeric input, or a `log` that is not a bool.
 
     Notes
     -----
@@ -437,8 +474,17 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
 
     The paper's (13) plugs :math:`\\tilde\\Pi` into :math:`f(\\Pi \\mid T_k)`, i.e.
     takes :math:`v = 0` and uniform priors; that is overconfident unless
-    :math:`v \\ll \\sigma_{\\Pi k}^2`. The normalisation is done with
-    ``logsumexp``, so far-out features give a clean answer instead of 0/0.
+    :math:`v \\ll \\sigma_{\\Pi k}^2`. (The book writes :math:`v` as
+    :math:`\\tilde\\sigma_\\Pi^2`.)
+
+    *Numerical range.* The posterior is formed from the exact differences of
+    the log-joint against the best type (:func:`_relative_log_joint`): the
+    squares are never formed outside the log domain and near-equal means are
+    not cancelled against the feature. So it is finite and sums to 1 over the
+    whole float range — a feature of 1e300 goes to the type whose density has
+    the heavier tail, types of variance 1e-310 are still told apart, and
+    means 1e-18 apart are resolved at a feature of 1 — and agrees with an
+    mpmath evaluation of the same formula (``tests/test_features.py``).
 
     References
     ----------
@@ -456,6 +502,8 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
     v = as_positive(feature_var, "feature_var", strict=False)
     f, v = broadcast(feature=f, feature_var=v)
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    log = _as_flag(log, "log")
+    _check_memory(f.shape, means.size, "type posterior")
     # log of the widened variances σ_Πk² + v, then exact differences against the best type
     log_post = _log_posterior([f], means, [_log_var_sum(tvars, v[..., None])], log_priors)
     return log_post if log else np.exp(log_post)
@@ -506,6 +554,7 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
     array([0.034, 0.966])
     """
     model = as_choice(model, "model", FEATURE_MODELS)
+    log = _as_flag(log, "log")
     if model == "shared":
         ff = fused_feature(feature1, feature_var1, feature2, feature_var2)
         return type_posterior(ff.value, ff.var, type_means, type_vars, priors, log=log)
@@ -515,6 +564,7 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
     v2 = as_positive(feature_var2, "feature_var2")
     f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    _check_memory(f1.shape, means.size, "type posterior")
     log_post = _log_posterior([f1, f2], means, [_log_var_sum(tvars, v1[..., None]),
                                                 _log_var_sum(tvars, v2[..., None])], log_priors)
     return log_post if log else np.exp(log_post)
@@ -530,7 +580,7 @@ class CombinedProximity:
     total : numpy.ndarray
         :math:`\\kappa = \\kappa^x + \\kappa^\\Pi`.
     coordinate : numpy.ndarray
-        :math:`\\kappa^x = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (C_1+C_2)^{-1}
+        :math:`\\kappa^x = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (\\Sigma_1+\\Sigma_2)^{-1}
         (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)`.
     feature : numpy.ndarray
         :math:`\\kappa^\\Pi`, the feature term (see :func:`combined_proximity`).
@@ -629,12 +679,12 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
 
     .. math::
 
-        \\kappa = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (C_1+C_2)^{-1}
+        \\kappa = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (\\Sigma_1+\\Sigma_2)^{-1}
                   (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)
                 + \\frac{(\\hat\\Pi_1-\\hat\\Pi_2)^2}{\\sigma_{\\Pi1}^2+\\sigma_{\\Pi2}^2},
 
     :math:`\\chi^2(d+1)` under a true hypothesis and noncentral
-    :math:`\\chi'^2(d+1, V_x + V_\\Pi)` under a false one (given the two objects'
+    :math:`\\chi'^2(d+1, \\lambda_x + \\lambda_\\Pi)` under a false one (given the two objects'
     positions and feature values). The paper prints (12) without the squares.
 
     *Profile, model 2* — each radar's value is a separate unknown, fitted
@@ -682,13 +732,20 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     v2 = as_positive(feature_var2, "feature_var2")
     f1, f2, v1, v2 = broadcast(feature1=f1, feature2=f2, feature_var1=v1, feature_var2=v2)
     if kind == "profile":
-        kf = (f1 - f2) ** 2 / (v1 + v2) if model == "shared" else np.zeros(f1.shape)
+        if model == "shared":
+            # (Π̂1 - Π̂2)² / (σ_Π1² + σ_Π2²), formed in the log domain: no overflow of the
+            # square or of the sum of variances when the quotient itself is representable
+            with np.errstate(over="ignore"):
+                kf = np.exp(_log_quadratic(f1, f2, np.logaddexp(np.log(v1), np.log(v2))))
+        else:
+            kf = np.zeros(f1.shape)
         dof = d + 1 if model == "shared" else d
     else:
         if type_means is None or type_vars is None:
             raise ValueError("`type_means` and `type_vars` are required with kind='marginal'; "
                              f"received type_means={type_means!r}, type_vars={type_vars!r}")
         means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+        _check_memory(f1.shape, means.size, "marginal feature term")
         kf = _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors)
         dof = None
     try:
@@ -697,7 +754,14 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
         raise ValueError("the coordinate batch shape (of `x1`, `x2`) and the feature shape (of "
                          f"`feature1`, `feature2`) must broadcast; received {kx.shape} and "
                          f"{kf.shape}") from None
-    return CombinedProximity(kx + kf, kx, kf, dof, model, kind)
+    with np.errstate(over="ignore"):
+        total = kx + kf
+    if not np.all(np.isfinite(total)):
+        raise ValueError("the combined proximity exceeds the floating-point range (about "
+                         "1.8e308) for some pair: the reports (`x1`, `x2`, `feature1`, "
+                         "`feature2`) are too far apart for their variances; such a pair is "
+                         "outside any gate, so drop it before computing the measure")
+    return CombinedProximity(total, kx, kf, dof, model, kind)
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -1061,11 +1125,21 @@ def reliability_curve(prob, outcome, *, bins: int = 10) -> ReliabilityCurve:
     outcome : array_like of bool
         Whether the predicted event happened (same shape as `prob`).
     bins : int, optional
-        Number of equal-width bins on [0, 1]; empty bins are dropped.
+        Number of equal-width bins on [0, 1], at most :data:`MAX_BINS`; empty
+        bins are dropped.
 
     Returns
     -------
     ReliabilityCurve
+
+    Raises
+    ------
+    ValueError
+        Probabilities outside [0, 1] or non-finite, an empty `prob`, an
+        `outcome` that is not boolean or of another size, `bins` < 1 or above
+        :data:`MAX_BINS` (refused before anything is allocated).
+    TypeError
+        A non-integer `bins`, non-numeric `prob`.
 
     Examples
     --------
@@ -1073,14 +1147,20 @@ def reliability_curve(prob, outcome, *, bins: int = 10) -> ReliabilityCurve:
     >>> r.predicted, r.observed, r.counts
     (array([0.1, 0.9]), array([0., 1.]), array([2, 2]))
     """
+    bins = as_int(bins, "bins", minimum=1)
+    check_size(bins, MAX_BINS, what="bins",
+               alternative=f"at most {MAX_BINS} bins (a reliability diagram needs tens)")
     p = as_float_array(prob, "prob").ravel()
+    if p.size == 0:
+        raise ValueError("`prob` must hold at least one prediction; received an empty array")
+    if np.any((p < 0) | (p > 1)):
+        raise ValueError(f"`prob` must lie in [0, 1]; received {_describe(p)} (min {p.min():.6g},"
+                         f" max {p.max():.6g})")
     o = np.asarray(outcome)
     if o.dtype != bool or o.size != p.size:
         raise ValueError(f"`outcome` must be a boolean array with as many entries as `prob` "
-                         f"({p.size}); received dtype {o.dtype} with {o.size} entries")
-    if np.any((p < 0) | (p > 1)):
-        raise ValueError("`prob` must lie in [0, 1]")
-    bins = as_int(bins, "bins", minimum=1)
+                         f"({p.size}); received {_describe(outcome)} (dtype {o.dtype}, "
+                         f"{o.size} entries)")
     which = np.minimum((p * bins).astype(int), bins - 1)
     counts = np.bincount(which, minlength=bins)
     hits = np.bincount(which[o.ravel()], minlength=bins)
