@@ -170,6 +170,28 @@ def _union(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float
     return (hi, lo) if a[0] > a[1] else (lo, hi)
 
 
+def _equal_aspect(ax) -> None:
+    """Equal aspect by widening the fixed limits to the axes' box, the same on every frame.
+
+    (``adjustable="datalim"`` would widen them from each frame's own data, so the
+    limits would change between frames; ``"box"`` alone would shrink the axes.)
+    """
+    fig = ax.get_figure()
+    if ax.get_xscale() == "linear" and ax.get_yscale() == "linear":
+        pos = ax.get_position(original=True)
+        w, h = pos.width * fig.get_figwidth(), pos.height * fig.get_figheight()
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        dx, dy = abs(x1 - x0), abs(y1 - y0)
+        if w > 0 and h > 0 and dx > 0 and dy > 0:
+            if dy / dx < h / w:
+                grow = (dx * h / w - dy) / 2 * np.sign(y1 - y0)
+                ax.set_ylim(y0 - grow, y1 + grow)
+            else:
+                grow = (dy * w / h - dx) / 2 * np.sign(x1 - x0)
+                ax.set_xlim(x0 - grow, x1 + grow)
+    ax.set_aspect("equal", adjustable="box")
+
+
 def _frame_limits(fig) -> list[tuple | None]:
     """(xlim, ylim) of each axes of the current frame (None for colorbars)."""
     return [None if _is_colorbar(ax) else (ax.get_xlim(), ax.get_ylim()) for ax in fig.axes]
@@ -297,9 +319,9 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
         Fix the limits across frames as above (default ``True``); ``False``
         keeps each frame's own limits.
     equal_aspect : bool, optional
-        One unit on x is as long as one unit on y, on every non-colorbar axes
-        (``adjustable="datalim"``: the limits widen to fill the axes, the same
-        way on every frame). Use it for geometry plots.
+        One unit on x is as long as one unit on y, on every non-colorbar axes:
+        the fixed limits are widened (never narrowed) to the shape of the axes,
+        the same way on every frame. Use it for geometry plots.
 
     Returns
     -------
@@ -366,6 +388,8 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
                     limits[k] = (_union(limits[k][0], lims[0]), _union(limits[k][1], lims[1]))
 
     def apply(margins=None):
+        if margins is not None:
+            fig.subplots_adjust(**margins)
         for k, ax in enumerate(fig.axes):
             if _is_colorbar(ax):
                 continue
@@ -379,9 +403,7 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
             elif fixed is not None:
                 ax.set_ylim(fixed[1])
             if equal_aspect:
-                ax.set_aspect("equal", adjustable="datalim")
-        if margins is not None:
-            fig.subplots_adjust(**margins)
+                _equal_aspect(ax)
 
     # 2. layout: a tight layout of a few frames (with the fixed limits, tick labels
     #    no longer change between frames), the most generous margins kept

@@ -4,7 +4,10 @@ Debian's Chromium is driven by Playwright through ``executable_path`` (no
 browser download). The built site is served on 127.0.0.1; every request to any
 other host is aborted and counts as a failure. For each page: it loads, MathJax
 typesets every equation (no raw TeX left, no MathJax error), every image loads,
-no request fails, and no script error occurs other than the allow-list below.
+no request fails, no script error is thrown, nothing is logged to the console at
+error or warning level, and no script — by ``<script src>`` or by an address in an
+inline script (as sphinx-thebe's ``THEBE_JS_URL`` did) — points at the network.
+There is no allow-list.
 """
 
 from __future__ import annotations
@@ -22,14 +25,6 @@ import pytest
 from book_tools import BUILD_DIR, toc_docnames
 
 pytestmark = pytest.mark.book
-
-#: Script errors of the theme that do not affect the page, each with its reason.
-ALLOWED_PAGE_ERRORS = {
-    # Jupyter Book 1 registers sphinx-thebe twice, so its one-line config script is
-    # included twice and the second `const` declaration throws. Thebe (live code
-    # on the page) is disabled in _config.yml; nothing else is affected.
-    "Identifier 'THEBE_JS_URL' has already been declared",
-}
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update",
@@ -106,7 +101,21 @@ async () => {
   const imgs = Array.from(document.images);
   await Promise.all(imgs.map(i => i.complete ? null :
       new Promise(r => { i.onload = r; i.onerror = r; })));
+  const here = window.location.host;
+  const remoteScripts = [];
+  for (const s of document.querySelectorAll("script")) {
+    const src = s.getAttribute("src");
+    if (src) {
+      const u = new URL(src, window.location.href);
+      if (u.protocol !== "data:" && u.host !== here) remoteScripts.push(u.href.slice(0, 100));
+    } else {
+      for (const m of (s.textContent || "").matchAll(/(?:https?:)?\\/\\/[^\\s"'`<>]+?\\.m?js\\b/g)) {
+        remoteScripts.push("inline: " + m[0].slice(0, 100));
+      }
+    }
+  }
   return {
+    remoteScripts: remoteScripts,
     mathjax: !!window.MathJax,
     typeset: document.querySelectorAll("mjx-container").length,
     mathSpans: document.querySelectorAll(".math").length,
@@ -123,7 +132,7 @@ def page_problems(browser, url: str) -> list[str]:
     """Everything wrong with one page loaded with the network cut off."""
     host = urlparse(url).netloc
     context = browser.new_context()
-    blocked, failed, errors = [], [], []
+    blocked, failed, errors, console = [], [], [], []
 
     def route(r):
         if urlparse(r.request.url).netloc == host or r.request.url.startswith("data:"):
@@ -138,6 +147,8 @@ def page_problems(browser, url: str) -> list[str]:
     page.on("response", lambda r: failed.append(f"{r.url} (HTTP {r.status})")
             if r.status >= 400 else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: console.append(f"{m.type}: {m.text}"[:200])
+            if m.type in ("error", "warning") else None)
     try:
         response = page.goto(url, wait_until="load")
         if response is None or not response.ok:
@@ -152,9 +163,14 @@ def page_problems(browser, url: str) -> list[str]:
     failed = [f for f in failed if not any(b in f for b in blocked)]
     if failed:
         problems.append(f"failed requests: {failed[:5]}")
-    unexpected = [e for e in errors if not any(a in e for a in ALLOWED_PAGE_ERRORS)]
-    if unexpected:
-        problems.append(f"script errors: {unexpected[:5]}")
+    if errors:
+        problems.append(f"script errors: {errors[:5]}")
+    # a failed request is also logged to the console; it is reported above
+    console = [c for c in console if "Failed to load resource" not in c]
+    if console:
+        problems.append(f"console errors or warnings: {console[:5]}")
+    if result["remoteScripts"]:
+        problems.append(f"scripts referenced from the network: {result['remoteScripts'][:5]}")
     if result["mathSpans"] and not result["mathjax"]:
         problems.append("MathJax did not load")
     if result["typeset"] < result["mathSpans"]:
@@ -178,7 +194,16 @@ BAD_PAGE = """<!DOCTYPE html><html><head>
 <script src="https://cdn.example.org/lib.js"></script></head>
 <body><p>The proximity measure $\\kappa = x^2$ was never typeset.</p>
 <img src="missing.png" alt="missing">
+<script>console.error("deliberate console error");</script>
+<script>console.warn("deliberate console warning");</script>
 <script>throw new Error("deliberate failure");</script></body></html>"""
+
+#: Only a script address in an inline script (what sphinx-thebe's config did), and a
+#: script that redeclares a constant: no request is made, yet both must be caught.
+SUBTLE_PAGE = """<!DOCTYPE html><html><head>
+<script>const LIB_URL = "https://cdn.example.org/lib/index.js"</script>
+<script>const LIB_URL = "https://cdn.example.org/lib/index.js"</script></head>
+<body><p>Nothing else is wrong.</p></body></html>"""
 
 
 def test_the_check_catches_a_bad_page(browser, tmp_path):
@@ -187,5 +212,16 @@ def test_the_check_catches_a_bad_page(browser, tmp_path):
     with serve(tmp_path) as url:
         problems = " | ".join(page_problems(browser, f"{url}/bad.html"))
     for expected in ("requests to the network", "failed requests", "deliberate failure",
+                     "deliberate console error", "deliberate console warning",
+                     "scripts referenced from the network: ['https://cdn.example.org/lib.js",
                      "raw TeX", "broken images"):
         assert expected in problems, f"not caught: {expected} (got: {problems})"
+
+
+def test_the_check_catches_a_script_address_and_a_redeclared_constant(browser, tmp_path):
+    """The control for the THEBE_JS_URL defect: no request fails, yet the page is caught."""
+    (tmp_path / "subtle.html").write_text(SUBTLE_PAGE)
+    with serve(tmp_path) as url:
+        problems = " | ".join(page_problems(browser, f"{url}/subtle.html"))
+    assert "has already been declared" in problems, problems
+    assert "inline: https://cdn.example.org/lib/index.js" in problems, problems
