@@ -35,6 +35,8 @@ class Chapter:
         Key into :data:`PAPERS`.
     source : str
         The equations, figures and tables of the paper the chapter covers.
+    builds_on : tuple of int
+        Numbers of the chapters a reader should know first.
     """
 
     stem: str
@@ -42,6 +44,7 @@ class Chapter:
     title: str
     paper: str
     source: str
+    builds_on: tuple[int, ...] = ()
 
     @property
     def docname(self) -> str:
@@ -56,14 +59,29 @@ class Chapter:
 
 CHAPTERS: tuple[Chapter, ...] = (
     Chapter("fusion", 1, "The maximum-likelihood fused estimate", "GK", "eqs. (1)–(3)"),
-    Chapter("proximity", 2, "Likelihood and proximity measures", "GK", "eqs. (4), (7); Fig. 1"),
-    Chapter("gating", 3, "Chi-square gating", "GK", "threshold rule, $P_{lo}$"),
-    Chapter("association", 4, "Pointwise and joint association", "GK", "eqs. (5)–(6); joint measure"),
-    Chapter("features", 5, "Features and type recognition", "GK", "eqs. (8)–(13)"),
-    Chapter("conversion", 6, "Bias-corrected polar-to-Cartesian conversion", "P", "eqs. (1)–(4)"),
-    Chapter("separated", 7, "Associating two separated radars", "P", "quadratic form $S$; Table 1"),
-    Chapter("grouping", 8, "Grouping reports of many sources", "S", "eqs. (4)–(26)"),
+    Chapter("proximity", 2, "Likelihood and proximity measures", "GK", "eqs. (4), (7); Fig. 1",
+            (1,)),
+    Chapter("gating", 3, "Chi-square gating", "GK", "threshold rule, $P_{lo}$", (2,)),
+    Chapter("association", 4, "Pointwise and joint association", "GK",
+            "eqs. (5)–(6); joint measure", (2, 3)),
+    Chapter("features", 5, "Features and type recognition", "GK", "eqs. (8)–(13)", (1, 4)),
+    Chapter("conversion", 6, "Bias-corrected polar-to-Cartesian conversion", "P",
+            "eqs. (1)–(4)", (1,)),
+    Chapter("separated", 7, "Associating two separated radars", "P",
+            "quadratic form $S$; Table 1", (3, 4, 6)),
+    Chapter("grouping", 8, "Grouping reports of many sources", "S", "eqs. (4)–(26)", (1, 2, 4)),
 )
+
+
+def _check_dependencies(chapters) -> None:
+    """Every chapter builds only on earlier chapters (a reading order exists)."""
+    for ch in chapters:
+        for k in ch.builds_on:
+            if not 1 <= k < ch.number:
+                raise ValueError(f"chapter {ch.number} cannot build on chapter {k}")
+
+
+_check_dependencies(CHAPTERS)
 
 
 def chapter_table() -> str:
