@@ -226,7 +226,7 @@ def _check_batch(trials: int, **arrays) -> int:
         broadcast(**arrays)          # raises the package's message naming the arguments
         raise
     size = int(np.prod(shape, dtype=object)) * int(trials)
-    check_size(size, MAX_BATCH, what="batch elements (broadcast inputs × trials)",
+    check_size(size, MAX_BATCH, what="batch elements (broadcast inputs × `trials`)",
                alternative="several calls on slices of the batch (or fewer trials per call, "
                            "pooling calls seeded from SeedSequence.spawn)")
     return size
@@ -324,7 +324,8 @@ def _scale(r, sigma_r):
 
 def _unscale(v_scaled, e, what):
     """v · 4^e, refusing a result that overflows or underflows float64."""
-    v = np.ldexp(v_scaled, 2 * e)
+    with np.errstate(over="ignore", under="ignore"):
+        v = np.ldexp(v_scaled, 2 * e)
     if not np.all(np.isfinite(v)):
         raise ValueError(f"the {what} overflows float64 (above 1.8e308): `r`/`sigma_r` are too "
                          "large for their variances to be represented; express them in a "

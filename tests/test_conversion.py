@@ -9,7 +9,9 @@ Monte Carlo with tolerances from the standard error.
 from __future__ import annotations
 
 import functools
+import math
 
+import mpmath
 import numpy as np
 import pytest
 import sympy as sp
@@ -439,3 +441,368 @@ def test_moments_bias_independent_of_sigma_r_and_mse_psd(p, method):
     assert np.linalg.eigvalsh(m1.mse)[0] >= -1e-12 * (r**2 + sr**2)
     np.testing.assert_allclose(m1.bias, cv.conversion_bias(r, b, sb, method=method),
                                rtol=1e-12, atol=1e-14 * r)
+
+
+# =========================================================================== trust (issue 12)
+
+
+PUBLIC = ("polar_to_cartesian", "conversion_moments", "conversion_bias", "nonlinearity_index",
+          "simulate_polar", "nees", "nees_at_truth", "conversion_monte_carlo")
+
+
+def test_public_functions_are_the_covered_ones():
+    funcs = {n for n in cv.__all__ if callable(getattr(cv, n)) and not isinstance(
+        getattr(cv, n), type)}
+    assert funcs == set(PUBLIC)
+
+
+# --------------------------------------------------------------------------- σβ limit
+def test_sigma_beta_max_is_one_documented_value():
+    """0.5 rad: the fold-over probability P(|w| > 90°) is below 2e-3 there (4.6 % at π/4)."""
+    from scipy import stats
+    assert cv.SIGMA_BETA_MAX == 0.5
+    assert 2 * stats.norm.sf(np.pi / 2 / cv.SIGMA_BETA_MAX) < 2e-3
+    assert 2 * stats.norm.sf(2.0) > 0.04                      # at π/4
+    cv.polar_to_cartesian(100.0, 0.0, 0.1, cv.SIGMA_BETA_MAX)  # the limit itself is accepted
+    for f in (lambda sb: cv.polar_to_cartesian(100.0, 0.0, 0.1, sb),
+              lambda sb: cv.conversion_bias(100.0, 0.0, sb),
+              lambda sb: cv.nonlinearity_index(100.0, 0.1, sb),
+              lambda sb: cv.nees_at_truth(100.0, 0.0, 0.1, sb),
+              lambda sb: cv.simulate_polar(100.0, 0.0, 0.1, sb, trials=2, rng=1),
+              lambda sb: cv.conversion_monte_carlo(100.0, 0.0, 0.1, sb, trials=2, rng=1)):
+        with pytest.raises(ValueError, match=r"`sigma_beta`.*SIGMA_BETA_MAX"):
+            f(np.nextafter(cv.SIGMA_BETA_MAX, 1.0))
+
+
+# --------------------------------------------------------------------------- extreme values vs mpmath
+mpmath.mp.dps = 60
+
+
+def _mp_principal(method, r, sr, sb, *, truth=False):
+    """(along, cross) by the unsimplified formulas, in 60-digit arithmetic."""
+    r, sr, s = mpmath.mpf(r), mpmath.mpf(sr), mpmath.mpf(sb) ** 2
+    e = mpmath.exp
+    gain = {"linearized": 1, "additive": 1 + e(-s / 2) - e(-s), "multiplicative": e(s / 2),
+            "first_order": 1 + s / 2, "first_order_printed": 1 - s / 2}[method]
+    if truth:
+        e2 = r**2 + sr**2
+        a = gain**2 * (e2 / 2 - e(-s) * r**2 / 2)
+        b = gain**2 * (e2 * e(-2 * s) / 2 - e(-s) * r**2 / 2)
+    elif method == "linearized":
+        return sr**2, r**2 * s
+    elif method == "multiplicative":
+        k = (e(s) - 2) * r**2
+        a, b = k / 2 + (r**2 + sr**2) / 2, k / 2 + (r**2 + sr**2) * e(-2 * s) / 2
+    else:
+        a = (r**2 + 2 * sr**2) / 2 - (r**2 + sr**2) * e(-s) / 2
+        b = (r**2 + 2 * sr**2) * e(-4 * s) / 2 - (r**2 + sr**2) * e(-3 * s) / 2
+    return a + b, a - b
+
+
+def _mp_bias_factor(method, sb):
+    s = mpmath.mpf(sb) ** 2
+    e = mpmath.exp
+    gain = {"linearized": 1, "additive": 1 + e(-s / 2) - e(-s), "multiplicative": e(s / 2),
+            "first_order": 1 + s / 2, "first_order_printed": 1 - s / 2}[method]
+    return gain * e(-s / 2) - 1
+
+
+log_r = st.floats(-100, 170, **finite)
+log_ratio = st.floats(-12, 3, **finite)        # σr / r
+log_sb = st.floats(-12, math.log10(cv.SIGMA_BETA_MAX), **finite)
+
+
+@given(log_r, log_ratio, log_sb, st.sampled_from(ALL))
+def test_covariances_over_the_float_range_match_mpmath(lr, lq, ls, method):
+    """Principal variances at β = 0 to 1e-10 relative, or a ValueError where they overflow."""
+    r, sb = 10.0**lr, 10.0**ls
+    sr = r * 10.0**lq
+    along, cross = _mp_principal(method, r, sr, sb)
+    big = float(max(along, cross)) if max(along, cross) < mpmath.mpf("1e308") else math.inf
+    small = float(min(along, cross))
+    if not (big < 1.7e308 and small > 1e-300):
+        with pytest.raises(ValueError, match=r"`r`|flow"):
+            cv.polar_to_cartesian(r, 0.0, sr, sb, method=method)
+        return
+    with warnings_ignored():
+        out = cv.polar_to_cartesian(r, 0.0, sr, sb, method=method)
+    np.testing.assert_allclose(out.cov[0, 0], float(along), rtol=1e-10)
+    np.testing.assert_allclose(out.cov[1, 1], float(cross), rtol=1e-10)
+    assert out.cov[0, 1] == 0.0
+
+
+@given(log_r, log_ratio, log_sb, st.sampled_from(ALL))
+def test_truth_moments_over_the_float_range_match_mpmath(lr, lq, ls, method):
+    r, sb = 10.0**lr, 10.0**ls
+    sr = r * 10.0**lq
+    along, cross = _mp_principal(method, r, sr, sb, truth=True)
+    bf = _mp_bias_factor(method, sb)
+    if not (max(along, cross) < mpmath.mpf("1.7e308") and min(along, cross) > 1e-300
+            and along + (bf * r) ** 2 < mpmath.mpf("1.7e308")):
+        with pytest.raises(ValueError, match="flow"):
+            cv.conversion_moments(r, 0.0, sr, sb, method=method)
+        return
+    m = cv.conversion_moments(r, 0.0, sr, sb, method=method)
+    np.testing.assert_allclose(m.cov[0, 0], float(along), rtol=1e-10)
+    np.testing.assert_allclose(m.cov[1, 1], float(cross), rtol=1e-10)
+    np.testing.assert_allclose(m.mse[0, 0], float(along + (bf * r) ** 2), rtol=1e-10)
+    np.testing.assert_allclose(m.bias[0], float(bf * r), rtol=1e-10, atol=1e-50 * r)
+    np.testing.assert_allclose(cv.conversion_bias(r, 0.0, sb, method=method)[0], float(bf * r),
+                               rtol=1e-10, atol=1e-50 * r)
+
+
+def test_tiny_azimuth_error_keeps_the_small_numbers():
+    """Reproduced defects: 1 − e^{−s} lost the cross-range variance and the bias at tiny σβ."""
+    out = cv.polar_to_cartesian(1.0, 0.0, 1.0, 1e-8, method="additive")
+    _, cross = _mp_principal("additive", 1.0, 1.0, 1e-8)
+    np.testing.assert_allclose(out.cov[1, 1], float(cross), rtol=1e-12)   # was 11 % off
+    np.testing.assert_allclose(cv.conversion_bias(1.0, 0.0, 1e-8)[0], -5e-17, rtol=1e-12)
+
+
+def test_coordinates_near_1e154_no_longer_overflow_in_silence():
+    """Reproduced defect: r = 1e155 gave inf/NaN covariances; now exact, or refused."""
+    for m in ALL:
+        with warnings_ignored():
+            assert np.all(np.isfinite(cv.polar_to_cartesian(1e155, 0.3, 1.0, 0.01, method=m).cov))
+            out = cv.polar_to_cartesian(1e155, 0.0, 1.0, 0.01, method=m)
+        along, cross = _mp_principal(m, 1e155, 1.0, 0.01)
+        np.testing.assert_allclose(np.diag(out.cov), [float(along), float(cross)], rtol=1e-10)
+    assert np.all(np.isfinite(cv.conversion_moments(1e155, 0.3, 1.0, 0.01).mse))
+    with pytest.raises(ValueError, match="overflows"):
+        cv.polar_to_cartesian(1e160, 0.3, 1.0, 0.01)
+    with pytest.raises(ValueError, match="float range"):
+        cv.nonlinearity_index(1e300, 1e-300, 0.1)
+    with pytest.raises(ValueError, match="NEES exceeds"):
+        cv.nees([1e200, 0.0], np.eye(2) * 1e-200)
+    with pytest.raises(ValueError, match="`r`"):
+        cv.simulate_polar(1.7e308, 0.0, 1e307, 0.01, trials=50, rng=0)
+
+
+@given(st.floats(-150, 150, **finite), st.floats(-150, 150, **finite))
+def test_nees_is_invariant_to_the_unit(le, lc):
+    """NEES is scale free: error × k, cov × k² gives the same value (no overflow on the way)."""
+    err = np.array([0.3, -1.2])
+    cov = np.array([[2.0, 0.4], [0.4, 0.5]])
+    ref = cv.nees(err, cov)
+    k = 10.0 ** ((le + lc) / 4)
+    np.testing.assert_allclose(cv.nees(err * k, cov * k**2), ref, rtol=1e-12)
+    np.testing.assert_allclose(cv.nees(np.r_[err, 1.0] * k, np.diag([2.0, 0.5, 1.0]) * k**2),
+                               cv.nees(np.r_[err, 1.0], np.diag([2.0, 0.5, 1.0])), rtol=1e-12)
+
+
+def test_nonlinearity_index_over_the_float_range():
+    np.testing.assert_allclose(cv.nonlinearity_index(1e300, 1e-5, 1e-160), 1e-15, rtol=1e-14)
+    np.testing.assert_allclose(cv.nonlinearity_index(1e-300, 1e-300, 0.5), 0.25, rtol=1e-14)
+    assert cv.nonlinearity_index(0.0, 1.0, 0.1) == 0.0
+
+
+# --------------------------------------------------------------------------- zero sigmas
+def test_zero_sigmas_refused_where_a_positive_definite_covariance_is_needed():
+    """Reproduced defects: a raw LinAlgError (nees_at_truth) and a message naming the internal
+    `cov` (conversion_monte_carlo); now the public argument is named."""
+    for kwargs, name in (({"sigma_r": 0.0}, "`sigma_r`"), ({"sigma_beta": 0.0}, "`sigma_beta`"),
+                         ({"sigma_r": -1.0}, "`sigma_r`")):
+        args = {"r": 100.0, "beta": 0.0, "sigma_r": 0.1, "sigma_beta": 0.01} | kwargs
+        with pytest.raises(ValueError, match=name):
+            cv.nees_at_truth(**args)
+        with pytest.raises(ValueError, match=name):
+            cv.conversion_monte_carlo(**args, trials=3, rng=1)
+    with pytest.raises(ValueError, match="`r`"):
+        cv.nees_at_truth(0.0, 0.0, 0.1, 0.01)
+    assert np.isfinite(cv.nees_at_truth(0.0, 0.0, 0.1, 0.01, method="additive"))
+
+
+def test_zero_sigmas_are_legal_where_the_answer_exists():
+    """A perfect range or azimuth is a degenerate but legal report: converted, with a warning."""
+    with pytest.warns(RadarFusionWarning, match="singular"):
+        out = cv.polar_to_cartesian(100.0, 0.3, 0.0, 0.01)
+    assert np.all(np.isfinite(out.cov))
+    np.testing.assert_array_equal(cv.conversion_bias(100.0, 0.3, 0.0), [0.0, 0.0])
+    r_hat, _ = cv.simulate_polar(100.0, 0.3, 0.0, 0.0, trials=4, rng=1)
+    np.testing.assert_array_equal(r_hat, 100.0)
+
+
+# --------------------------------------------------------------------------- sizes, reproducibility
+def test_sizes_are_refused_before_allocation():
+    with pytest.raises(ValueError, match="refused"):
+        cv.simulate_polar(100.0, 0.0, 1.0, 0.01, trials=10**12, rng=1)
+    with pytest.raises(ValueError, match="refused"):
+        cv.polar_to_cartesian(np.ones((100_000, 1)), np.ones((1, 100_000)), 0.1, 0.01)
+    with pytest.raises(ValueError, match="refused"):
+        cv.conversion_monte_carlo(100.0, 0.0, 1.0, 0.01, methods=cv.METHODS,
+                                  trials=cv.MAX_BATCH + 1, rng=1)
+    with pytest.raises(ValueError, match="`chunk_size`"):
+        cv.conversion_monte_carlo(100.0, 0.0, 1.0, 0.01, trials=10, rng=1,
+                                  chunk_size=cv.MAX_BATCH + 1)
+    with pytest.raises(ValueError, match="`chunk_size`"):
+        cv.conversion_monte_carlo(100.0, 0.0, 1.0, 0.01, trials=10, rng=1, chunk_size=0)
+    with pytest.raises(TypeError, match="`chunk_size`"):
+        cv.conversion_monte_carlo(100.0, 0.0, 1.0, 0.01, trials=10, rng=1, chunk_size=2.5)
+    with pytest.raises(ValueError, match="refused"):
+        cv.nees(np.ones((100_000, 1, 2)), np.broadcast_to(np.eye(2), (1, 100_000, 2, 2)))
+
+
+@given(st.integers(1, 700), st.integers(1, 3), st.integers(0, 2**32 - 1))
+def test_monte_carlo_does_not_depend_on_chunk_size(chunk, batch, seed):
+    r = np.linspace(100.0, 200.0, batch)
+    a = cv.conversion_monte_carlo(r, 0.4, 0.5, 0.05, methods=cv.METHODS, trials=357, rng=seed)
+    b = cv.conversion_monte_carlo(r, 0.4, 0.5, 0.05, methods=cv.METHODS, trials=357, rng=seed,
+                                  chunk_size=chunk)
+    for m in cv.METHODS:
+        np.testing.assert_array_equal(a[m].error, b[m].error)
+        np.testing.assert_array_equal(a[m].nees, b[m].nees)
+
+
+def test_monte_carlo_nees_equals_the_generic_nees():
+    out = cv.conversion_monte_carlo([120.0, 80.0], [0.4, -2.0], 0.5, 0.2, methods=cv.METHODS,
+                                    trials=500, rng=4)
+    r_hat, b_hat = cv.simulate_polar([120.0, 80.0], [0.4, -2.0], 0.5, 0.2, trials=500, rng=4)
+    for m in cv.METHODS:
+        conv = cv.polar_to_cartesian(r_hat, b_hat, 0.5, 0.2, method=m)
+        np.testing.assert_allclose(out[m].nees, cv.nees(out[m].error, conv.cov), rtol=1e-9)
+
+
+# --------------------------------------------------------------------------- properties of every public function
+pol = st.tuples(st.floats(1.0, 1e4, **finite), st.floats(-10, 10, **finite),
+                st.floats(1e-3, 10, **finite), st.floats(1e-4, cv.SIGMA_BETA_MAX, **finite))
+
+
+@given(pol, st.sampled_from(ALL))
+def test_properties_of_the_deterministic_functions(p, method):
+    r, b, sr, sb = p
+    with warnings_ignored():
+        out = cv.polar_to_cartesian(r, b, sr, sb, method=method)
+    assert out.xy.shape == (2,) and np.all(np.isfinite(out.xy)) and np.all(np.isfinite(out.cov))
+    np.testing.assert_allclose(np.hypot(*out.xy), cv._gain(method, sb**2) * r, rtol=1e-12)
+    assert np.linalg.eigvalsh(out.cov)[0] >= -1e-12 * np.abs(out.cov).max()
+    m = cv.conversion_moments(r, b, sr, sb, method=method)
+    np.testing.assert_allclose(m.mean - m.bias, r * np.array([np.cos(b), np.sin(b)]),
+                               rtol=1e-12, atol=1e-12 * r)
+    # the bias points at the radar (or vanishes), and MSE ⪰ Cov
+    assert m.bias @ [np.cos(b), np.sin(b)] <= 1e-12 * r or method == "first_order_printed"
+    assert np.linalg.eigvalsh(m.mse - m.cov)[0] >= -1e-9 * np.abs(m.mse).max()
+    eta = cv.nonlinearity_index(r, sr, sb)
+    np.testing.assert_allclose(eta, r * sb**2 / sr, rtol=1e-13)
+    nt = cv.nees_at_truth(r, b, sr, sb, method=method)
+    assert np.isfinite(nt) and nt > 0
+
+
+@settings(max_examples=15)
+@given(pol, st.integers(0, 2**32 - 1), st.integers(1, 40))
+def test_properties_of_the_random_functions(p, seed, trials):
+    r, b, sr, sb = p
+    r = max(r, cv.MIN_RANGE_OVER_SIGMA * sr)
+    rh, bh = cv.simulate_polar(r, b, sr, sb, trials=trials, rng=seed)
+    assert rh.shape == bh.shape == (trials,) and np.all(rh > 0)
+    again = cv.simulate_polar(r, b, sr, sb, trials=trials, rng=np.random.default_rng(seed))
+    np.testing.assert_array_equal(rh, again[0])
+    out = cv.conversion_monte_carlo(r, b, sr, sb, methods=("linearized", "multiplicative"),
+                                    trials=trials, rng=seed)
+    for o in out.values():
+        assert o.error.shape == (trials, 2) and o.nees.shape == (trials,)
+        assert np.all(np.isfinite(o.nees)) and np.all(o.nees >= 0)
+        assert o.trials == trials
+    # common random numbers: the linearized error is the plain conversion of those draws
+    np.testing.assert_allclose(out["linearized"].error + r * np.array([np.cos(b), np.sin(b)]),
+                               np.stack([rh * np.cos(bh), rh * np.sin(bh)], -1),
+                               rtol=1e-12, atol=1e-12 * r)
+
+
+# --------------------------------------------------------------------------- generated bad input
+BASE = {"r": 100.0, "beta": 0.3, "sigma_r": 0.5, "sigma_beta": 0.01}
+CALLS = {
+    "polar_to_cartesian": (lambda **k: cv.polar_to_cartesian(**k), BASE),
+    "conversion_moments": (lambda **k: cv.conversion_moments(**k), BASE),
+    "conversion_bias": (lambda **k: cv.conversion_bias(**k),
+                        {"r": 100.0, "beta": 0.3, "sigma_beta": 0.01}),
+    "nonlinearity_index": (lambda **k: cv.nonlinearity_index(**k),
+                           {"r": 100.0, "sigma_r": 0.5, "sigma_beta": 0.01}),
+    "nees_at_truth": (lambda **k: cv.nees_at_truth(**k), BASE),
+    "simulate_polar": (lambda **k: cv.simulate_polar(**k, trials=3, rng=1), BASE),
+    "conversion_monte_carlo": (lambda **k: cv.conversion_monte_carlo(**k, trials=3, rng=1), BASE),
+    "nees": (lambda **k: cv.nees(**k), {"error": [1.0, 2.0], "cov": np.eye(2)}),
+}
+BAD_VALUES = st.sampled_from([np.nan, np.inf, -np.inf, "1.5", True, None, [1.0, np.nan],
+                              object(), 1 + 2j, [[1.0, 2.0], [3.0]]])
+
+
+@given(st.sampled_from(sorted(CALLS)), st.data(), BAD_VALUES)
+def test_bad_values_name_the_argument(func, data, bad):
+    call, base = CALLS[func]
+    arg = data.draw(st.sampled_from(sorted(base)))
+    with pytest.raises((ValueError, TypeError), match=f"`{arg}`"):
+        call(**(base | {arg: bad}))
+
+
+NEGATIVE = {"r": -1.0, "sigma_r": -0.1, "sigma_beta": -1e-3}
+
+
+@given(st.sampled_from(sorted(CALLS)), st.data(), st.floats(1e-300, 1e300, **finite))
+def test_negative_values_name_the_argument(func, data, mag):
+    call, base = CALLS[func]
+    names = sorted(set(base) & set(NEGATIVE))
+    if not names:
+        return
+    arg = data.draw(st.sampled_from(names))
+    with pytest.raises(ValueError, match=f"`{arg}`"):
+        call(**(base | {arg: -mag}))
+
+
+@given(st.sampled_from(["polar_to_cartesian", "conversion_moments", "nees_at_truth",
+                        "simulate_polar", "conversion_monte_carlo"]),
+       st.integers(2, 4), st.integers(5, 7))
+def test_shape_mismatch_names_the_arguments(func, n1, n2):
+    call, base = CALLS[func]
+    with pytest.raises(ValueError, match=r"`r`.*`beta`"):
+        call(**(base | {"r": np.full(n1, 100.0), "beta": np.zeros(n2)}))
+
+
+@given(st.sampled_from([0, -3, 2.5, "10", True, None, 10**12]))
+def test_bad_trials(trials):
+    with pytest.raises((ValueError, TypeError), match="`trials`"):
+        cv.conversion_monte_carlo(100.0, 0.0, 0.5, 0.01, trials=trials, rng=1)
+    with pytest.raises((ValueError, TypeError), match=r"`trials`|refused"):
+        cv.simulate_polar(100.0, 0.0, 0.5, 0.01, trials=trials, rng=1)
+
+
+@given(st.sampled_from([(), [], ("exact",), ("linearized", 3), b"linearized", 5, None]))
+def test_bad_methods(methods):
+    with pytest.raises((ValueError, TypeError), match="`methods`"):
+        cv.conversion_monte_carlo(100.0, 0.0, 0.5, 0.01, methods=methods, trials=3, rng=1)
+
+
+@given(st.sampled_from(["exact", "", None, 3, "Linearized"]), st.sampled_from(
+    ["polar_to_cartesian", "conversion_moments", "conversion_bias", "nees_at_truth"]))
+def test_bad_method_generated(method, func):
+    call, base = CALLS[func]
+    with pytest.raises(ValueError, match="`method`"):
+        call(**base, method=method)
+
+
+@pytest.mark.parametrize(("err", "cov", "name"), [
+    ([1.0, 1.0], -np.eye(2), "`cov`"),
+    ([1.0, 1.0], [[1.0, 1.0], [1.0, 1.0]], "`cov`"),
+    (np.empty(0), np.empty((0, 0)), "`error`"),
+    ([1.0, np.inf], np.eye(2), "`error`"),
+    ([1.0, 1.0], [[1.0, np.nan], [np.nan, 1.0]], "`cov`"),
+    ([True, False], np.eye(2), "`error`"),
+])
+def test_nees_bad_input_more(err, cov, name):
+    with pytest.raises((ValueError, TypeError), match=name):
+        cv.nees(err, cov)
+
+
+def warnings_ignored():
+    import warnings
+    ctx = warnings.catch_warnings()
+    ctx.__enter__()
+    warnings.simplefilter("ignore", RadarFusionWarning)
+
+    class _Ctx:
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            ctx.__exit__(*exc)
+            return False
+    return _Ctx()
