@@ -349,7 +349,7 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
     -----
     The paper replaces the full search over pairwise hypotheses :math:`G_k`
     by "accepting the first plausible hypothesis with
-    :math:`\\kappa_k^* < \\kappa_{\\text{th}}`, then excluding the associated
+    :math:`\\kappa_k^* < \\kappa_{\\text{th}}` (the book's :math:`\\gamma`), then excluding the associated
     measurements and continuing the check". The result depends on the order
     of the lists, which carries no information; ``"best_first"`` removes that
     arbitrariness. Neither is the joint maximum-likelihood decision
@@ -497,12 +497,12 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     * `threshold` only: the largest number of pairs within the gate, and among
       those the smallest total cost (the :math:`\\text{miss\\_cost}\\to\\infty`
       limit). All pairs gated out: no pairs, no error.
-    * `miss_cost` :math:`m`: the partial assignment minimising
-      :math:`\\sum_{\\text{pairs}} c_{ij} + m\\,(\\#\\text{unassigned rows} +
+    * `miss_cost` :math:`c_0`: the partial assignment minimising
+      :math:`\\sum_{\\text{pairs}} c_{ij} + c_0\\,(\\#\\text{unassigned rows} +
       \\#\\text{unassigned columns})`. This equals the standard augmented
       :math:`(n_1+n_2)` square problem with dummy rows and columns; it is
       solved exactly, without the augmentation, as one rectangular assignment
-      of :math:`\\min(c_{ij} - 2m, 0)`.
+      of :math:`\\min(c_{ij} - 2c_0, 0)`.
 
     References
     ----------
@@ -784,7 +784,7 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     -----
     Murty's partitioning: after the best remaining solution :math:`\\pi` of a
     sub-problem (some pairs fixed, some forbidden) is output, its free rows
-    :math:`r_1, \\dots, r_m` give :math:`m` disjoint children — child
+    :math:`r_1, \\dots, r_q` give :math:`q` disjoint children — child
     :math:`t` fixes :math:`r_1 \\dots r_{t-1}` to their columns in
     :math:`\\pi` and forbids :math:`(r_t, \\pi(r_t))`. Their union is every
     solution of the parent apart from :math:`\\pi`, so taking the best child
@@ -1038,54 +1038,62 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     Parameters
     ----------
     p_detect1, p_detect2 : float or array_like
-        Detection probabilities of the two radars, in (0, 1].
+        Detection probabilities :math:`P_{D,1}, P_{D,2}` of the two radars, in (0, 1].
     false_density1, false_density2 : float or array_like
-        False-report densities :math:`\\lambda_1, \\lambda_2` (expected false
+        False-report densities :math:`\\rho_{F,1}, \\rho_{F,2}` (expected false
         reports per unit volume of the measurement space), ≥ 0.
     object_density : float or array_like
-        Density :math:`\\beta > 0` of objects (per unit volume).
+        Density :math:`\\rho_T > 0` of objects (per unit volume).
     innovation_cov : float or array_like, shape (..., d, d) or scalar
-        :math:`S = C_1 + C_2`, the covariance of the difference of two reports
-        of one object (a scalar is a 1-D variance).
+        :math:`S = \\Sigma_1 + \\Sigma_2`, the covariance of the difference of
+        two reports of one object (a scalar is a 1-D variance). Symmetric
+        positive definite; variances from 1e-300 to 1e300 are handled.
 
     Returns
     -------
     float or numpy.ndarray
-        The cost :math:`m` to pass as ``miss_cost`` to :func:`associate_joint`
+        The cost :math:`c_0` to pass as ``miss_cost`` to :func:`associate_joint`
         with a cost matrix of proximity measures :math:`\\kappa_{ij}`; ``+inf``
         when no report can be left unassigned (both radars detect everything
-        and report nothing false).
+        and report nothing false). Array arguments broadcast together.
 
     Raises
     ------
     ValueError
         For probabilities outside (0, 1], negative densities, a non-positive
-        object density or an invalid covariance.
+        object density, an invalid covariance or shapes that do not broadcast.
+    TypeError
+        For bools, strings or None where numbers are expected.
 
     Warns
     -----
     RadarFusionWarning
-        If :math:`m \\le 0`: no pair with :math:`\\kappa \\ge 0` can beat
+        If :math:`c_0 \\le 0`: no pair with :math:`\\kappa \\ge 0` can beat
         leaving both reports unassigned.
 
     Notes
     -----
-    Objects form a Poisson field of density :math:`\\beta`; radar :math:`r`
-    detects each with probability :math:`P_r` and adds false reports of
-    density :math:`\\lambda_r`. Integrating the unknown position out, a pair
-    :math:`(i, j)` contributes :math:`\\beta P_1 P_2\\, \\mathcal N(\\hat x_{1i} -
+    Objects form a Poisson field of density :math:`\\rho_T`; radar :math:`r`
+    detects each with probability :math:`P_{D,r}` and adds false reports of
+    density :math:`\\rho_{F,r}`. Integrating the unknown position out, a pair
+    :math:`(i, j)` contributes :math:`\\rho_T P_{D,1} P_{D,2}\\, \\mathcal N(\\hat x_{1i} -
     \\hat x_{2j}; 0, S)` to the likelihood of a hypothesis and an unpaired
-    report :math:`u_r = \\lambda_r + \\beta P_r (1 - P_{\\bar r})` (a false
+    report :math:`u_r = \\rho_{F,r} + \\rho_T P_{D,r} (1 - P_{D,\\bar r})` (a false
     report, or an object the other radar missed). Pairing beats leaving both
     reports unpaired iff
 
     .. math::
 
-        \\kappa_{ij} < 2\\ln\\frac{\\beta P_1 P_2}{u_1 u_2} - \\ln\\det(2\\pi S) = 2m,
+        \\kappa_{ij} < 2\\ln\\frac{\\rho_T P_{D,1} P_{D,2}}{u_1 u_2} - \\ln\\det(2\\pi S)
+        = 2c_0,
 
-    and with cost :math:`m` per unassigned report the assignment cost
-    :math:`\\sum \\kappa + m\\,(\\#\\text{unassigned})` is, up to a constant,
-    :math:`-2\\ln` of the hypothesis likelihood.
+    and with cost :math:`c_0` per unassigned report the assignment cost
+    :math:`\\sum \\kappa + c_0\\,(\\#\\text{unassigned})` is, up to a constant,
+    :math:`-2\\ln` of the hypothesis likelihood (the book's eq.
+    ``eq-non-assignment-cost``). Everything is computed in the log domain
+    (:func:`numpy.logaddexp` for :math:`\\ln u_r`, :math:`\\ln\\det S` through
+    the correlation matrix), so no density or variance in the float range
+    overflows or underflows.
 
     References
     ----------
@@ -1195,7 +1203,7 @@ class ClutterScene:
 
     @property
     def object_density(self) -> float:
-        """Objects per unit volume, :math:`\\beta = n / V`."""
+        """Objects per unit volume, :math:`\\rho_T = n / \\text{volume}`."""
         return self.truth.shape[1] / self.volume
 
     @property
@@ -1220,9 +1228,9 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, sigma1: float, si
     """The shared two-radar scene with missed detections and false reports.
 
     Draws :func:`radarfusion_ref.scenes.two_radar_scene`, then lets radar
-    :math:`r` keep each object's report with probability :math:`P_r` and add
+    :math:`r` keep each object's report with probability :math:`P_{D,r}` and add
     a Poisson number of false reports, uniform over the surveillance box, with
-    density :math:`\\lambda_r`; both lists are then shuffled.
+    density :math:`\\rho_{F,r}`; both lists are then shuffled.
 
     Parameters
     ----------
@@ -1392,7 +1400,7 @@ class DecisionComparison:
         Greedy best-first with the same gate.
     joint : Proportion
         Joint ML (:func:`associate_joint`), followed by the paper's joint
-        test (:math:`\\kappa_n^* < \\kappa_{\\text{th}}(n)`; rejection counts as
+        test (:math:`\\kappa_n^* < \\gamma_n`, the :math:`\\chi^2_n` gate; rejection counts as
         a wrong decision).
     joint_ml : Proportion
         Joint ML alone (no test).
