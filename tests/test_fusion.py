@@ -9,9 +9,11 @@ and tolerances of 5 standard errors.
 from __future__ import annotations
 
 import re
+from fractions import Fraction
 from functools import reduce
 from pathlib import Path
 
+import mpmath
 import numpy as np
 import pytest
 import sympy as sp
@@ -506,3 +508,362 @@ def test_misweighted_literalinclude_marker_is_in_the_function():
     (marker,) = re.findall(r":pyobject: misweighted\n:start-at: (.*)\n", text)
     lines = [line.strip() for line in inspect.getsource(fusion.misweighted).splitlines()]
     assert lines.count(marker) == 1
+
+
+# ============================================================================= issue 12: trust
+# The whole float range, against independent routes (exact rational arithmetic with
+# fractions.Fraction, and mpmath at 60 digits with an unbounded exponent), and a fuzz suite
+# of invalid input: every public function refuses it with an error naming the argument.
+
+EPS = np.finfo(float).eps
+TINY = np.finfo(float).tiny
+BIG = np.finfo(float).max
+
+
+def wide_floats(lo_exp, hi_exp, *, signed=False):
+    """Floats m * 10^e with m in [1, 10) and e in [lo_exp, hi_exp]: the whole float range."""
+    mant = st.floats(1.0, 9.999, allow_nan=False, allow_infinity=False)
+    sign = st.sampled_from([-1.0, 1.0]) if signed else st.just(1.0)
+    return st.builds(lambda s, m, e: s * float(Fraction(m) * Fraction(10) ** e), sign, mant,
+                     st.integers(lo_exp, hi_exp)).filter(lambda v: v != 0 and np.isfinite(v))
+
+
+@st.composite
+def wide_scalar_problem(draw, *, var_lo=-320, var_hi=307):
+    m = draw(st.integers(1, 5))
+    x = np.array(draw(st.lists(st.one_of(wide_floats(-300, 307, signed=True), st.just(0.0)),
+                               min_size=m, max_size=m)))
+    var = np.array(draw(st.lists(wide_floats(var_lo, var_hi), min_size=m, max_size=m)))
+    return x, var
+
+
+def exact_fuse(x, var):
+    """Eqs. (eq-fused-estimate), (eq-fused-variance) in exact rational arithmetic."""
+    info = [1 / Fraction(float(v)) for v in var]
+    total = sum(info)
+    weights = [i / total for i in info]
+    return (sum(w * Fraction(float(a)) for w, a in zip(weights, x, strict=True)),
+            1 / total, weights)
+
+
+@given(wide_scalar_problem())
+def test_fuse_over_the_whole_float_range_against_exact_arithmetic(problem):
+    x, var = problem
+    est, variance, weights = exact_fuse(x, var)
+    if variance < Fraction(TINY) * Fraction(1 - 1e-12):
+        with pytest.raises(ValueError, match="`var`"):
+            fuse(x, var)
+        return
+    if variance <= Fraction(TINY) * Fraction(1 + 1e-12):
+        return                                    # within rounding of the refusal threshold
+    r = fuse(x, var)
+    m = len(x)
+    assert np.isfinite(r.estimate) and np.isfinite(r.variance) and np.all(np.isfinite(r.weights))
+    assert abs(float(r.variance) - float(variance)) <= 4 * m * EPS * float(variance)
+    assert abs(Fraction(float(r.estimate)) - est) <= Fraction(8 * m * EPS * np.abs(x).max())
+    for got, want in zip(r.weights, weights, strict=True):
+        assert abs(Fraction(float(got)) - want) <= Fraction(4 * m * EPS) * want + Fraction(1e-300)
+    assert np.isfinite(r.information) and r.information > 0
+
+
+@given(wide_scalar_problem(var_lo=-300))
+def test_fuse_invariants_over_the_whole_float_range(problem):
+    x, var = problem
+    r = fuse(x, var)
+    m = len(x)
+    assert abs(r.weights.sum() - 1.0) <= 2 * m * EPS             # weights sum to 1
+    assert np.all(r.weights >= 0)
+    assert r.variance <= var.min()                               # exactly, not approximately
+    spread = 8 * m * EPS * np.abs(x).max()
+    assert x.min() - spread <= r.estimate <= x.max() + spread    # between the reports
+
+
+@given(wide_scalar_problem(var_lo=-300), st.integers(-300, 300))
+def test_fuse_is_equivariant_under_a_common_scale_of_the_variances(problem, e):
+    x, var = problem
+    c = 2.0 ** max(-900, min(900, int(e * 3.3)))                 # exact power of two
+    with np.errstate(over="ignore"):
+        scaled = var * c
+    if not np.all(np.isfinite(scaled)) or np.any(scaled < TINY):
+        return
+    a = fuse(x, var)
+    try:
+        b = fuse(x, scaled)
+    except ValueError:
+        assert a.variance * c < TINY * (1 + 1e-12)
+        return
+    np.testing.assert_array_equal(a.weights, b.weights)
+    assert a.estimate == b.estimate
+    assert b.variance == pytest.approx(a.variance * c, rel=4 * EPS)
+
+
+def test_fuse_issue12_cases_variances_near_1e_300_and_1e300():
+    for v in ([1e-300, 1e-300], [1e-300, 1e300], [1e300, 1e300], [1e308, 1e308],
+              [5e-308, 5e-308]):
+        x = [1.0, 2.0]
+        r = fuse(x, v)
+        est, variance, _ = exact_fuse(x, v)
+        assert float(r.variance) == pytest.approx(float(variance), rel=1e-15)
+        assert float(r.estimate) == pytest.approx(float(est), rel=1e-15)
+        assert r.weights.sum() == pytest.approx(1.0, rel=1e-15)
+    # the summed information 3e308 overflows: refused, never a variance of 0
+    with pytest.raises(ValueError, match=r"`var`.*too small"):
+        fuse([1.0, 2.0, 3.0], [1e-308, 1e-308, 1e-308])
+    big = fuse([1.5e308, 1.6e308], [1.0, 1.0])                  # reports near the float maximum
+    assert big.estimate == pytest.approx(1.55e308, rel=1e-15)
+
+
+def _mp_log_likelihood(x, var, position):
+    with mpmath.workdps(60):
+        return sum(-(mpmath.log(2 * mpmath.pi) + mpmath.log(mpmath.mpf(float(v)))
+                     + (mpmath.mpf(float(a)) - mpmath.mpf(float(position))) ** 2
+                     / mpmath.mpf(float(v))) / 2 for a, v in zip(x, var, strict=True))
+
+
+@given(wide_scalar_problem(var_lo=-300), st.one_of(wide_floats(-300, 307, signed=True),
+                                                 st.just(0.0)))
+def test_log_likelihood_over_the_whole_float_range_against_mpmath(problem, position):
+    x, var = problem
+    exact = _mp_log_likelihood(x, var, position)
+    if exact < -BIG * (1 + 1e-12):
+        with pytest.raises(ValueError, match="`position`"):
+            log_likelihood(x, var, position)
+        return
+    if exact < -BIG * (1 - 1e-12):
+        return
+    got = log_likelihood(x, var, position)
+    assert np.isfinite(got)
+    with mpmath.workdps(60):
+        scale = sum(abs(mpmath.log(mpmath.mpf(float(v)))) + 2 for v in var) + abs(exact)
+        assert abs(mpmath.mpf(float(got)) - exact) <= 16 * len(x) * EPS * scale
+
+
+def _mp_fuse_gaussian(x, cov):
+    with mpmath.workdps(60):
+        mats = [mpmath.matrix(c.tolist()) for c in cov]
+        precisions = [mpmath.inverse(c) for c in mats]
+        info = precisions[0]
+        for p in precisions[1:]:
+            info = info + p
+        y = precisions[0] * mpmath.matrix(x[0].tolist())
+        for p, xi in zip(precisions[1:], x[1:], strict=True):
+            y = y + p * mpmath.matrix(xi.tolist())
+        cov_f = mpmath.inverse(info)
+        est = cov_f * y
+        return est, cov_f, info
+
+
+@st.composite
+def wide_gaussian_problem(draw):
+    m, d = draw(st.integers(1, 3)), draw(st.integers(1, 3))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    scales = [10.0 ** draw(st.integers(-300, 300)) for _ in range(m)]
+    x_scale = 10.0 ** draw(st.integers(-300, 300))
+    base = random_spd(rng, (m,), d, floor=0.2)
+    cov = np.stack([s * b for s, b in zip(scales, base, strict=True)])
+    cov = (cov + np.swapaxes(cov, -1, -2)) / 2
+    return rng.normal(size=(m, d)) * x_scale, cov
+
+
+@given(wide_gaussian_problem())
+def test_fuse_gaussian_over_the_whole_float_range_against_mpmath(problem):
+    x, cov = problem
+    r = fuse_gaussian(x, cov)
+    est, cov_f, info = _mp_fuse_gaussian(x, cov)
+    d = x.shape[-1]
+    assert np.all(np.isfinite(r.estimate)) and np.all(np.isfinite(r.covariance))
+    xmax = np.abs(x).max()
+    for j in range(d):
+        assert abs(r.estimate[j] - float(est[j])) <= 1e-9 * xmax + 1e-300
+        for k in range(d):
+            scale_p = float(mpmath.sqrt(cov_f[j, j] * cov_f[k, k]))
+            scale_y = float(mpmath.sqrt(info[j, j] * info[k, k]))
+            assert abs(r.covariance[j, k] - float(cov_f[j, k])) <= 1e-9 * scale_p
+            assert abs(r.information[j, k] - float(info[j, k])) <= 1e-9 * scale_y
+    # the fused covariance is below each sensor's, in the Loewner order (relative to scale)
+    for c in cov:
+        scale = np.abs(c).max()
+        assert np.linalg.eigvalsh(c / scale - r.covariance / scale).min() > -1e-9
+
+
+def test_fuse_gaussian_refuses_beyond_the_float_range():
+    with pytest.raises(ValueError, match=r"`cov`.*singular"):
+        fuse_gaussian(np.zeros((3, 2)), np.stack([1e-308 * np.eye(2)] * 3))
+    r = fuse_gaussian(np.zeros((2, 2)), np.stack([1e-300 * np.eye(2), 1e300 * np.eye(2)]))
+    np.testing.assert_allclose(r.covariance, 1e-300 * np.eye(2), rtol=1e-15)
+
+
+@given(st.lists(wide_floats(-300, 300), min_size=1, max_size=5), st.integers(0, 2**32 - 1))
+def test_misweighted_over_the_whole_float_range_against_exact_arithmetic(var_true, seed):
+    var_true = np.array(var_true)
+    rng = np.random.default_rng(seed)
+    var_assumed = var_true * 10.0 ** rng.integers(-5, 6, size=var_true.shape)
+    m = misweighted(var_true, var_assumed)
+    info_a = [1 / Fraction(float(a)) for a in var_assumed]
+    w = [i / sum(info_a) for i in info_a]
+    actual = sum(wi**2 * Fraction(float(v)) for wi, v in zip(w, var_true, strict=True))
+    bound = 1 / sum(1 / Fraction(float(v)) for v in var_true)
+    n = len(var_true)
+    assert float(m.actual_variance) == pytest.approx(float(actual), rel=8 * n * EPS)
+    assert float(m.bound) == pytest.approx(float(bound), rel=8 * n * EPS)
+    assert float(m.reported_variance) == pytest.approx(float(1 / sum(info_a)), rel=8 * n * EPS)
+    assert abs(m.weights.sum() - 1.0) <= 2 * n * EPS
+    assert m.efficiency <= 1.0 + 8 * n * EPS                      # no weighting beats the bound
+    assert np.isfinite(m.consistency) and m.consistency > 0
+
+
+def test_misweighted_refuses_ratios_beyond_the_float_range():
+    m = misweighted([1e-300, 1e300], [1e300, 1e-300])
+    assert np.isfinite(m.actual_variance)
+    with pytest.raises(ValueError, match="efficiency"):
+        _ = m.efficiency
+
+
+# ----------------------------------------------------------------------------- samplers: range,
+# limits, reproducibility
+
+
+def test_samplers_refuse_runaway_sizes_before_allocating():
+    with pytest.raises(ValueError, match=r"refused.*`trials`"):
+        sample_reports(0.0, [1.0, 1.0], trials=10**9)
+    with pytest.raises(ValueError, match=r"refused.*`trials`"):
+        sample_reports_gaussian([0.0, 0.0], np.eye(2)[None], trials=10**9)
+
+
+def test_samplers_stay_finite_at_the_ends_of_the_float_range():
+    a = sample_reports([1.7e308, -1.7e308, 1e-300], [1e308, 1e308, 1e-300], trials=1000, rng=0)
+    assert np.all(np.isfinite(a))
+    assert np.std(a[:, 2, 2]) == pytest.approx(1e-150, rel=0.1)
+    b = sample_reports_gaussian([1.7e308, 0.0], 1e308 * np.eye(2)[None], trials=1000, rng=0)
+    assert np.all(np.isfinite(b))
+    c = sample_reports_gaussian([0.0, 0.0], 1e-300 * np.eye(2)[None], trials=1000, rng=0)
+    assert np.std(c) == pytest.approx(1e-150, rel=0.1)
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 50))
+def test_samplers_are_reproducible_from_a_seed(seed, trials):
+    a = sample_reports([0.0, 1.0], [1.0, 2.0], trials=trials, rng=seed)
+    b = sample_reports([0.0, 1.0], [1.0, 2.0], trials=trials, rng=np.random.default_rng(seed))
+    np.testing.assert_array_equal(a, b)
+    assert np.all(np.isfinite(a)) and a.shape == (trials, 2, 2)
+    c = sample_reports_gaussian([0.0, 0.0], np.eye(2)[None], trials=trials, rng=seed)
+    np.testing.assert_array_equal(
+        c, sample_reports_gaussian([0.0, 0.0], np.eye(2)[None], trials=trials, rng=seed))
+
+
+# ----------------------------------------------------------------------------- bad-input fuzz
+
+GOOD_CALLS = {
+    "fuse": (fuse, {"x": [1.0, 2.0], "var": [1.0, 4.0]}),
+    "log_likelihood": (log_likelihood, {"x": [1.0, 2.0], "var": [1.0, 4.0], "position": 0.5}),
+    "misweighted": (misweighted, {"var_true": [1.0, 4.0], "var_assumed": [2.0, 1.0]}),
+    "fuse_gaussian": (fuse_gaussian, {"x": [[0.0, 0.0], [1.0, 1.0]],
+                                      "cov": [np.eye(2).tolist(), (2 * np.eye(2)).tolist()]}),
+    "sample_reports": (sample_reports, {"truth": 0.0, "var": [1.0, 4.0], "trials": 3, "rng": 0}),
+    "sample_reports_gaussian": (sample_reports_gaussian,
+                                {"truth": [0.0, 0.0], "cov": [np.eye(2).tolist()], "trials": 3,
+                                 "rng": 0}),
+}
+#: Arguments whose entries must be positive variances.
+POSITIVE = {("fuse", "var"), ("log_likelihood", "var"), ("misweighted", "var_true"),
+            ("misweighted", "var_assumed"), ("sample_reports", "var")}
+ARRAY_ARGS = [(f, a) for f, (_, kw) in GOOD_CALLS.items() for a in kw
+              if a not in ("trials", "rng")]
+NOT_NUMBERS = [None, "1.5", "abc", True, np.bool_(False), object(), {"a": 1}, 1 + 2j]
+NON_FINITE = [np.nan, np.inf, -np.inf]
+
+
+def _expect_named_error(func, kwargs, name):
+    with pytest.raises((ValueError, TypeError)) as info:
+        func(**kwargs)
+    assert f"`{name}`" in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize(("fname", "arg"), ARRAY_ARGS)
+@pytest.mark.parametrize("bad", NOT_NUMBERS, ids=repr)
+def test_non_numbers_are_refused_naming_the_argument(fname, arg, bad):
+    func, good = GOOD_CALLS[fname]
+    _expect_named_error(func, {**good, arg: bad}, arg)
+
+
+@given(st.sampled_from(ARRAY_ARGS), st.sampled_from([*NON_FINITE, 0.0, -1.0, -1e-300, -1e300]),
+       st.integers(0, 100))
+def test_poisoned_entries_are_refused_naming_the_argument(case, bad, where):
+    """One entry of a valid array replaced by NaN/inf (anywhere) or a non-positive number
+    (where a variance is expected, or on a covariance's diagonal)."""
+    fname, arg = case
+    func, good = GOOD_CALLS[fname]
+    value = np.array(good[arg], dtype=float)
+    finite_bad = np.isfinite(bad)
+    if finite_bad and (fname, arg) not in POSITIVE and arg != "cov":
+        return                                    # a negative report or position is valid
+    if arg == "cov":
+        flat = value.reshape(-1, value.shape[-1], value.shape[-1])
+        i = where % flat.shape[0]
+        j = (where // flat.shape[0]) % flat.shape[-1]
+        flat[i, j, j] = bad                        # a diagonal entry: not positive definite
+        value = flat.reshape(value.shape)
+    else:
+        flat = value.reshape(-1)
+        flat[where % flat.size] = bad
+        value = flat.reshape(value.shape)
+    _expect_named_error(func, {**good, arg: value}, arg)
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "3", None, 10**12])
+@pytest.mark.parametrize("fname", ["sample_reports", "sample_reports_gaussian"])
+def test_bad_trials_are_refused(fname, bad):
+    func, good = GOOD_CALLS[fname]
+    _expect_named_error(func, {**good, "trials": bad}, "trials")
+
+
+@pytest.mark.parametrize("bad", ["abc", 1.5, np.random.RandomState(0), [1.0, "a"]])
+@pytest.mark.parametrize("fname", ["sample_reports", "sample_reports_gaussian"])
+def test_bad_rng_is_refused(fname, bad):
+    func, good = GOOD_CALLS[fname]
+    _expect_named_error(func, {**good, "rng": bad}, "rng")
+
+
+BAD_COVARIANCES = {
+    "not symmetric": [[1.0, 0.5], [0.0, 1.0]],
+    "negative definite": [[-1.0, 0.0], [0.0, -1.0]],
+    "indefinite": [[1.0, 2.0], [2.0, 1.0]],
+    "singular": [[1.0, 1.0], [1.0, 1.0]],
+    "zero": [[0.0, 0.0], [0.0, 0.0]],
+    "wrong size": np.eye(3).tolist(),
+    "not square": [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+}
+
+
+@pytest.mark.parametrize("fname", ["fuse_gaussian", "sample_reports_gaussian"])
+@pytest.mark.parametrize("kind", sorted(BAD_COVARIANCES))
+def test_bad_covariances_are_refused(fname, kind):
+    func, good = GOOD_CALLS[fname]
+    cov = [BAD_COVARIANCES[kind]] * len(good["cov"])
+    _expect_named_error(func, {**good, "cov": cov}, "cov")
+
+
+@pytest.mark.parametrize(("fname", "kwargs", "name"), [
+    ("fuse", {"x": [], "var": []}, "x"),
+    ("fuse", {"x": [1.0, 2.0, 3.0], "var": [1.0, 2.0]}, "var"),
+    ("fuse", {"x": 1.0, "var": 1.0}, "x"),
+    ("log_likelihood", {"x": np.zeros((3, 2)), "var": 1.0, "position": np.zeros(4)}, "position"),
+    ("misweighted", {"var_true": [1.0, 2.0], "var_assumed": [1.0, 2.0, 3.0]}, "var_assumed"),
+    ("misweighted", {"var_true": 1.0, "var_assumed": 1.0}, "var_true"),
+    ("misweighted", {"var_true": [], "var_assumed": []}, "var_true"),
+    ("fuse_gaussian", {"x": np.zeros((0, 2)), "cov": np.zeros((0, 2, 2))}, "x"),
+    ("fuse_gaussian", {"x": np.zeros((3, 2)), "cov": np.stack([np.eye(2)] * 2)}, "x"),
+    ("fuse_gaussian", {"x": np.zeros(2), "cov": np.eye(2)[None]}, "x"),
+    ("sample_reports", {"truth": 0.0, "var": 1.0, "trials": 3}, "var"),
+    ("sample_reports", {"truth": [0.0, 1.0, 2.0], "var": [[1.0], [2.0]], "trials": 3}, "truth"),
+    ("sample_reports_gaussian", {"truth": [0.0, 0.0, 0.0], "cov": np.eye(2)[None],
+                                 "trials": 3}, "cov"),
+])
+def test_shape_mismatches_and_empty_input_are_refused(fname, kwargs, name):
+    _expect_named_error(GOOD_CALLS[fname][0], kwargs, name)
+
+
+def test_good_calls_are_good():
+    """The fuzz suite's templates are valid: each failure above is due to its one change."""
+    for func, kwargs in GOOD_CALLS.values():
+        func(**kwargs)
