@@ -330,3 +330,20 @@ def unwrap(x):
     """
     arr = np.asarray(x)
     return arr.item() if arr.ndim == 0 else arr
+
+
+def as_bool(value, name: str) -> bool:
+    """A genuine boolean (Python or numpy); numbers, strings and ``None`` are refused.
+
+    Examples
+    --------
+    >>> as_bool(np.True_, "binding")
+    True
+    >>> as_bool("no", "binding")
+    Traceback (most recent call last):
+    ...
+    TypeError: `binding` must be True or False; received 'no'
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"`{name}` must be True or False; received {_describe(value)}")
+    return bool(value)
