@@ -625,11 +625,11 @@ def _mp_log_likelihood(x, var, position):
 def test_log_likelihood_over_the_whole_float_range_against_mpmath(problem, position):
     x, var = problem
     exact = _mp_log_likelihood(x, var, position)
-    if exact < -BIG * (1 + 1e-12):
+    if exact < -mpmath.mpf(BIG) * (1 + mpmath.mpf(1e-12)):
         with pytest.raises(ValueError, match="`position`"):
             log_likelihood(x, var, position)
         return
-    if exact < -BIG * (1 - 1e-12):
+    if exact < -mpmath.mpf(BIG) * (1 - mpmath.mpf(1e-12)):
         return
     got = log_likelihood(x, var, position)
     assert np.isfinite(got)
@@ -710,6 +710,14 @@ def test_misweighted_over_the_whole_float_range_against_exact_arithmetic(var_tru
     assert abs(m.weights.sum() - 1.0) <= 2 * n * EPS
     assert m.efficiency <= 1.0 + 8 * n * EPS                      # no weighting beats the bound
     assert np.isfinite(m.consistency) and m.consistency > 0
+
+
+def test_log_likelihood_refuses_below_the_float_range():
+    with pytest.raises(ValueError, match="`position`"):
+        log_likelihood([1e300, -1e300], [1e-300, 1e-300], 0.0)
+    x, var = [1e308, -1e308], [1.7e308, 1.7e308]          # near the edge, still representable
+    got = log_likelihood(x, var, 0.0)
+    assert float(got) == pytest.approx(float(_mp_log_likelihood(x, var, 0.0)), rel=1e-14)
 
 
 def test_misweighted_refuses_ratios_beyond_the_float_range():
