@@ -465,7 +465,7 @@ def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
     cv = as_positive(candidate_vars, "candidate_vars")
     try:
         np.broadcast_shapes(a.shape, v1.shape)
-        np.broadcast_shapes(a.shape + (1,), v1.shape + (1,), c.shape, cv.shape)
+        np.broadcast_shapes((*a.shape, 1), (*v1.shape, 1), c.shape, cv.shape)
     except ValueError:
         raise ValueError(
             "`x1`, `candidates`, `var1`, `candidate_vars` must broadcast with shapes (...), "
@@ -502,13 +502,15 @@ def _log_ive(order, z):
 
 def _log_ncx2_pdf(k, nu, lam):
     """log density of the noncentral chi-square, k > 0 and lam > 0 (arrays)."""
-    root = np.sqrt(k * lam)
+    rk, rl = np.sqrt(k), np.sqrt(lam)
+    root = rk * rl                                   # sqrt(k lam) without overflow
+    gap = (k - lam) / (rk + rl)                      # sqrt k - sqrt lam without cancellation
     if nu == 1:
         # (phi(sqrt k - sqrt lam) + phi(sqrt k + sqrt lam)) / (2 sqrt k), exactly
-        return (-0.5 * _LOG_2PI - 0.5 * (np.sqrt(k) - np.sqrt(lam)) ** 2
-                + np.log1p(np.exp(-2 * root)) - np.log(2 * np.sqrt(k)))
-    return (-np.log(2.0) - 0.5 * (np.sqrt(k) - np.sqrt(lam)) ** 2
-            + (nu / 4 - 0.5) * (np.log(k) - np.log(lam)) + _log_ive(nu / 2 - 1, root))
+        return (-0.5 * _LOG_2PI - 0.5 * gap**2 + np.log1p(np.exp(-2 * root))
+                - np.log(2 * rk))
+    return (-np.log(2.0) - 0.5 * gap**2 + (nu / 4 - 0.5) * (np.log(k) - np.log(lam))
+            + _log_ive(nu / 2 - 1, root))
 
 
 def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):

@@ -307,3 +307,193 @@ def test_kernel_beats_python_loop():
     assert loop() == gating.gate_mahalanobis_2d(x1, x2, s).tolist()
     ratio = best(loop) / best(lambda: gating.gate_mahalanobis_2d(x1, x2, s))
     assert ratio >= 20, f"kernel only {ratio:.1f}x faster than the Python loop"
+
+
+# ============================================================ trust: range, validation, fuzz
+import mpmath  # noqa: E402
+from hypothesis import assume  # noqa: E402
+
+
+def _p_fa_one_dof_mpmath(v, p_lo):
+    """P{(z + sqrt v)^2 < t}, t the 1-dof gate, with 50 digits (independent of scipy.ncx2)."""
+    with mpmath.workdps(50):
+        t = mpmath.mpf(stats.chi2.isf(p_lo, 1))
+        c, mu = mpmath.sqrt(t), mpmath.sqrt(mpmath.mpf(v))
+        return mpmath.ncdf(c - mu) - mpmath.ncdf(-c - mu)
+
+
+def _p_fa_quadrature_mpmath(v, m, p_lo):
+    """P{chi'^2_m(v) < t} by mpmath quadrature of the Bessel-form density (no Poisson sum)."""
+    with mpmath.workdps(30):
+        t, lam = mpmath.mpf(stats.chi2.isf(p_lo, m)), mpmath.mpf(v)
+
+        def pdf(x):
+            return (mpmath.exp(-(x + lam) / 2) / 2 * (x / lam) ** (mpmath.mpf(m) / 4 - 0.5)
+                    * mpmath.besseli(mpmath.mpf(m) / 2 - 1, mpmath.sqrt(lam * x)))
+
+        # the integrand rises steeply towards t: subdivide geometrically towards it
+        return mpmath.quad(pdf, [0] + [t * (1 - mpmath.mpf(2) ** -i) for i in range(1, 12)] + [t])
+
+
+@given(v=st.floats(min_value=0.0, max_value=1e300), p=st.floats(min_value=1e-12, max_value=0.5))
+def test_p_false_accept_one_dof_whole_range_against_mpmath(v, p):
+    got = gating.p_false_accept(v, 1, p)
+    ref = _p_fa_one_dof_mpmath(v, p)
+    assert math.isfinite(got) and 0.0 <= got <= 1.0
+    if ref < mpmath.mpf("4.9e-324"):
+        assert got == 0.0
+    elif ref > mpmath.mpf(1e-300):
+        assert got == pytest.approx(float(ref), rel=1e-9)
+
+
+@pytest.mark.parametrize(("v", "m", "p"), [(800.0, 2, 0.01), (1500.0, 3, 0.01), (1000.0, 5, 0.005),
+                                           (1700.0, 10, 0.01), (1000.0, 1, 1e-6)])
+def test_p_false_accept_far_tail_against_quadrature(v, m, p):
+    # scipy's ncx2.cdf returns 0 for all of these; the true values are 1e-140 ... 1e-300
+    ref = _p_fa_quadrature_mpmath(v, m, p)
+    got = gating.p_false_accept(v, m, p)
+    assert 0 < got < 1e-140
+    assert got == pytest.approx(float(ref), rel=1e-8)
+
+
+@given(e=st.floats(min_value=1.0, max_value=323.0), p=st.sampled_from([0.01, 0.005, 0.1]))
+def test_required_noncentrality_tiny_targets_not_clamped(e, p):
+    target = 10.0**-e
+    v = gating.required_noncentrality(target, 1, p)
+    assert math.isfinite(v) and v > 0
+    # independent check: the 50-digit one-dof acceptance at the root is the target
+    assert float(_p_fa_one_dof_mpmath(v, p)) == pytest.approx(target, rel=1e-6)
+
+
+def test_required_noncentrality_strictly_monotone_down_to_the_smallest_double():
+    targets = np.array([1e-50, 1e-100, 1e-200, 1e-300, 5e-324])
+    v = gating.required_noncentrality(targets, 1, 0.01)
+    assert np.all(np.diff(v) > 1.0)                  # the old code returned 455.0 for all
+    v3 = gating.required_noncentrality(targets[:4], 3, 0.01)
+    assert np.all(np.diff(v3) > 1.0)
+    back = gating.p_false_accept(v3, 3, 0.01)
+    np.testing.assert_allclose(back, targets[:4], rtol=1e-6)
+
+
+@given(k=st.floats(min_value=0, max_value=1e3), m=dofs, p1=probs, p2=probs)
+def test_gate_monotone_in_threshold(k, m, p1, p2):
+    # a smaller P_lo is a larger gate: it never rejects what a larger P_lo accepts
+    lo, hi = sorted((p1, p2))
+    assert gating.gate_threshold(lo, m) >= gating.gate_threshold(hi, m)
+    assert gating.in_gate(k, m, lo) >= gating.in_gate(k, m, hi)
+
+
+@given(seed=st.integers(0, 2**32 - 1), p1=probs, p2=probs)
+def test_kernel_monotone_in_threshold_and_agrees_with_in_gate(seed, p1, p2):
+    rng = np.random.default_rng(seed)
+    x1, x2 = rng.normal(size=(50, 2)) * 3, rng.normal(size=(50, 2))
+    s = np.array([[1.5, 0.4], [0.4, 0.8]])
+    lo, hi = sorted((p1, p2))
+    a_lo, k = gating.gate_mahalanobis_2d(x1, x2, s, p_false_reject=lo, return_statistic=True)
+    a_hi = gating.gate_mahalanobis_2d(x1, x2, s, p_false_reject=hi)
+    assert np.all(a_lo >= a_hi)
+    np.testing.assert_array_equal(a_lo, gating.in_gate(k, 2, lo))
+
+
+@given(p=st.floats(min_value=5e-324, max_value=1 - 1e-16, exclude_max=False), m=dofs,
+       v=st.floats(min_value=0, max_value=1e300))
+def test_valid_input_gives_finite_results(p, m, v):
+    assume(0 < p < 1)
+    t = gating.gate_threshold(p, m)
+    pf = gating.p_false_accept(v, m, p)
+    assert math.isfinite(t) and t > 0
+    assert math.isfinite(pf) and 0.0 <= pf <= 1.0 - p + 1e-12
+
+
+def test_kernel_chunk_limit_checked_before_allocation():
+    x = np.zeros((3, 2))
+    tracemalloc.start()
+    with pytest.raises(ValueError, match=r"refused: 1000000000 pairs per chunk.*limit of 1048576"):
+        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=10**9)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 2**20
+    with pytest.raises(TypeError, match="`chunk_size`"):
+        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=1e9)
+    with pytest.raises(TypeError, match="`chunk_size`"):
+        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=True)
+    with pytest.raises(ValueError, match="`chunk_size`"):
+        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=0)
+    assert gating.MAX_CHUNK == 2**20
+    gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=gating.MAX_CHUNK)   # the limit is ok
+
+
+def test_required_noncentrality_root_limit_checked_first():
+    with pytest.raises(ValueError, match="refused: 100001 roots"):
+        gating.required_noncentrality(np.full(gating.MAX_ROOTS + 1, 0.1))
+    with pytest.raises(ValueError, match="`xtol`"):
+        gating.required_noncentrality(0.1, xtol=0.0)
+    with pytest.raises(ValueError, match="`xtol`"):
+        gating.required_noncentrality(0.1, xtol=[1e-10, 1e-10])
+
+
+def test_kernel_near_1e154_exact_or_refused():
+    big = np.array([[1e154, 0.0]])
+    with pytest.raises(ValueError, match="exceeds the largest double"):
+        gating.gate_mahalanobis_2d(big, -big, np.eye(2))
+    acc, k = gating.gate_mahalanobis_2d(big, -big, 1e300 * np.eye(2), return_statistic=True)
+    assert k[0] == pytest.approx(4e8, rel=1e-13) and not acc[0]
+    acc, k = gating.gate_mahalanobis_2d(np.array([[1e300, 0.0]]), np.array([[-1e300, 0.0]]),
+                                        1e300 * np.eye(2), return_statistic=True)
+    assert k[0] == pytest.approx(4e300, rel=1e-13)
+
+
+def test_kernel_other_arguments_validated():
+    x = np.zeros((3, 2))
+    with pytest.raises(TypeError, match="`return_statistic`"):
+        gating.gate_mahalanobis_2d(x, x, np.eye(2), return_statistic=1)
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        gating.gate_mahalanobis_2d(x, x, np.eye(2), p_false_reject=[0.01, 0.02])
+    with pytest.raises(ValueError, match="`cov` must be symmetric"):
+        gating.gate_mahalanobis_2d(x, x, [[1.0, 0.5], [0.0, 1.0]])
+    with pytest.raises(ValueError, match="`cov` must be positive definite"):
+        gating.gate_mahalanobis_2d(x, x, np.zeros((2, 2)))
+
+
+def test_shape_errors_name_public_arguments():
+    with pytest.raises(ValueError, match="`statistic`, `dof`, `p_false_reject`"):
+        gating.in_gate([1.0, 2.0, 3.0], [1, 2], 0.01)
+    with pytest.raises(ValueError, match="`noncentrality`, `dof`, `p_false_reject`"):
+        gating.p_false_accept([1.0, 2.0, 3.0], [1, 2], 0.01)
+
+
+GATING_VALID = {
+    "gate_threshold": dict(p_false_reject=0.01, dof=2),
+    "in_gate": dict(statistic=1.0, dof=2, p_false_reject=0.01),
+    "p_false_accept": dict(noncentrality=3.0, dof=2, p_false_reject=0.01),
+    "required_noncentrality": dict(p_accept=0.1, dof=2, p_false_reject=0.01),
+    "gate_mahalanobis_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)), cov=np.eye(2)),
+}
+
+
+def test_every_public_function_covered():
+    assert sorted(GATING_VALID) == sorted(n for n in gating.__all__ if not n.startswith("MAX"))
+
+
+@given(name=st.sampled_from(sorted(GATING_VALID)), data=st.data(),
+       bad=st.sampled_from([math.nan, math.inf, -1.0, True, "0.5", None, 1 + 1j]))
+def test_fuzz_bad_values_named(name, data, bad):
+    kw = dict(GATING_VALID[name])
+    arg = data.draw(st.sampled_from(sorted(kw)))
+    kw[arg] = bad
+    if arg in ("x1", "x2") and not isinstance(bad, (str, bool, complex)) and bad is not None:
+        kw[arg] = np.full((2, 2), bad)               # a finite negative coordinate is fine
+        if bad == -1.0:
+            return
+    with pytest.raises((ValueError, TypeError), match=f"`{arg}"):
+        getattr(gating, name)(**kw)
+
+
+@given(p=st.one_of(st.floats(max_value=0.0), st.floats(min_value=1.0)),
+       name=st.sampled_from(["gate_threshold", "in_gate", "p_false_accept",
+                             "required_noncentrality"]))
+def test_fuzz_probabilities_outside_open_interval_named(p, name):
+    assume(not math.isnan(p))
+    kw = dict(GATING_VALID[name], p_false_reject=p)
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        getattr(gating, name)(**kw)

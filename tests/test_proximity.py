@@ -307,3 +307,226 @@ def test_pdf_bad_input():
         px.proximity_pdf(1.0, dof=0)
     with pytest.raises(ValueError, match="`noncentrality`"):
         px.proximity_pdf(1.0, noncentrality=-1.0)
+
+
+# ============================================================ trust: range, validation, fuzz
+import mpmath  # noqa: E402
+from hypothesis import assume  # noqa: E402
+
+PUBLIC = ["proximity", "mahalanobis_sq", "log_likelihood_measure",
+          "log_likelihood_measure_gaussian", "best_partner", "proximity_pdf"]
+wide_coords = st.floats(min_value=-1e300, max_value=1e300, allow_nan=False)
+wide_vars = st.floats(min_value=1e-300, max_value=1e300)
+
+
+def _kappa_exact(x1, x2, v1, v2):
+    """(x1 - x2)^2 / (v1 + v2) with 60 significant digits and an unbounded exponent."""
+    with mpmath.workdps(60):
+        return (mpmath.mpf(x1) - mpmath.mpf(x2)) ** 2 / (mpmath.mpf(v1) + mpmath.mpf(v2))
+
+
+@given(x1=wide_coords, x2=wide_coords, v1=wide_vars, v2=wide_vars)
+def test_proximity_whole_float_range_exact_or_refused(x1, x2, v1, v2):
+    ref = _kappa_exact(x1, x2, v1, v2)
+    if ref > mpmath.mpf(np.finfo(float).max):
+        with pytest.raises(ValueError, match="exceeds the largest double"):
+            px.proximity(x1, x2, v1, v2)
+        return
+    got = px.proximity(x1, x2, v1, v2)
+    assert math.isfinite(got) and got >= 0
+    if ref > mpmath.mpf(1e-290):                     # away from subnormal rounding
+        assert got == pytest.approx(float(ref), rel=1e-13)
+    lm = px.log_likelihood_measure(x1, x2, v1, v2)
+    assert math.isfinite(lm)
+
+
+def test_near_1e154_coordinates_exact_or_refused():
+    # kappa = (2e154)^2 / 2 = 2e308 exceeds the largest double: refused, never inf
+    with pytest.raises(ValueError, match=r"`x1`, `x2`.*exceeds the largest double"):
+        px.proximity(1e154, -1e154, 1.0, 1.0)
+    with pytest.raises(ValueError, match="exceeds the largest double"):
+        px.mahalanobis_sq([1e154, 0.0], [-1e154, 0.0], np.eye(2), np.eye(2))
+    # representable kappa with huge intermediates: correct, not inf or 0
+    assert px.proximity(1e154, -1e154, 1e300, 1e300) == pytest.approx(2e8, rel=1e-14)
+    assert px.proximity(1e200, 0.0, 1e300, 1e300) == pytest.approx(5e99, rel=1e-14)
+    assert px.mahalanobis_sq([1e200, 0.0], [0.0, 0.0], 1e308 * np.eye(2),
+                             1e308 * np.eye(2)) == pytest.approx(5e91, rel=1e-13)
+    assert px.mahalanobis_sq([3e-160, 0, 0], [0, 0, 0], 1e-300 * np.eye(3),
+                             1e-300 * np.eye(3)) == pytest.approx(4.5e-20, rel=1e-13)
+    lm = px.log_likelihood_measure_gaussian([0.0, 0.0], [1.0, 1.0], 1e308 * np.eye(2),
+                                            1e308 * np.eye(2), kind="marginal")
+    log_det_s = 2 * (math.log(2.0) + 308 * math.log(10.0))          # S = 2e308 I
+    assert lm == pytest.approx(-math.log(2 * math.pi) - 0.5 * log_det_s, rel=1e-12)
+
+
+@st.composite
+def spd_pairs(draw):
+    d = draw(st.integers(1, 3))
+    seed = draw(st.integers(0, 2**32 - 1))
+    e1, e2, ex = draw(st.integers(-140, 140)), draw(st.integers(-140, 140)), draw(
+        st.integers(-140, 140))
+    rng = np.random.default_rng(seed)
+    c1 = _random_spd(rng, d) * 10.0**e1
+    c2 = _random_spd(rng, d) * 10.0**e2
+    x1, x2 = rng.normal(size=d) * 10.0**ex, rng.normal(size=d) * 10.0**ex
+    return x1, x2, c1, c2
+
+
+@given(spd_pairs())
+def test_mahalanobis_against_mpmath_over_scales(args):
+    x1, x2, c1, c2 = args
+    with mpmath.workdps(40):
+        S = mpmath.matrix(c1.tolist()) + mpmath.matrix(c2.tolist())
+        delta = mpmath.matrix((x1 - x2).tolist()) if x1.size > 1 else mpmath.matrix(
+            [float(x1[0] - x2[0])])
+        ref = (delta.T * mpmath.lu_solve(S, delta))[0]
+    if ref > mpmath.mpf(np.finfo(float).max):
+        with pytest.raises(ValueError, match="exceeds the largest double"):
+            px.mahalanobis_sq(x1, x2, c1, c2)
+        return
+    assume(ref > mpmath.mpf(1e-290))
+    got = px.mahalanobis_sq(x1, x2, c1, c2)
+    assert math.isfinite(got) and got == pytest.approx(float(ref), rel=1e-8)
+    for kind in ("profile", "marginal"):
+        assert math.isfinite(px.log_likelihood_measure_gaussian(x1, x2, c1, c2, kind=kind))
+
+
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(1, 5),
+       v=st.floats(min_value=1e-6, max_value=1e6))
+def test_best_partner_valid_index_and_nearest_when_variances_equal(seed, k, v):
+    rng = np.random.default_rng(seed)
+    x1, cands = rng.normal(size=4), rng.normal(size=(4, k)) * 3
+    for kind in ("profile", "marginal"):
+        idx = px.best_partner(x1, cands, v, np.full(k, v), kind=kind)
+        assert idx.shape == (4,) and np.all((idx >= 0) & (idx < k))
+        np.testing.assert_array_equal(idx, np.argmin(np.abs(cands - x1[:, None]), axis=1))
+
+
+def _ncx2_pdf_mpmath(k, nu, lam):
+    with mpmath.workdps(30):
+        k, lam = mpmath.mpf(k), mpmath.mpf(lam)
+        return (mpmath.exp(-(k + lam) / 2) / 2 * (k / lam) ** (mpmath.mpf(nu) / 4 - 0.5)
+                * mpmath.besseli(mpmath.mpf(nu) / 2 - 1, mpmath.sqrt(lam * k)))
+
+
+@given(nu=st.integers(1, 12), lam=st.floats(min_value=1e-3, max_value=1e300),
+       z=st.floats(min_value=-8, max_value=8))
+def test_pdf_finite_and_matches_mpmath_over_the_float_range(nu, lam, z):
+    # kappa near the bulk of the law (mean nu + lam, sd sqrt(2 (nu + 2 lam))), and positive
+    k = max(1e-6, nu + lam + z * math.sqrt(2 * (nu + 2 * lam)))
+    got = px.proximity_pdf(k, dof=nu, noncentrality=lam)
+    ref = _ncx2_pdf_mpmath(k, nu, lam)
+    assert math.isfinite(got) and got >= 0
+    if ref > mpmath.mpf(1e-300):
+        assert got == pytest.approx(float(ref), rel=1e-6)
+
+
+@pytest.mark.parametrize(("k", "nu", "lam"), [(1e15, 1, 1e15), (1e15, 3, 1e15), (1e250, 2, 1e250),
+                                              (4.0, 2, 3000.0), (1e-3, 6, 50.0)])
+def test_pdf_extremes_against_mpmath(k, nu, lam):
+    got = px.proximity_pdf(k, dof=nu, noncentrality=lam)
+    ref = float(_ncx2_pdf_mpmath(k, nu, lam))
+    assert math.isfinite(got)
+    assert got == pytest.approx(ref, rel=1e-6, abs=1e-300)
+
+
+def test_pdf_limits_at_zero():
+    assert px.proximity_pdf(0.0, dof=2, noncentrality=3.0) == pytest.approx(0.5 * math.exp(-1.5))
+    assert px.proximity_pdf(0.0, dof=3, noncentrality=3.0) == 0.0
+    assert px.proximity_pdf(0.0, dof=1, noncentrality=3.0) == math.inf     # documented
+
+
+# ------------------------------------------------------------ bad input, named
+VALID = {
+    "proximity": dict(x1=0.5, x2=-0.3, var1=1.0, var2=2.0),
+    "log_likelihood_measure": dict(x1=0.5, x2=-0.3, var1=1.0, var2=2.0),
+    "mahalanobis_sq": dict(x1=[0.5, 0.1], x2=[0.0, 0.0], cov1=np.eye(2), cov2=2 * np.eye(2)),
+    "log_likelihood_measure_gaussian": dict(x1=[0.5, 0.1], x2=[0.0, 0.0], cov1=np.eye(2),
+                                            cov2=2 * np.eye(2)),
+    "best_partner": dict(x1=0.0, candidates=[0.5, -0.2], var1=1.0, candidate_vars=[1.0, 2.0]),
+    "proximity_pdf": dict(kappa=1.0, dof=2, noncentrality=3.0),
+}
+NOT_POSITIVE = {"var1", "var2", "candidate_vars"}
+NOT_NEGATIVE = {"kappa", "noncentrality"}
+bad_values = st.sampled_from([math.nan, math.inf, -math.inf, True, "1.5", None, b"x", 1 + 2j])
+
+
+def _call(name, **kw):
+    return getattr(px, name)(**kw)
+
+
+def test_every_public_function_has_valid_example():
+    assert sorted(VALID) == sorted(PUBLIC) == sorted(px.__all__)
+    for name, kw in VALID.items():
+        out = np.asarray(_call(name, **kw))
+        assert np.all(np.isfinite(out))
+
+
+@given(name=st.sampled_from(sorted(VALID)), data=st.data())
+def test_fuzz_bad_values_named(name, data):
+    kw = dict(VALID[name])
+    arg = data.draw(st.sampled_from(sorted(kw)))
+    bad = data.draw(bad_values)
+    kw[arg] = bad
+    with pytest.raises((ValueError, TypeError), match=f"`{arg}`"):
+        _call(name, **kw)
+
+
+@given(name=st.sampled_from(sorted(VALID)), data=st.data())
+def test_fuzz_out_of_domain_named(name, data):
+    kw = dict(VALID[name])
+    args = sorted(set(kw) & (NOT_POSITIVE | NOT_NEGATIVE))
+    assume(args)
+    arg = data.draw(st.sampled_from(args))
+    hi = 0.0 if arg in NOT_POSITIVE else -1e-300
+    kw[arg] = data.draw(st.floats(min_value=-1e300, max_value=hi))
+    with pytest.raises(ValueError, match=f"`{arg}`"):
+        _call(name, **kw)
+
+
+@st.composite
+def bad_covariances(draw):
+    d = draw(st.integers(1, 3))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    spd = _random_spd(rng, d)
+    kind = draw(st.sampled_from(["negative", "zero", "asym"] if d > 1 else ["negative", "zero"]))
+    if kind == "negative":
+        return -spd
+    if kind == "zero":
+        return np.zeros((d, d))
+    a = spd.copy()
+    a[0, 1] += 0.5 + abs(a[0, 1])
+    return a
+
+
+@given(cov=bad_covariances(), which=st.sampled_from(["cov1", "cov2"]),
+       name=st.sampled_from(["mahalanobis_sq", "log_likelihood_measure_gaussian"]))
+def test_fuzz_bad_covariances_named(cov, which, name):
+    d = cov.shape[-1]
+    kw = dict(x1=np.zeros(d), x2=np.ones(d), cov1=np.eye(d), cov2=np.eye(d))
+    kw[which] = cov
+    with pytest.raises(ValueError, match=f"`{which}` must be (symmetric|positive definite)"):
+        _call(name, **kw)
+
+
+def test_negative_definite_rejected_even_when_the_sum_is_positive_definite():
+    # S = cov1 + cov2 = I is fine, but cov1 itself is not a covariance
+    with pytest.raises(ValueError, match=r"`cov1`.*positive definite"):
+        px.mahalanobis_sq([1.0, 0.0], [0.0, 0.0], -np.eye(2), 2 * np.eye(2))
+    with pytest.raises(ValueError, match=r"`cov2`.*symmetric"):
+        px.mahalanobis_sq([1.0, 0.0], [0.0, 0.0], np.eye(2), [[1.0, 0.3], [-0.3, 1.0]])
+
+
+def test_zero_sigma_names_the_public_argument():
+    with pytest.raises(ValueError, match="`candidate_vars` must be > 0"):
+        px.best_partner(0.0, [0.5, -0.2], 1.0, [1.0, 0.0])
+    with pytest.raises(ValueError, match="`var1` must be > 0"):
+        px.best_partner(0.0, [0.5, -0.2], 0.0, [1.0, 1.0])
+    with pytest.raises(ValueError, match="`cov1` must be positive definite"):
+        px.mahalanobis_sq([0.0, 0.0], [1.0, 1.0], np.zeros((2, 2)), np.eye(2))
+    with pytest.raises(ValueError, match=r"`x1`, `candidates`, `var1`, `candidate_vars`"):
+        px.best_partner([0.0, 1.0, 2.0], [[0.5, -0.2]] * 2, 1.0, [1.0, 1.0])
+    with pytest.raises(ValueError, match="`candidates` must hold at least one"):
+        px.best_partner(0.0, np.zeros((3, 0)), 1.0, np.zeros((3, 0)) + 1)
+    with pytest.raises(TypeError, match="`dof`"):
+        px.proximity_pdf(1.0, dof=2.0)
