@@ -398,7 +398,10 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     ValueError
         Negative `r`, `sigma_r` or `sigma_beta`; `sigma_beta` above
         :data:`SIGMA_BETA_MAX`; non-finite input; shapes that do not broadcast;
-        unknown `method`.
+        unknown `method`; a broadcast batch above :data:`MAX_BATCH` (refused
+        before allocation); a position or variance beyond the float range
+        (about 1.8e308, or below 5e-324: express `r` and `sigma_r` in another
+        unit).
     TypeError
         Non-numeric input.
 
@@ -411,11 +414,14 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     Notes
     -----
     With :math:`u = (\\cos\\hat\\beta, \\sin\\hat\\beta)`, :math:`s = \\sigma_\\beta^2`,
-    :math:`\\lambda = e^{-s/2} = E\\cos\\tilde\\beta`, every method returns
+    :math:`q = e^{-s/2} = E\\cos\\tilde\\beta`, every method returns
     :math:`\\hat{\\mathbf x} = g\\,\\hat r u` with gain :math:`g = 1` (linearized),
-    :math:`1 + \\lambda - \\lambda^2` (additive), :math:`\\lambda^{-1}`
+    :math:`1 + q - q^2` (additive), :math:`q^{-1}`
     (multiplicative), :math:`1 \\pm s/2` (first order, derived / printed).
-    The covariances, written as :math:`aI + bM(\\hat\\beta)`:
+    The covariances, written as :math:`aI + bM(\\hat\\beta)` (the package computes them
+    from their principal variances :math:`a \\pm b` along and across the line of sight,
+    with ``expm1`` and a power-of-two scaling of :math:`\\hat r` and :math:`\\sigma_r`, so
+    they are accurate over the whole float range or refused when they overflow):
 
     .. math::
 
@@ -490,14 +496,14 @@ def conversion_moments(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     Notes
     -----
     The converted report is :math:`g\\hat r u(\\hat\\beta)` (see
-    :func:`polar_to_cartesian`). With :math:`E\\cos k\\tilde\\beta = e^{-k^2 s/2}`,
+    :func:`polar_to_cartesian`). With :math:`q = e^{-s/2}`, :math:`E\\cos k\\tilde\\beta = e^{-k^2 s/2}`,
     :math:`E\\sin k\\tilde\\beta = 0`, :math:`E\\hat r^2 = r^2 + \\sigma_r^2`:
 
     .. math::
 
-        E[\\hat{\\mathbf x}] = g\\lambda\\, r u(\\beta),\\qquad
+        E[\\hat{\\mathbf x}] = g q\\, r u(\\beta),\\qquad
         \\operatorname{Cov}[\\hat{\\mathbf x}] = g^2\\left[\\tfrac12(r^2 + \\sigma_r^2)
-        (I + e^{-2s}M(\\beta)) - \\tfrac12\\lambda^2 r^2 (I + M(\\beta))\\right].
+        (I + e^{-2s}M(\\beta)) - \\tfrac12 q^2 r^2 (I + M(\\beta))\\right].
 
     These are conditioned on the true position; the covariances that
     :func:`polar_to_cartesian` attaches are evaluated at the measurement
