@@ -9,9 +9,9 @@ and its variance attains the Cramér–Rao bound.
 
 .. rubric:: Functions
 
-* :func:`fuse` — scalar reports, ``x, var: (..., k)`` (the paper's case is ``k = 2``);
+* :func:`fuse` — scalar reports, ``x, var: (..., m)`` for `m` sources (the paper's case is ``m = 2``);
 * :func:`fuse_gaussian` — vector reports with full covariances in information
-  form, ``x: (..., k, d)``, ``cov: (..., k, d, d)``;
+  form, ``x: (..., m, d)``, ``cov: (..., m, d, d)``;
 * :func:`log_likelihood` — the log of the likelihood (2) as a function of the
   candidate coordinate;
 * :func:`misweighted` — what the fused estimate is worth when the weights come
@@ -83,7 +83,7 @@ class FusedEstimate:
     variance : numpy.ndarray or float, shape (...)
         Its variance :math:`\\tilde\\sigma^2 = (\\sum_i \\sigma_i^{-2})^{-1}`, equal to
         the Cramér–Rao bound.
-    weights : numpy.ndarray, shape (..., k)
+    weights : numpy.ndarray, shape (..., m)
         The weights :math:`w_i = \\sigma_i^{-2} / \\sum_j \\sigma_j^{-2}` (they sum to 1).
     """
 
@@ -109,11 +109,12 @@ class GaussianFusion:
     Attributes
     ----------
     estimate : numpy.ndarray, shape (..., d)
-        :math:`\\tilde{\\mathbf x} = Y^{-1} \\sum_i C_i^{-1} \\hat{\\mathbf x}_i`.
+        :math:`\\tilde{\\mathbf x} = \\tilde\\Sigma \\sum_i \\Sigma_i^{-1} \\hat{\\mathbf x}_i`.
     covariance : numpy.ndarray, shape (..., d, d)
-        :math:`P = Y^{-1}`, the covariance of the estimate (and the Cramér–Rao bound).
+        :math:`\\tilde\\Sigma = (\\sum_i \\Sigma_i^{-1})^{-1}`, the covariance of the estimate (and the
+        Cramér–Rao bound).
     information : numpy.ndarray, shape (..., d, d)
-        The Fisher information matrix :math:`Y = \\sum_i C_i^{-1}`.
+        The Fisher information matrix :math:`\\tilde\\Sigma^{-1} = \\sum_i \\Sigma_i^{-1}`.
     """
 
     estimate: np.ndarray
@@ -127,7 +128,7 @@ class Misweighting:
 
     Attributes
     ----------
-    weights : numpy.ndarray, shape (..., k)
+    weights : numpy.ndarray, shape (..., m)
         Weights built from the assumed variances, :math:`w_i = a_i^{-1}/\\sum_j a_j^{-1}`.
     actual_variance : numpy.ndarray or float, shape (...)
         True variance of the resulting estimate, :math:`\\sum_i w_i^2 \\sigma_i^2`.
@@ -228,21 +229,21 @@ def _weighted_sum(weights, x):
 
 
 def _gaussian_iv(x, cov):
-    """Validate `x` (..., k, d) and `cov` (..., k, d, d); return them with broadcast batch."""
+    """Validate `x` (..., m, d) and `cov` (..., m, d, d); return them with broadcast batch."""
     x = as_float_array(x, "x", ndim_min=2)
     cov = as_float_array(cov, "cov", ndim_min=3)
     d = x.shape[-1]
     if d == 0 or x.shape[-2] == 0:
-        raise ValueError(f"`x` must have shape (..., k, d) with k, d >= 1; received shape "
+        raise ValueError(f"`x` must have shape (..., m, d) with m, d >= 1; received shape "
                          f"{x.shape}")
     if cov.shape[-2:] != (d, d):
-        raise ValueError(f"`cov` must have shape (..., k, {d}, {d}) to match `x` with shape "
+        raise ValueError(f"`cov` must have shape (..., m, {d}, {d}) to match `x` with shape "
                          f"{x.shape}; received shape {cov.shape}")
     cov = as_covariance(cov, "cov")
     try:
         lead = np.broadcast_shapes(x.shape[:-1], cov.shape[:-2])
     except ValueError:
-        raise ValueError(f"`x` (..., k, d) and `cov` (..., k, d, d) must agree in k and "
+        raise ValueError(f"`x` (..., m, d) and `cov` (..., m, d, d) must agree in m and "
                          f"broadcast in their leading axes; received shapes {x.shape} and "
                          f"{cov.shape}") from None
     return np.broadcast_to(x, (*lead, d)), np.broadcast_to(cov, (*lead, d, d))
@@ -252,12 +253,12 @@ def _gaussian_iv(x, cov):
 
 
 def fuse(x, var) -> FusedEstimate:
-    """Maximum-likelihood fused estimate of one coordinate from `k` sensors.
+    """Maximum-likelihood fused estimate of one coordinate from `m` sources.
 
     Parameters
     ----------
-    x : array_like, shape (..., k)
-        Reports :math:`\\hat x_i` of the same object by `k` sensors (the last
+    x : array_like, shape (..., m)
+        Reports :math:`\\hat x_i` of the same object by `m` sources (the last
         axis); leading axes are batch axes (trials, hypotheses, ...).
     var : array_like, broadcastable to ``x``
         Error variances :math:`\\sigma_i^2 > 0` of the sensors (variances, not
@@ -272,19 +273,21 @@ def fuse(x, var) -> FusedEstimate:
     Raises
     ------
     ValueError
-        If `var` has a zero, negative, non-finite or non-invertible (subnormal)
-        entry, `x` is non-finite or has no reports, or the two do not broadcast.
+        If `var` has a zero, negative or non-finite entry, or variances so small
+        that the fused variance falls below the smallest normal float (about
+        2.2e-308); if `x` is non-finite or has no reports, or the two do not
+        broadcast.
     TypeError
         If an argument is not numeric.
 
     Notes
     -----
     The log-likelihood of the pointwise hypothesis, the log of eq. (2)
-    generalised to `k` sensors,
+    generalised to `m` sources,
 
     .. math::
 
-        \\ell(x) = -\\frac12 \\sum_{i=1}^k \\left[\\ln(2\\pi\\sigma_i^2)
+        \\ell(x) = -\\frac12 \\sum_{i=1}^m \\left[\\ln(2\\pi\\sigma_i^2)
                    + \\frac{(\\hat x_i - x)^2}{\\sigma_i^2}\\right],
 
     is a concave parabola. The likelihood equation (3),
@@ -297,10 +300,17 @@ def fuse(x, var) -> FusedEstimate:
         \\operatorname{Var}\\tilde x = \\Big(\\sum_i \\sigma_i^{-2}\\Big)^{-1}
         = \\frac{1}{I(x)},
 
-    which for :math:`k = 2` is the paper's
+    which for :math:`m = 2` is the paper's
     :math:`\\tilde x = (\\sigma_2^2\\hat x_1 + \\sigma_1^2\\hat x_2)/(\\sigma_1^2+\\sigma_2^2)`.
     The variance equals the inverse Fisher information, so the estimate is
     efficient (it attains the Cramér–Rao bound) [2]_.
+
+    Numerically the informations are never summed as they are (for variances
+    near 1e-308 the sum would overflow and every weight collapse to 0): each is
+    scaled by the smallest variance, :math:`\sigma_{\min}^2/\sigma_i^2 \in (0, 1]`,
+    so their sum lies in :math:`[1, m]`; and the reports are scaled by an exact
+    power of two, so the weighted sum cannot overflow. The result is accurate
+    to a few units in the last place over the whole float range.
 
     References
     ----------
@@ -332,8 +342,8 @@ def log_likelihood(x, var, position):
 
     Parameters
     ----------
-    x : array_like, shape (..., k)
-        Reports of the `k` sensors.
+    x : array_like, shape (..., m)
+        Reports of the `m` sources.
     var : array_like, broadcastable to ``x``
         Error variances, > 0.
     position : array_like
@@ -352,12 +362,12 @@ def log_likelihood(x, var, position):
 
     Notes
     -----
-    The logarithm of eq. (2) of Grachov & Korneev (2010) (for `k` sensors),
+    The logarithm of eq. (2) of Grachov & Korneev (2010) (for `m` sources),
     computed in the log domain so that many hypotheses never underflow:
 
     .. math::
 
-        \\ell(x) = -\\frac12\\sum_{i=1}^k\\left[\\ln 2\\pi + \\ln\\sigma_i^2
+        \\ell(x) = -\\frac12\\sum_{i=1}^m\\left[\\ln 2\\pi + \\ln\\sigma_i^2
                    + \\frac{(\\hat x_i - x)^2}{\\sigma_i^2}\\right].
 
     Examples
@@ -391,7 +401,7 @@ def misweighted(var_true, var_assumed) -> Misweighting:
 
     Parameters
     ----------
-    var_true : array_like, shape (..., k)
+    var_true : array_like, shape (..., m)
         The sensors' true error variances :math:`\\sigma_i^2 > 0`.
     var_assumed : array_like, broadcastable to ``var_true``
         The variances :math:`a_i > 0` the fusion centre uses to weight the reports.
@@ -453,14 +463,14 @@ def misweighted(var_true, var_assumed) -> Misweighting:
 
 
 def fuse_gaussian(x, cov) -> GaussianFusion:
-    """Maximum-likelihood fusion of `k` vector reports with full error covariances.
+    """Maximum-likelihood fusion of `m` vector reports with full error covariances.
 
     Parameters
     ----------
-    x : array_like, shape (..., k, d)
-        Reports :math:`\\hat{\\mathbf x}_i` of one object by `k` sensors.
-    cov : array_like, shape (..., k, d, d)
-        Their error covariances :math:`C_i`, symmetric positive definite;
+    x : array_like, shape (..., m, d)
+        Reports :math:`\\hat{\\mathbf x}_i` of one object by `m` sources.
+    cov : array_like, shape (..., m, d, d)
+        Their error covariances :math:`\\Sigma_i`, symmetric positive definite;
         leading axes broadcast against those of `x`.
 
     Returns
@@ -480,24 +490,32 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
     Notes
     -----
     The log-likelihood :math:`\\ell(\\mathbf x) = \\sum_i \\ln\\mathcal N(\\hat{\\mathbf x}_i;
-    \\mathbf x, C_i)` has gradient :math:`\\sum_i C_i^{-1}(\\hat{\\mathbf x}_i - \\mathbf x)`
-    and Hessian :math:`-Y`, :math:`Y = \\sum_i C_i^{-1}`; the likelihood
-    equation gives the information form
+    \\mathbf x, \\Sigma_i)` has gradient
+    :math:`\\sum_i \\Sigma_i^{-1}(\\hat{\\mathbf x}_i - \\mathbf x)` and Hessian
+    :math:`-\\sum_i \\Sigma_i^{-1}`; the likelihood equation gives the information form
 
     .. math::
 
-        Y\\tilde{\\mathbf x} = \\sum_i C_i^{-1}\\hat{\\mathbf x}_i, \\qquad
-        \\operatorname{Cov}\\tilde{\\mathbf x} = P = Y^{-1},
+        \\tilde\\Sigma^{-1}\\tilde{\\mathbf x} = \\sum_i \\Sigma_i^{-1}\\hat{\\mathbf x}_i, \\qquad
+        \\tilde\\Sigma^{-1} = \\sum_i \\Sigma_i^{-1}, \\qquad
+        \\operatorname{Cov}\\tilde{\\mathbf x} = \\tilde\\Sigma,
 
-    and :math:`Y` is the Fisher information, so :math:`P` is the Cramér–Rao bound.
+    and :math:`\\tilde\\Sigma^{-1}` is the Fisher information, so :math:`\\tilde\\Sigma` is
+    the Cramér–Rao bound.
 
-    Numerically nothing is inverted explicitly: each :math:`C_i = L_iL_i^{\\mathsf T}`
-    is Cholesky-factored and whitened, :math:`W_i = L_i^{-1}` (a triangular
-    solve), so that :math:`C_i^{-1} = W_i^{\\mathsf T}W_i` is symmetric positive
-    definite by construction; then :math:`Y = RR^{\\mathsf T}` is factored the same
-    way and :math:`P = (R^{-1})^{\\mathsf T}R^{-1}`, :math:`\\tilde{\\mathbf x} = P\\,\\mathbf y`.
-    For :math:`k = 2` this equals the covariance form
-    :math:`\\hat{\\mathbf x}_1 + C_1(C_1+C_2)^{-1}(\\hat{\\mathbf x}_2-\\hat{\\mathbf x}_1)`.
+    Numerically nothing is inverted explicitly, and no sum over- or underflows:
+    each :math:`\\Sigma_i = c_i \\Sigma_i'` is scaled by its largest variance
+    :math:`c_i`, Cholesky-factored, :math:`\\Sigma_i' = L_iL_i^{\\mathsf T}`, and
+    whitened with a triangular solve, :math:`W_i = \\sqrt{r_i}\\,L_i^{-1}` with
+    :math:`r_i = c_{\\min}/c_i \\in (0, 1]`, so that
+    :math:`c_{\\min}\\Sigma_i^{-1} = W_i^{\\mathsf T}W_i` is symmetric positive
+    definite by construction; the scaled information
+    :math:`c_{\\min}\\tilde\\Sigma^{-1} = RR^{\\mathsf T}` is factored the same way,
+    :math:`\\tilde\\Sigma = c_{\\min}(R^{-1})^{\\mathsf T}R^{-1}`, and the reports are
+    scaled by an exact power of two. Results beyond the float range (a fused
+    variance below the smallest normal float, an information above the largest)
+    are refused. For :math:`m = 2` this equals the covariance form
+    :math:`\\hat{\\mathbf x}_1 + \\Sigma_1(\\Sigma_1+\\Sigma_2)^{-1}(\\hat{\\mathbf x}_2-\\hat{\\mathbf x}_1)`.
 
     References
     ----------
@@ -517,7 +535,7 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
     """
     x, cov = _gaussian_iv(x, cov)
     eye = np.eye(x.shape[-1])
-    # Scale each C_i = c_i C_i' by its largest variance c_i, and the information by the
+    # Scale each Sigma_i = c_i Sigma_i' by its largest variance c_i, and the information by the
     # smallest c_i: r_i = c_min / c_i lies in (0, 1], so no sum overflows or underflows.
     c = np.max(np.diagonal(cov, axis1=-2, axis2=-1), axis=-1)          # (..., m)
     c_min = np.min(c, axis=-1)                                         # (...)
@@ -525,22 +543,22 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
     _, e = np.frexp(np.max(np.abs(x), axis=(-2, -1)))                  # reports / 2^e: exact
     x_s = np.ldexp(x, -e[..., None, None])
     try:
-        chol = np.linalg.cholesky(cov / c[..., None, None])            # C_i' = L_i L_i^T
+        chol = np.linalg.cholesky(cov / c[..., None, None])            # Sigma_i' = L_i L_i^T
         white = np.linalg.solve(chol, eye) * root_r                    # W_i = sqrt(r_i) L_i^-1
         white_t = np.swapaxes(white, -1, -2)
         wx = white @ x_s[..., None]                                    # W_i x_i
-        info_s = np.sum(white_t @ white, axis=-3)                      # c_min Y = sum W_i^T W_i
-        y_s = np.sum(white_t @ wx, axis=-3)                            # c_min sum C_i^-1 x_i
-        r = np.linalg.cholesky(info_s)                                 # c_min Y = R R^T
+        info_s = np.sum(white_t @ white, axis=-3)                      # c_min Sigma~^-1 = sum W_i^T W_i
+        y_s = np.sum(white_t @ wx, axis=-3)                            # c_min sum Sigma_i^-1 x_i
+        r = np.linalg.cholesky(info_s)                                 # c_min Sigma~^-1 = R R^T
     except np.linalg.LinAlgError:
         raise ValueError("`cov` is numerically singular: a covariance is too ill-conditioned "
                          "for floating point; rescale the coordinates") from None
     r_inv = np.linalg.solve(r, eye)                                    # R^-1
-    cov_s = np.swapaxes(r_inv, -1, -2) @ r_inv                         # P / c_min
+    cov_s = np.swapaxes(r_inv, -1, -2) @ r_inv                         # Sigma~ / c_min
     with np.errstate(over="ignore", under="ignore"):
-        estimate = np.ldexp((cov_s @ y_s)[..., 0], e[..., None])       # x~ = P y
-        cov_f = cov_s * c_min[..., None, None]                         # P = Y^-1
-        info = info_s / c_min[..., None, None]                         # Y = sum_i C_i^-1
+        estimate = np.ldexp((cov_s @ y_s)[..., 0], e[..., None])       # x~ = Sigma~ y
+        cov_f = cov_s * c_min[..., None, None]                         # Sigma~
+        info = info_s / c_min[..., None, None]                         # Sigma~^-1 = sum_i Sigma_i^-1
     if not (np.isfinite(info).all() and np.isfinite(estimate).all()
             and np.all(np.diagonal(cov_f, axis1=-2, axis2=-1) >= _TINY)):
         raise ValueError("`cov` is numerically singular for floating point: the fused "
@@ -559,7 +577,7 @@ def sample_reports(truth, var, *, trials: int, rng=None) -> np.ndarray:
     ----------
     truth : array_like, shape (...)
         True coordinate(s).
-    var : array_like, shape (..., k)
+    var : array_like, shape (..., m)
         Error variances of the `k` sensors, > 0; leading axes broadcast with `truth`.
     trials : int
         Number of independent draws (>= 1).
@@ -578,7 +596,7 @@ def sample_reports(truth, var, *, trials: int, rng=None) -> np.ndarray:
     truth = as_float_array(truth, "truth")
     var = as_positive(var, "var")
     if var.ndim < 1:
-        raise ValueError(f"`var` must have shape (..., k); received shape {var.shape}")
+        raise ValueError(f"`var` must have shape (..., m); received shape {var.shape}")
     trials = as_int(trials, "trials", minimum=1)
     rng = as_rng(rng)
     truth_k, var = broadcast(truth=truth[..., None], var=var)
@@ -607,7 +625,7 @@ def sample_reports_gaussian(truth, cov, *, trials: int, rng=None) -> np.ndarray:
     ----------
     truth : array_like, shape (..., d)
         True position(s).
-    cov : array_like, shape (..., k, d, d)
+    cov : array_like, shape (..., m, d, d)
         Error covariances of the `k` sensors.
     trials : int
         Number of independent draws (>= 1).
@@ -634,7 +652,7 @@ def sample_reports_gaussian(truth, cov, *, trials: int, rng=None) -> np.ndarray:
     try:
         lead = np.broadcast_shapes((*truth.shape[:-1], 1), cov.shape[:-2])
     except ValueError:
-        raise ValueError(f"`truth` (..., d) and `cov` (..., k, d, d) must broadcast in their "
+        raise ValueError(f"`truth` (..., d) and `cov` (..., m, d, d) must broadcast in their "
                          f"leading axes; received shapes {truth.shape} and {cov.shape}") from None
     _check_memory(trials, int(np.prod(lead)) * truth.shape[-1], "sample_reports_gaussian")
     chol = np.linalg.cholesky(cov)
