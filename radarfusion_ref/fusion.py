@@ -307,7 +307,7 @@ def fuse(x, var) -> FusedEstimate:
 
     Numerically the informations are never summed as they are (for variances
     near 1e-308 the sum would overflow and every weight collapse to 0): each is
-    scaled by the smallest variance, :math:`\sigma_{\min}^2/\sigma_i^2 \in (0, 1]`,
+    scaled by the smallest variance, :math:`\\sigma_{\\min}^2/\\sigma_i^2 \\in (0, 1]`,
     so their sum lies in :math:`[1, m]`; and the reports are scaled by an exact
     power of two, so the weighted sum cannot overflow. The result is accurate
     to a few units in the last place over the whole float range.
