@@ -37,8 +37,8 @@ SENSOR_COLORS = {"radar1": "#1f77b4", "radar2": "#d62728", "fused": "#2ca02c",
 #: rcParams of the book's look.
 BOOK_STYLE = {
     "figure.figsize": (7.0, 3.6),
-    "figure.dpi": 96,
-    "savefig.dpi": 96,
+    "figure.dpi": 120,
+    "savefig.dpi": 120,
     "figure.autolayout": True,
     "axes.grid": True,
     "grid.alpha": 0.3,
@@ -73,6 +73,42 @@ def _as_scalar(arr, name: str) -> float:
     return float(arr)
 
 
+def _as_result(value, cls, name: str, producer: str):
+    """`value` itself if it is a `cls` result object, else a TypeError naming it."""
+    if not isinstance(value, cls):
+        raise TypeError(f"`{name}` must be a {cls.__name__} (from {producer}); "
+                        f"received {_describe(value)}")
+    return value
+
+
+def _abscissae(x, estimate, name: str = "x") -> np.ndarray:
+    """Finite abscissae with one entry per estimate (a scalar estimate takes one)."""
+    x = as_float_array(x, name)
+    want = np.shape(estimate) or (1,)
+    if np.shape(x) not in (want, ()) or (np.ndim(x) == 0 and want != (1,)):
+        raise ValueError(f"`{name}` must have one entry per estimate, shape {want}; "
+                         f"received shape {np.shape(x)}")
+    return x
+
+
+def _points(value, name: str, *, dim: int = 2) -> np.ndarray:
+    """Finite points, shape (n, >= dim) (a single point may be given as shape (dim,))."""
+    arr = np.atleast_2d(as_float_array(value, name, ndim_min=1))
+    if arr.ndim != 2 or arr.shape[-1] < dim:
+        raise ValueError(f"`{name}` must have shape (n, {dim}); received shape {arr.shape}")
+    return arr
+
+
+def _color(value, name: str):
+    """None or a matplotlib colour."""
+    from matplotlib.colors import is_color_like
+
+    if value is not None and not is_color_like(value):
+        raise ValueError(f"`{name}` must be a matplotlib colour or None; "
+                         f"received {_describe(value)}")
+    return value
+
+
 def use_book_style() -> None:
     """Apply the book's look to all later figures (call once per chapter)."""
     mpl.rcParams.update(BOOK_STYLE)
@@ -100,9 +136,20 @@ def plot_proportion(ax, x, p: Proportion, *, label=None, color=None, theory=None
         Legend label (the trial count is appended) and colour.
     theory : array_like, optional
         Exact values drawn as a line at the same abscissae.
+
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes or `p` not a ``Proportion``.
+    ValueError
+        If `x` or `theory` do not have one finite entry per estimate.
     """
-    x = np.asarray(x)
-    color = color or SENSOR_COLORS["mc"]
+    ax = _as_axes(ax)
+    p = _as_result(p, Proportion, "p", "radarfusion_ref.montecarlo.proportion")
+    x = _abscissae(x, p.estimate)
+    if theory is not None:
+        theory = _abscissae(theory, p.estimate, "theory")
+    color = _color(color, "color") or SENSOR_COLORS["mc"]
     lbl = None if label is None else f"{label} (MC, n={p.trials})"
     ax.plot(x, p.estimate, "o", ms=4, color=color, label=lbl)
     ax.fill_between(x, p.low, p.high, color=color, alpha=0.25, lw=0)
@@ -112,9 +159,29 @@ def plot_proportion(ax, x, p: Proportion, *, label=None, color=None, theory=None
 
 
 def plot_mean(ax, x, m: MeanEstimate, *, label=None, color=None):
-    """Monte-Carlo means with confidence bars."""
-    x = np.asarray(x)
-    color = color or SENSOR_COLORS["mc"]
+    """Monte-Carlo means with confidence bars.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    x : array_like
+        Abscissae, one per entry of ``m.estimate``.
+    m : MeanEstimate
+        Result of :func:`radarfusion_ref.montecarlo.mean`.
+    label, color : optional
+        Legend label (the sample count is appended) and colour.
+
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes or `m` not a ``MeanEstimate``.
+    ValueError
+        If `x` does not have one finite entry per estimate.
+    """
+    ax = _as_axes(ax)
+    m = _as_result(m, MeanEstimate, "m", "radarfusion_ref.montecarlo.mean")
+    x = _abscissae(x, m.estimate)
+    color = _color(color, "color") or SENSOR_COLORS["mc"]
     err = np.vstack([np.asarray(m.estimate) - m.low, np.asarray(m.high) - m.estimate])
     lbl = None if label is None else f"{label} (n={m.trials})"
     ax.errorbar(x, m.estimate, yerr=err, fmt="o", ms=4, capsize=2, color=color, label=lbl)
@@ -127,29 +194,62 @@ def plot_reports(ax, xy1, xy2, *, truth=None, pairs=None, true_pairs=None,
 
     Parameters
     ----------
-    xy1, xy2 : array_like, shape (n1, 2) and (n2, 2)
-        Report positions.
+    xy1, xy2 : array_like, shape (n1, d) and (n2, d), d >= 2
+        Report positions (the first two coordinates are drawn).
     truth : array_like, shape (n, 2), optional
         True object positions.
     pairs : iterable of (i, j), optional
-        Association decisions, drawn as segments from ``xy1[i]`` to ``xy2[j]``.
+        Association decisions, drawn as segments from ``xy1[i]`` to ``xy2[j]``
+        (a pair with a negative index, "no partner", is not drawn).
     true_pairs : iterable of (i, j), optional
         The correct pairs. When given, decided pairs not among them are drawn
         thick and red, so wrong decisions stand out.
+
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes or an argument is not numeric.
+    ValueError
+        If a point array is not of shape (n, 2) and finite, or a pair's index
+        is not a valid report index.
     """
-    xy1, xy2 = np.atleast_2d(xy1), np.atleast_2d(xy2)
+    ax = _as_axes(ax)
+    xy1, xy2 = _points(xy1, "xy1"), _points(xy2, "xy2")
+    pairs = _pairs(pairs, "pairs", len(xy1), len(xy2))
+    true_pairs = None if true_pairs is None else _pairs(true_pairs, "true_pairs",
+                                                        len(xy1), len(xy2))
+    if isinstance(labels, str) or len(labels) != 2:
+        raise ValueError(f"`labels` must be two strings; received {_describe(labels)}")
     if truth is not None:
-        t = np.atleast_2d(truth)
+        t = _points(truth, "truth")
         ax.plot(t[:, 0], t[:, 1], "x", color=SENSOR_COLORS["truth"], ms=7, label="truth")
     ax.plot(xy1[:, 0], xy1[:, 1], "o", mfc="none", color=SENSOR_COLORS["radar1"], label=labels[0])
     ax.plot(xy2[:, 0], xy2[:, 1], "s", mfc="none", color=SENSOR_COLORS["radar2"], label=labels[1])
     correct = None if true_pairs is None else {(int(i), int(j)) for i, j in true_pairs}
-    for i, j in pairs or ():
+    for i, j in pairs:
         wrong = correct is not None and (int(i), int(j)) not in correct
         ax.plot([xy1[i, 0], xy2[j, 0]], [xy1[i, 1], xy2[j, 1]], "-",
                 color="red" if wrong else "0.4", lw=2 if wrong else 1)
     ax.set_aspect("equal", adjustable="datalim")
     return ax
+
+
+def _pairs(value, name: str, n1: int, n2: int) -> list[tuple[int, int]]:
+    """Index pairs ``(i, j)`` with ``0 <= i < n1`` and ``0 <= j < n2``."""
+    if value is None:
+        return []
+    arr = np.asarray(list(value) if not isinstance(value, np.ndarray) else value)
+    if arr.size == 0:
+        return []
+    if arr.dtype.kind not in "iu" or arr.ndim != 2 or arr.shape[1] != 2:
+        raise ValueError(f"`{name}` must be integer index pairs (i, j), shape (k, 2); "
+                         f"received {_describe(value)}")
+    arr = arr[(arr[:, 0] >= 0) & (arr[:, 1] >= 0)]      # a negative index: no partner
+    bad = (arr[:, 0] >= n1) | (arr[:, 1] >= n2)
+    if np.any(bad):
+        raise ValueError(f"`{name}` must index existing reports (i < {n1}, j < {n2}); "
+                         f"received {_describe(arr[bad][:3])}")
+    return [(int(i), int(j)) for i, j in arr]
 
 
 def plot_covariance_ellipse(ax, mean, cov, *, n_sigma: float = 2.0, **kwargs):
@@ -166,6 +266,14 @@ def plot_covariance_ellipse(ax, mean, cov, *, n_sigma: float = 2.0, **kwargs):
     **kwargs
         Passed to :class:`matplotlib.patches.Ellipse` (``fill=False`` by default).
 
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes or an argument is not numeric.
+    ValueError
+        If `mean` is not a finite 2-vector, `cov` not a symmetric
+        positive-definite 2x2 matrix or `n_sigma` not a positive number.
+
     Notes
     -----
     The semi-axes are ``n_sigma * sqrt(eigenvalues)`` along the eigenvectors of
@@ -173,10 +281,14 @@ def plot_covariance_ellipse(ax, mean, cov, *, n_sigma: float = 2.0, **kwargs):
     """
     from matplotlib.patches import Ellipse
 
-    from ._validation import as_covariance, as_float_array
-
+    ax = _as_axes(ax)
     mean = as_float_array(mean, "mean", last_dims=(2,))
+    if mean.shape != (2,):
+        raise ValueError(f"`mean` must have shape (2,); received shape {mean.shape}")
     cov = as_covariance(cov, "cov", dim=2)
+    if cov.shape != (2, 2):
+        raise ValueError(f"`cov` must have shape (2, 2); received shape {cov.shape}")
+    n_sigma = _as_scalar(as_positive(n_sigma, "n_sigma"), "n_sigma")
     vals, vecs = np.linalg.eigh(cov)
     angle = np.degrees(np.arctan2(vecs[1, 1], vecs[0, 1]))
     kwargs.setdefault("fill", False)
@@ -359,10 +471,43 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
 
 
 def plot_density(ax, x, pdf, *, samples=None, bins=60, label=None, color=None):
-    """A density curve, optionally over a normalised histogram of samples."""
-    color = color or SENSOR_COLORS["theory"]
+    """A density curve, optionally over a normalised histogram of samples.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    x, pdf : array_like, shape (n,)
+        Abscissae and density values (finite, ``pdf >= 0``).
+    samples : array_like, optional
+        Monte-Carlo samples (finite, at least one) drawn as a histogram.
+    bins : int, optional
+        Histogram bins (1 to 10 000).
+    label, color : optional
+        Legend label and colour of the curve.
+
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes or an argument is not numeric.
+    ValueError
+        If `x` and `pdf` differ in shape, a density is negative, `samples` is
+        empty or `bins` out of range.
+    """
+    ax = _as_axes(ax)
+    x = as_float_array(x, "x", ndim_min=1)
+    pdf = as_float_array(pdf, "pdf", ndim_min=1)
+    if x.shape != pdf.shape:
+        raise ValueError(f"`x` and `pdf` must have the same shape; received shapes {x.shape} "
+                         f"and {pdf.shape}")
+    if np.any(pdf < 0):
+        raise ValueError(f"`pdf` must be >= 0; received {_describe(pdf)}")
+    bins = as_int(bins, "bins", minimum=1, maximum=10_000)
+    color = _color(color, "color") or SENSOR_COLORS["theory"]
     if samples is not None:
-        ax.hist(np.asarray(samples).ravel(), bins=bins, density=True, alpha=0.35,
+        samples = as_float_array(samples, "samples", ndim_min=1)
+        if samples.size == 0:
+            raise ValueError("`samples` must hold at least one sample; received an empty array")
+        ax.hist(samples.ravel(), bins=bins, density=True, alpha=0.35,
                 color=SENSOR_COLORS["mc"], label=f"MC (n={np.size(samples)})")
     ax.plot(x, pdf, color=color, label=label)
     return ax
@@ -378,7 +523,8 @@ def plot_groups(ax, x, cov, groups, correct=None, *, truth=None, colors=None,
     x : array_like, shape (m, n, >= 2)
         Report ``j`` of source ``i`` (the first two coordinates are drawn).
     cov : array_like, shape (m, n, d, d)
-        Their covariances (the upper-left 2x2 block is drawn).
+        Their covariances (the upper-left 2x2 block is drawn); any shape that
+        broadcasts to it, e.g. (m, 1, d, d) for one covariance per source.
     groups : array_like of int, shape (g, m)
         Each row picks one report of every source (a grouping's ``groups``).
     correct : array_like of bool, shape (g,), optional
@@ -387,13 +533,47 @@ def plot_groups(ax, x, cov, groups, correct=None, *, truth=None, colors=None,
         True positions.
     colors : sequence, optional
         One colour per source (matplotlib's cycle by default).
+
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes or an argument is not numeric.
+    ValueError
+        If the shapes disagree, a covariance is not symmetric positive
+        definite, or a group picks a report that does not exist.
     """
-    x = np.asarray(x, dtype=float)
-    cov = np.asarray(cov, dtype=float)
-    groups = np.asarray(groups, dtype=int)
-    m, n = x.shape[:2]
-    colors = colors or [f"C{i}" for i in range(m)]
-    correct = np.ones(len(groups), bool) if correct is None else np.asarray(correct, bool)
+    ax = _as_axes(ax)
+    x = as_float_array(x, "x", ndim_min=3)
+    if x.ndim != 3 or x.shape[-1] < 2:
+        raise ValueError(f"`x` must have shape (m, n, d) with d >= 2; received shape {x.shape}")
+    m, n, d = x.shape
+    cov = as_covariance(cov, "cov", dim=d)
+    try:
+        cov = np.broadcast_to(cov, (m, n, d, d))
+    except ValueError:
+        raise ValueError(f"`cov` must broadcast to shape (m, n, d, d) = {(m, n, d, d)} like "
+                         f"`x`; received shape {cov.shape}") from None
+    graw = np.asarray(groups)
+    if graw.size and (graw.dtype.kind not in "iu" or graw.ndim != 2 or graw.shape[1] != m):
+        raise ValueError(f"`groups` must be integer indices of shape (g, m) = (g, {m}); "
+                         f"received {_describe(groups)}")
+    groups = graw.astype(int).reshape(-1, m)
+    if np.any((groups < 0) | (groups >= n)):
+        raise ValueError(f"`groups` must pick reports 0 .. {n - 1}; received {_describe(graw)}")
+    if correct is None:
+        correct = np.ones(len(groups), bool)
+    else:
+        craw = np.asarray(correct)
+        if craw.dtype.kind != "b" or craw.shape != (len(groups),):
+            raise ValueError(f"`correct` must be booleans, one per group, shape ({len(groups)},); "
+                             f"received {_describe(correct)}")
+        correct = craw
+    colors = list(colors) if colors is not None else [f"C{i}" for i in range(m)]
+    if len(colors) < m:
+        raise ValueError(f"`colors` must hold one colour per source ({m}); "
+                         f"received {_describe(colors)}")
+    if truth is not None:
+        truth = _points(truth, "truth")
     for i in range(m):
         for j in range(n):
             plot_covariance_ellipse(ax, x[i, j, :2], cov[i, j, :2, :2], n_sigma=1.0, lw=0.5,
@@ -407,7 +587,6 @@ def plot_groups(ax, x, cov, groups, correct=None, *, truth=None, colors=None,
             ax.plot([centre[0], pnt[0]], [centre[1], pnt[1]], "-",
                     color=SENSOR_COLORS["fused"] if ok else "red", lw=1.2 if ok else 2.0)
     if truth is not None:
-        t = np.asarray(truth, dtype=float)
-        ax.plot(t[:, 0], t[:, 1], "x", color=SENSOR_COLORS["truth"], ms=5, label="truth")
+        ax.plot(truth[:, 0], truth[:, 1], "x", color=SENSOR_COLORS["truth"], ms=5, label="truth")
     ax.set_aspect("equal", adjustable="datalim")
     return ax
