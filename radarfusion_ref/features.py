@@ -69,6 +69,7 @@ from .scenes import TwoRadarScene, two_radar_scene
 
 __all__ = [
     "FEATURE_MODELS",
+    "MAX_BINS",
     "CombinedProximity",
     "Confusion",
     "FusedFeature",
@@ -170,6 +171,20 @@ def _log_quadratic(x, mean_, log_var):
     diff, e = _difference(x, mean_)
     with np.errstate(divide="ignore"):
         return 2.0 * (np.log(np.abs(diff)) + e * np.log(2.0)) - log_var
+
+
+def _quadratic(x, mean_, log_var):
+    """``(x - mean)**2 / var`` from ``log var``: direct where safe, else by the log domain.
+
+    ``inf`` only where the true value exceeds the float range.
+    """
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        var = np.exp(log_var)
+        direct = (x - mean_) ** 2 / var
+        safe = np.isfinite(direct) & (var >= np.finfo(float).tiny)
+        if np.all(safe):
+            return direct
+        return np.where(safe, direct, np.exp(_log_quadratic(x, mean_, log_var)))
 
 
 def _log_var_sum(tvars, var):
@@ -351,13 +366,16 @@ def _fuse_two(f1, v1, f2, v2):
     The weights are logistic functions of ``ln v1 - ln v2`` (no information
     ``1/v`` is formed, so neither 1e-320 nor 1e308 overflows), the value a convex
     combination (never beyond the inputs), the variance
-    ``exp(ln v1 + ln v2 - ln(v1 + v2))`` (never above ``min(v1, v2)``).
+    the smaller variance times its own weight (never above ``min(v1, v2)``).
     """
     lv1, lv2 = np.log(v1), np.log(v2)
     w1 = expit(lv2 - lv1)                    # v2 / (v1 + v2)
     w2 = expit(lv1 - lv2)
-    value = w1 * f1 + w2 * f2
-    var = np.exp(lv1 + lv2 - np.logaddexp(lv1, lv2))
+    # a convex combination; the clip only removes rounding beyond the two reports
+    value = np.clip(w1 * f1 + w2 * f2, np.minimum(f1, f2), np.maximum(f1, f2))
+    # v1 v2 / (v1 + v2) as the smaller variance times its weight (near 1): at most
+    # min(v1, v2) and no underflow of the other weight
+    var = np.where(v1 <= v2, v1 * w1, v2 * w2)
     return value, var
 
 
@@ -419,7 +437,7 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
     _check_memory(f.shape, means.size, "type likelihood")
     log_var = _log_var_sum(tvars, v[..., None])
     with np.errstate(over="ignore"):
-        out = -0.5 * (_LOG_2PI + log_var + np.exp(_log_quadratic(f[..., None], means, log_var)))
+        out = -0.5 * (_LOG_2PI + log_var + _quadratic(f[..., None], means, log_var))
     if log and np.any(np.isinf(out)):
         raise ValueError("the log-likelihood is below the floating-point range (about -1.8e308) "
                          "for some `feature`; use type_posterior for normalised probabilities "
@@ -736,7 +754,7 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
             # (Π̂1 - Π̂2)² / (σ_Π1² + σ_Π2²), formed in the log domain: no overflow of the
             # square or of the sum of variances when the quotient itself is representable
             with np.errstate(over="ignore"):
-                kf = np.exp(_log_quadratic(f1, f2, np.logaddexp(np.log(v1), np.log(v2))))
+                kf = _quadratic(f1, f2, np.logaddexp(np.log(v1), np.log(v2)))
         else:
             kf = np.zeros(f1.shape)
         dof = d + 1 if model == "shared" else d
@@ -1148,7 +1166,7 @@ def reliability_curve(prob, outcome, *, bins: int = 10) -> ReliabilityCurve:
     (array([0.1, 0.9]), array([0., 1.]), array([2, 2]))
     """
     bins = as_int(bins, "bins", minimum=1)
-    check_size(bins, MAX_BINS, what="bins",
+    check_size(bins, MAX_BINS, what="bins (`bins`)",
                alternative=f"at most {MAX_BINS} bins (a reliability diagram needs tens)")
     p = as_float_array(prob, "prob").ravel()
     if p.size == 0:

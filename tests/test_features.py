@@ -443,3 +443,405 @@ def test_scene_triune_and_reliability_bad_input():
         F.reliability_curve([0.5], [1])
     with pytest.raises(ValueError, match="`prob`"):
         F.reliability_curve([1.5], [True])
+
+
+# ----------------------------------------------------------------------------- numerical range
+def _mp_log_posterior(features, variances, means, tvars, priors=None):
+    """Log type posterior by mpmath at 1400 digits: the float inputs taken exactly.
+
+    ``features`` and ``variances`` list the independent reports of the object
+    (one for the fused feature, two for model 2). 1400 digits span the whole
+    double range (1e-324 to 1e308, squared), so the differences of the squares
+    are exact.
+    """
+    import mpmath
+
+    mpmath.mp.dps = 1400
+    L = len(means)
+    pri = [mpmath.mpf(1) / L] * L if priors is None else [mpmath.mpf(float(p)) for p in priors]
+    lj = []
+    for k in range(L):
+        if pri[k] == 0:
+            lj.append(None)
+            continue
+        s = mpmath.log(pri[k])
+        for f, v in zip(features, variances, strict=True):
+            var = mpmath.mpf(float(tvars[k])) + mpmath.mpf(float(v))
+            s -= (mpmath.log(var) + (mpmath.mpf(float(f)) - mpmath.mpf(float(means[k]))) ** 2
+                  / var) / 2
+        lj.append(s)
+    top = max(x for x in lj if x is not None)
+    norm = top + mpmath.log(mpmath.fsum(mpmath.exp(x - top) for x in lj if x is not None))
+    return lj, norm
+
+
+def _mp_posterior(*args, **kw):
+    import mpmath
+
+    lj, norm = _mp_log_posterior(*args, **kw)
+    return np.array([0.0 if x is None else float(mpmath.exp(x - norm)) for x in lj])
+
+
+EXTREMES = [
+    # feature far from every type: the heavier tail wins
+    (1e200, 0.0, [0.0, 2.0, 4.0], [0.36, 0.64, 0.49]),
+    (-1e300, 0.0, [0.0, 1.0], [1.0, 1.0]),
+    (1e308, 0.0, [-1e308, 1e308], [1.0, 1.0]),
+    (1.7e308, 1e300, [-1.7e308, 0.0], [1e308, 1e308]),
+    # tiny variances: squares overflow, densities underflow
+    (0.6, 0.0, [0.0, 1.0], [1e-310, 1e-310]),
+    (0.4, 1e-320, [0.0, 1.0], [1e-320, 1e-320]),
+    (1e-160, 0.0, [0.0, 3e-160], [1e-320, 1e-320]),
+    # means closer than the feature's rounding: 1 - 1e-18 == 1 in floats
+    (1.0, 0.0, [0.0, 1e-18], [1e-20, 1e-20]),
+    (1e300, 0.0, [0.0, 1e-300], [1e-300, 1e-300]),
+    # huge variances
+    (0.5, 1e308, [0.0, 1.0], [1e308, 1e308]),
+    (3.0, 0.0, [0.0, 1.0], [1e300, 1e-300]),
+    # moderate, unequal variances and priors
+    (0.7, 0.2, [0.0, 1.5, 2.0], [0.3, 0.6, 0.2]),
+]
+
+
+@pytest.mark.parametrize(("f", "v", "means", "tvars"), EXTREMES)
+def test_posterior_at_extremes_equals_mpmath(f, v, means, tvars):
+    """The issue-12 defects: NaN far from every type, wrong type at tiny variances."""
+    got = F.type_posterior(f, v, means, tvars)
+    want = _mp_posterior([f], [v], means, tvars)
+    assert np.all(np.isfinite(got))
+    np.testing.assert_allclose(got.sum(), 1.0, rtol=1e-14)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-300)
+    assert np.argmax(got) == np.argmax(want)
+    lp = F.type_posterior(f, v, means, tvars, log=True)
+    assert not np.any(np.isnan(lp)) and not np.any(lp == np.inf)
+
+
+def test_tiny_variances_pick_the_right_type_with_priors():
+    """Priors 0.6/0.4 and a feature nearer type 2 by 200 nats: type 2, not a 0.5/0.5 tie."""
+    p = F.type_posterior(1.0, 0.0, [0.0, 1e-18], [1e-20, 1e-20], [0.6, 0.4])
+    assert np.argmax(p) == 1
+    np.testing.assert_allclose(p, _mp_posterior([1.0], [0.0], [0.0, 1e-18], [1e-20, 1e-20],
+                                                [0.6, 0.4]), rtol=1e-9, atol=1e-300)
+
+
+@pytest.mark.parametrize(("f1", "v1", "f2", "v2", "means", "tvars"), [
+    (1e200, 1.0, 1e200, 1.0, [0.0, 1.0], [1.0, 1.0]),
+    (0.6, 1e-320, 0.61, 1e-320, [0.0, 1.0], [1e-310, 1e-310]),
+    (1e150, 1e-10, -1e150, 1e10, [0.0, 1.0, 5.0], [1.0, 4.0, 1.0]),
+    (0.9, 0.1, 1.1, 0.1, [0.0, 1.0], [0.2, 0.2]),
+])
+def test_spread_pair_posterior_at_extremes_equals_mpmath(f1, v1, f2, v2, means, tvars):
+    got = F.pair_type_posterior(f1, v1, f2, v2, means, tvars, model="spread")
+    want = _mp_posterior([f1, f2], [v1, v2], means, tvars)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-300)
+
+
+def test_shared_pair_posterior_with_extreme_variances():
+    """The fused feature itself must not collapse: 1e-300 and 1e300 variances."""
+    for v in (1e-300, 1e-320, 1e300):
+        ff = F.fused_feature(1.0, v, 3.0, v)
+        assert ff.value == 2.0 and np.isclose(ff.var, v / 2, rtol=1e-12)
+        got = F.pair_type_posterior(1.0, v, 3.0, v, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0])
+        np.testing.assert_allclose(got, _mp_posterior([2.0], [v / 2], [1.0, 2.0, 3.0],
+                                                      [1.0] * 3), rtol=1e-9)
+    assert F.fused_feature(1e308, 1.0, -1e308, 1.0).value == 0.0
+    ff = F.fused_feature(1.0, 1e-320, 3.0, 1.0)
+    assert ff.value == 1.0 and ff.var > 0
+
+
+def test_fused_feature_is_the_fusion_module_rule():
+    """Same rule as radarfusion_ref.fusion.fuse (eq-fused-estimate) on ordinary inputs."""
+    from radarfusion_ref.fusion import fuse
+
+    rng = np.random.default_rng(3)
+    f, v = rng.normal(size=(2, 50)), rng.uniform(0.01, 10, size=(2, 50))
+    ff = F.fused_feature(f[0], v[0], f[1], v[1])
+    fe = fuse(f.T, v.T)
+    np.testing.assert_allclose(ff.value, fe.estimate, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(ff.var, fe.variance, rtol=1e-12)
+
+
+def test_log_likelihood_beyond_the_float_range_is_refused():
+    assert np.all(F.type_likelihood(1e200, 0.0, [0.0], [1.0]) == 0.0)
+    with pytest.raises(ValueError, match="`feature`"):
+        F.type_likelihood(1e200, 0.0, [0.0], [1.0], log=True)
+    np.testing.assert_allclose(F.type_likelihood(1e150, 0.0, [0.0], [1.0], log=True),
+                               [-0.5 * (np.log(2 * np.pi) + 1e300)], rtol=1e-14)
+
+
+def test_profile_feature_term_does_not_overflow_when_representable():
+    k = F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], 1e200, -1e200, 1e300, 1e300)
+    np.testing.assert_allclose(k.feature, 2e100, rtol=1e-12)
+    with pytest.raises(ValueError, match="`feature1`"):
+        F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], 1e200, -1e200, 1.0, 1.0)
+
+
+def test_marginal_term_far_from_every_type():
+    """Model 2: the term is built from the (robust) single-report posteriors."""
+    k = F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], 1e200, 1e200, 1.0, 1.0,
+                             model="spread", kind="marginal", type_means=[0.0, 1.0],
+                             type_vars=[1.0, 1.0], priors=[0.5, 0.5])
+    np.testing.assert_allclose(k.feature, -2 * np.log(2.0), rtol=1e-12)   # both surely T_2
+    with pytest.raises(ValueError, match="`feature1`"):
+        F.combined_proximity([0.0], [0.0], [[1.0]], [[1.0]], 1e200, 1e200, 1.0, 1.0,
+                             kind="marginal", type_means=[0.0], type_vars=[1.0])
+
+
+# ----------------------------------------------------------------------------- resource limits
+def test_bins_limit_is_checked_before_allocation():
+    with pytest.raises(ValueError, match=r"10000"):
+        F.reliability_curve([0.5], [True], bins=10**9)
+    with pytest.raises(TypeError, match="`bins`"):
+        F.reliability_curve([0.5], [True], bins=1e9)
+    r = F.reliability_curve([0.5], [True], bins=F.MAX_BINS)
+    assert r.counts.tolist() == [1]
+
+
+def test_memory_limit_names_the_alternative():
+    with pytest.raises(ValueError, match="chunks"):
+        F.type_posterior(np.broadcast_to(0.0, (10**6,)), 0.0, np.zeros(1000), np.ones(1000))
+
+
+# ----------------------------------------------------------------------------- properties
+wide = st.floats(-1e308, 1e308, allow_nan=False, allow_infinity=False)
+wide_pos = st.floats(1e-320, 1e308, allow_nan=False, allow_infinity=False, exclude_min=True)
+
+
+@given(f=st.lists(wide, min_size=1, max_size=4), v=st.one_of(st.just(0.0), wide_pos),
+       data=st.data())
+def test_posterior_is_finite_and_sums_to_one_over_the_float_range(f, v, data):
+    L = data.draw(st.integers(1, 4))
+    means = data.draw(st.lists(wide, min_size=L, max_size=L))
+    tv = data.draw(st.lists(wide_pos, min_size=L, max_size=L))
+    w = np.asarray(data.draw(st.lists(st.floats(0.0, 1.0), min_size=L, max_size=L)))
+    priors = None if w.sum() < 1e-3 else w / w.sum()
+    p = F.type_posterior(f, v, means, tv, priors)
+    assert p.shape == (len(f), L)
+    assert np.all(np.isfinite(p)) and np.all((p >= 0) & (p <= 1))
+    np.testing.assert_allclose(p.sum(axis=-1), 1.0, rtol=1e-12)
+    if priors is not None:
+        assert np.all(p[:, priors == 0] == 0)
+    lp = F.type_posterior(f, v, means, tv, priors, log=True)
+    assert not np.any(np.isnan(lp)) and not np.any(lp == np.inf)
+
+
+@given(f=wide, v=st.one_of(st.just(0.0), wide_pos), data=st.data())
+def test_posterior_agrees_with_mpmath_wherever_the_answer_is_well_conditioned(f, v, data):
+    """Against 60-digit mpmath on the same float inputs, except within rounding of a tie.
+
+    The log-joint differences are exact to double precision relative to the
+    squares they come from; where the two best types differ by less than that
+    (a decision boundary of a huge quadratic) the input's own rounding decides.
+    """
+    import mpmath
+
+    L = data.draw(st.integers(1, 3))
+    means = data.draw(st.lists(wide, min_size=L, max_size=L))
+    tv = data.draw(st.lists(wide_pos, min_size=L, max_size=L))
+    got = F.type_posterior(f, v, means, tv)
+    lj, norm = _mp_log_posterior([f], [v], means, tv)
+    want = np.array([float(mpmath.exp(x - norm)) for x in lj])
+    scale = max(abs(float((mpmath.mpf(f) - m) ** 2 / (mpmath.mpf(t) + v)))
+                for m, t in zip(means, tv, strict=True))
+    gaps = sorted((float(lj[0] - x) for x in lj), reverse=True)
+    top2 = sorted(lj, reverse=True)
+    tie = L > 1 and float(top2[0] - top2[1]) < 1e-9 * scale + 1e-6
+    if not tie or L == 1:
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
+        assert np.argmax(got) == np.argmax(want)
+    del gaps
+
+
+@given(f1=wide, f2=wide, v1=wide_pos, v2=wide_pos, model=st.sampled_from(F.FEATURE_MODELS),
+       data=st.data())
+def test_pair_posterior_is_finite_and_sums_to_one(f1, f2, v1, v2, model, data):
+    L = data.draw(st.integers(1, 3))
+    means = data.draw(st.lists(wide, min_size=L, max_size=L))
+    tv = data.draw(st.lists(wide_pos, min_size=L, max_size=L))
+    p = F.pair_type_posterior(f1, v1, f2, v2, means, tv, model=model)
+    assert np.all(np.isfinite(p)) and np.all(p >= 0)
+    np.testing.assert_allclose(p.sum(), 1.0, rtol=1e-12)
+
+
+@given(f1=wide, f2=wide, v1=wide_pos, v2=wide_pos)
+def test_fused_feature_between_reports_and_below_both_variances(f1, f2, v1, v2):
+    ff = F.fused_feature(f1, v1, f2, v2)
+    assert np.isfinite(ff.value) and np.isfinite(ff.var)
+    assert min(f1, f2) <= ff.value <= max(f1, f2)
+    assert 0 <= ff.var <= min(v1, v2)
+
+
+@given(f=wide, v=st.one_of(st.just(0.0), wide_pos), m=wide, tv=wide_pos)
+def test_likelihood_is_finite_and_at_most_the_peak(f, v, m, tv):
+    lik = F.type_likelihood(f, v, [m], [tv])
+    peak = 1 / np.sqrt(2 * np.pi) * np.exp(-0.5 * np.logaddexp(np.log(tv), np.log(v)
+                                                                if v > 0 else -np.inf))
+    assert np.isfinite(lik).all() and 0 <= lik[0] <= peak * (1 + 1e-12)
+
+
+@given(x=st.lists(finite, min_size=2, max_size=2), f=st.lists(finite, min_size=2, max_size=2),
+       s=st.lists(pos, min_size=4, max_size=4), model=st.sampled_from(F.FEATURE_MODELS),
+       kind=st.sampled_from(["profile", "marginal"]))
+def test_combined_proximity_is_finite_nonnegative_and_symmetric(x, f, s, model, kind):
+    kw = dict(model=model, kind=kind, type_means=[0.0, 3.0], type_vars=[1.0, 2.0])
+    k = F.combined_proximity([x[0]], [x[1]], [[s[0]]], [[s[1]]], f[0], f[1], s[2], s[3], **kw)
+    r = F.combined_proximity([x[1]], [x[0]], [[s[1]]], [[s[0]]], f[1], f[0], s[3], s[2], **kw)
+    assert np.isfinite(k.total) and k.coordinate >= 0
+    if kind == "profile":
+        assert k.feature >= 0
+    np.testing.assert_allclose(k.total, r.total, rtol=1e-9, atol=1e-12)
+
+
+@given(n=st.integers(1, 4), trials=st.integers(1, 5), seed=st.integers(0, 2**32 - 1),
+       model=st.sampled_from(F.FEATURE_MODELS), dim=st.integers(1, 2))
+def test_scene_costs_and_triune_invariants(n, trials, seed, model, dim):
+    kw = dict(type_means=[0.0, 2.0], type_vars=[1.0, 0.5], priors=[0.3, 0.7], spacing=1.0,
+              sigma1=0.2, sigma2=0.3, feature_sigma1=0.1, feature_sigma2=0.2, model=model,
+              trials=trials, dim=dim)
+    s = F.typed_scene(n, rng=seed, **kw)
+    again = F.typed_scene(n, rng=seed, **kw)
+    np.testing.assert_array_equal(s.features2, again.features2)
+    for features in ("none", *F.FEATURE_MODELS):
+        c = F.association_costs(s, features=features)
+        assert c.shape == (trials, n, n) and np.all(np.isfinite(c)) and np.all(c >= 0)
+    r = F.triune(s, s.true_match)
+    assert np.all(r.correct)
+    np.testing.assert_allclose(r.posterior.sum(-1), 1.0, rtol=1e-12)
+    conf = r.confusion()
+    assert conf.counts.sum() == trials * n
+    assert np.all((conf.low <= conf.rate + 1e-12) & (conf.rate <= conf.high + 1e-12))
+
+
+@given(p=st.lists(st.floats(0, 1), min_size=1, max_size=50), bins=st.integers(1, 40),
+       data=st.data())
+def test_reliability_curve_invariants(p, bins, data):
+    o = data.draw(st.lists(st.booleans(), min_size=len(p), max_size=len(p)))
+    r = F.reliability_curve(p, o, bins=bins)
+    assert r.counts.sum() == len(p) and len(r.counts) <= bins
+    assert np.all((r.predicted >= 0) & (r.predicted <= 1))
+    assert np.all((r.low <= r.observed) & (r.observed <= r.high))
+
+
+# ----------------------------------------------------------------------------- generated bad input
+BAD_NUMBERS = st.sampled_from([float("nan"), float("inf"), -float("inf"), "1.5", True, None,
+                               [1.0, "a"], 1 + 2j])
+BAD_VARIANCES = st.one_of(BAD_NUMBERS, st.floats(-1e308, 0.0, allow_nan=False))
+
+
+def _call(fn, base, arg, value):
+    kwargs = dict(base, **{arg: value})
+    with pytest.raises((ValueError, TypeError), match=f"`{arg}`"):
+        fn(**kwargs)
+
+
+POSTERIOR_BASE = dict(feature=0.3, feature_var=0.1, type_means=[0.0, 1.0], type_vars=[1.0, 2.0],
+                      priors=[0.4, 0.6])
+
+
+@given(arg=st.sampled_from(["feature", "type_means", "priors"]), value=BAD_NUMBERS)
+def test_posterior_rejects_bad_numbers(arg, value):
+    if not (arg == "priors" and value is None):           # None: uniform priors
+        _call(F.type_posterior, POSTERIOR_BASE, arg, value)
+
+
+@given(arg=st.sampled_from(["type_vars"]), value=BAD_VARIANCES)
+def test_posterior_rejects_bad_variances(arg, value):
+    _call(F.type_posterior, POSTERIOR_BASE, arg, [value, value])
+
+
+@given(value=st.one_of(BAD_NUMBERS, st.floats(-1e308, -1e-300)))
+def test_posterior_and_likelihood_reject_bad_feature_var(value):
+    _call(F.type_posterior, POSTERIOR_BASE, "feature_var", value)
+    base = {k: v for k, v in POSTERIOR_BASE.items() if k != "priors"}
+    _call(F.type_likelihood, base, "feature_var", value)
+
+
+@given(value=st.sampled_from(["yes", 1, 0, None, 1.0]))
+def test_log_flag_must_be_a_bool(value):
+    _call(F.type_posterior, POSTERIOR_BASE, "log", value)
+    base = {k: v for k, v in POSTERIOR_BASE.items() if k != "priors"}
+    _call(F.type_likelihood, base, "log", value)
+    _call(F.pair_type_posterior, PAIR_BASE, "log", value)
+
+
+PAIR_BASE = dict(feature1=0.3, feature_var1=0.1, feature2=0.5, feature_var2=0.2,
+                 type_means=[0.0, 1.0], type_vars=[1.0, 2.0], priors=None)
+
+
+@given(arg=st.sampled_from(["feature1", "feature2"]), value=BAD_NUMBERS,
+       model=st.sampled_from(F.FEATURE_MODELS))
+def test_pair_posterior_rejects_bad_features(arg, value, model):
+    _call(F.pair_type_posterior, dict(PAIR_BASE, model=model), arg, value)
+
+
+@given(arg=st.sampled_from(["feature_var1", "feature_var2"]), value=BAD_VARIANCES,
+       model=st.sampled_from(F.FEATURE_MODELS))
+def test_pair_posterior_and_fusion_reject_bad_variances(arg, value, model):
+    _call(F.pair_type_posterior, dict(PAIR_BASE, model=model), arg, value)
+    base = {k: PAIR_BASE[k] for k in ("feature1", "feature_var1", "feature2", "feature_var2")}
+    _call(F.fused_feature, base, arg, value)
+
+
+PROX_BASE = dict(x1=[0.0], x2=[1.0], cov1=[[1.0]], cov2=[[1.0]], feature1=0.0, feature2=1.0,
+                 feature_var1=1.0, feature_var2=1.0, model="shared", kind="marginal",
+                 type_means=[0.0, 1.0], type_vars=[1.0, 1.0])
+
+
+@given(arg=st.sampled_from(["x1", "x2", "feature1", "feature2", "type_means"]),
+       value=BAD_NUMBERS)
+def test_combined_proximity_rejects_bad_numbers(arg, value):
+    _call(F.combined_proximity, PROX_BASE, arg, value)
+
+
+@given(arg=st.sampled_from(["feature_var1", "feature_var2"]), value=BAD_VARIANCES)
+def test_combined_proximity_rejects_bad_variances(arg, value):
+    _call(F.combined_proximity, PROX_BASE, arg, value)
+
+
+@given(arg=st.sampled_from(["cov1", "cov2"]),
+       value=st.sampled_from([[[-1.0]], [[0.0]], [[float("nan")]], [[1.0, 0.0], [0.5, 1.0]],
+                              "1", None, [[True]]]))
+def test_combined_proximity_rejects_bad_covariances(arg, value):
+    _call(F.combined_proximity, PROX_BASE, arg, value)
+
+
+@given(arg=st.sampled_from(["model", "kind"]), value=st.sampled_from(["", "other", None, 1]))
+def test_combined_proximity_rejects_bad_options(arg, value):
+    _call(F.combined_proximity, PROX_BASE, arg, value)
+
+
+SCENE_BASE = dict(n_objects=2, type_means=[0.0, 1.0], type_vars=[1.0, 1.0], spacing=1.0,
+                  sigma1=0.1, sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1, rng=0)
+
+
+@given(arg=st.sampled_from(["feature_sigma1", "feature_sigma2", "spacing", "sigma1",
+                            "sigma2"]), value=BAD_VARIANCES)
+def test_typed_scene_rejects_bad_numbers(arg, value):
+    _call(F.typed_scene, SCENE_BASE, arg, value)
+
+
+@given(arg=st.sampled_from(["n_objects", "trials", "dim"]),
+       value=st.sampled_from([0, -1, 1.5, "2", None, True]))
+def test_typed_scene_rejects_bad_counts(arg, value):
+    _call(F.typed_scene, SCENE_BASE, arg, value)
+
+
+@given(match=st.one_of(
+    st.lists(st.integers(-5, 5), min_size=1, max_size=6).map(np.array),
+    st.sampled_from([None, "0", np.zeros((3, 2)), np.zeros((3, 2), dtype=bool),
+                     np.full((3, 2), 2), np.full((3, 2), -2)])))
+def test_triune_rejects_bad_matches(match):
+    s = F.typed_scene(**dict(SCENE_BASE, trials=3))
+    _call(F.triune, dict(scene=s), "match", match)
+
+
+@given(bins=st.one_of(st.integers(-5, 0), st.integers(F.MAX_BINS + 1, 10**18),
+                      st.sampled_from([1.5, "10", None, True])))
+def test_reliability_curve_rejects_bad_bins(bins):
+    _call(F.reliability_curve, dict(prob=[0.2], outcome=[True]), "bins", bins)
+
+
+@given(prob=st.one_of(BAD_NUMBERS, st.just([]), st.floats(1.0, 1e308, exclude_min=True),
+                      st.floats(-1e308, 0.0, exclude_max=True)))
+def test_reliability_curve_rejects_bad_probabilities(prob):
+    _call(F.reliability_curve, dict(prob=prob, outcome=[True]), "prob", prob)
