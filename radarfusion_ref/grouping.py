@@ -47,18 +47,24 @@ from scipy import sparse
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
 from ._validation import (
+    MEMORY_LIMIT,
+    as_bool,
     as_choice,
     as_covariance,
     as_float_array,
     as_int,
     as_positive,
     as_rng,
+    check_size,
 )
 
 __all__ = [
     "PAPER_HYPOTHESES",
     "GroupingResult",
     "GroupingScene",
+    "MAX_BINDING_HYPOTHESES",
+    "MAX_CANDIDATE_GROUPS",
+    "MAX_GROUPINGS",
     "binding_costs",
     "binding_hypotheses",
     "group_bruteforce",
@@ -69,6 +75,28 @@ __all__ = [
 ]
 
 _COSTS = ("ml", "pairwise")
+
+#: Largest number of binding hypotheses :math:`(n!)^m` that
+#: :func:`binding_hypotheses` and :func:`binding_costs` enumerate (``(n, m) = (6, 2)``
+#: has 518 400; ``(6, 3)`` has 3.7e8 and is refused). The scalable route is the
+#: exact ML binding as a grouping of ``m + 1`` sources with the tracks as source
+#: 0, solved by :func:`group_sd`.
+MAX_BINDING_HYPOTHESES = 10**6
+
+#: Largest number of groupings :math:`(n!)^{m-1}` that :func:`group_bruteforce`
+#: enumerates, whatever its `max_groupings` (about a minute of work); beyond it,
+#: use :func:`group_sd`.
+MAX_GROUPINGS = 10**8
+
+#: Largest number of candidate groups :math:`n^m` (binary variables) of one
+#: scene that :func:`group_sd` hands to HiGHS (e.g. ``n = 100`` targets of
+#: ``m = 3`` sources, or ``n = 31`` of ``m = 4``).
+MAX_CANDIDATE_GROUPS = 10**6
+
+#: Costs up to this size are handed to HiGHS as they are; larger ones are capped
+#: (never changing the optimum) and rescaled, since HiGHS treats costs from
+#: 1e20 on as infinite.
+_HIGHS_COST_SCALE = 1e9
 
 #: The paper's four hypotheses for two sources and two fused tracks, as
 #: ``hyp[i, p]`` = index of the report of source ``i`` bound to track ``p``
@@ -283,8 +311,62 @@ def _pairwise_tensor(x, cov):
     return out
 
 
+def _rescale(x, cov, *extra):
+    """Centre and rescale reports and covariances so that no step overflows.
+
+    The group costs are quadratic forms, invariant under ``x -> (x - c) / s``
+    and ``cov -> cov / s**2``; only the ML log-determinants shift, by
+    ``d * log(s**2)`` per covariance, which the caller adds back. ``c`` is the
+    mid-range of every coordinate (``|x - c|`` never overflows) and ``s**2`` a
+    power of two near the largest variance (exact scaling). `extra` holds
+    further (points, covariances) pairs (the fused tracks) treated alike.
+    Returns the scaled arrays and ``log(s**2)``.
+    """
+    pts = [x.reshape(x.shape[0], -1, x.shape[-1])] + [e.reshape(e.shape[0], -1, e.shape[-1])
+                                                       for e in extra[0::2]]
+    lo = np.min([p.min(axis=1) for p in pts], axis=0)            # (B, d), per scene
+    hi = np.max([p.max(axis=1) for p in pts], axis=0)
+    centre = lo / 2 + hi / 2
+
+    def shift(a):
+        return a - centre.reshape((a.shape[0],) + (1,) * (a.ndim - 2) + (a.shape[-1],))
+
+    covs = [cov, *extra[1::2]]
+    top = max(float(np.max(np.diagonal(c, axis1=-2, axis2=-1))) for c in covs)
+    k = 2 * int(np.round(np.log2(top) / 2))                       # even: s exact too
+    s, s2 = np.ldexp(1.0, k // 2), np.ldexp(1.0, k)
+    out = [shift(x) / s, cov / s2]
+    for i in range(0, len(extra), 2):
+        out += [shift(extra[i]) / s, extra[i + 1] / s2]
+    return out, k * np.log(2.0)
+
+
+def _finite_costs(tensor):
+    """Refuse costs that overflowed: no grouping decision can rest on them."""
+    if not np.all(np.isfinite(tensor)):
+        bad = int(np.count_nonzero(~np.isfinite(tensor)))
+        raise ValueError(
+            f"`x` and `cov`: {bad} candidate group costs exceed the floating-point range "
+            "(reports some 1e154 standard deviations apart); such groups cannot be scored "
+            "-- split the scene or gate the candidate groups first"
+        )
+    return tensor
+
+
+def _cost_bytes(B, m, n, d):
+    """Working memory of one cost tensor (output plus the per-row fused information)."""
+    return 8 * B * n ** (m - 1) * (3 * n + 8 * d * d + 4 * d)
+
+
 def _tensor(x, cov, cost):
-    return _ml_tensor(x, cov) if cost == "ml" else _pairwise_tensor(x, cov)
+    B, m, n, d = x.shape
+    check_size(_cost_bytes(B, m, n, d), MEMORY_LIMIT,
+               what=f"bytes of group costs (`x`: {B} scene(s) x n**m = {n}**{m} candidate groups)",
+               alternative="fewer scenes per call, or group_sd scene by scene")
+    (xs, cs), log_s2 = _rescale(x, cov)
+    if cost == "pairwise":
+        return _finite_costs(_pairwise_tensor(xs, cs))
+    return _finite_costs(_ml_tensor(xs, cs) + (m - 1) * d * log_s2)
 
 
 # ----------------------------------------------------------------------------- counting
@@ -308,7 +390,10 @@ def n_groupings(n_targets: int, n_sources: int, *, binding: bool = False) -> int
     Raises
     ------
     ValueError
-        If `n_targets` < 1 or `n_sources` is below its minimum.
+        If `n_targets` < 1 or `n_sources` is below its minimum, or if the count
+        has more than a million decimal digits.
+    TypeError
+        If a count is not an integer or `binding` not a boolean.
 
     Notes
     -----
@@ -334,10 +419,14 @@ def n_groupings(n_targets: int, n_sources: int, *, binding: bool = False) -> int
     >>> n_groupings(3, 3), n_groupings(2, 2, binding=True)
     (36, 4)
     """
-    binding = bool(binding)
+    binding = as_bool(binding, "binding")
     n = as_int(n_targets, "n_targets", minimum=1)
     m = as_int(n_sources, "n_sources", minimum=1 if binding else 2)
-    return math.factorial(n) ** (m - 1 + int(binding))
+    power = m - 1 + int(binding)
+    digits = math.ceil(power * math.lgamma(n + 1) / math.log(10))
+    check_size(digits, 10**6, what=f"decimal digits of the count (`n_targets` = {n})",
+               alternative=f"its logarithm, {power} * math.lgamma(n_targets + 1)")
+    return math.factorial(n) ** power
 
 
 # ----------------------------------------------------------------------------- costs
@@ -435,7 +524,9 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
     cost : {"ml", "pairwise"}, optional
         Group cost (see :func:`group_costs`).
     max_groupings : int, optional
-        Refuse problems with more groupings than this (default :math:`10^7`).
+        Refuse problems with more groupings than this (default :math:`10^7`);
+        whatever its value, more than :data:`MAX_GROUPINGS` (:math:`10^8`) are
+        refused.
 
     Returns
     -------
@@ -446,7 +537,9 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
     Raises
     ------
     ValueError
-        For bad input (see :func:`group_costs`) or more than `max_groupings` groupings.
+        For bad input (see :func:`group_costs`), more than `max_groupings` or
+        :data:`MAX_GROUPINGS` groupings (use :func:`group_sd`), or totals that
+        overflow.
 
     Notes
     -----
@@ -475,6 +568,8 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
             f"`max_groupings` = {limit} is below the {G} groupings of m = {m} sources and "
             f"n = {n} targets; raise it or use group_sd"
         )
+    check_size(G, MAX_GROUPINGS, what=f"groupings (n!)**(m-1) (`x` with n = {n}, m = {m})",
+               alternative="group_sd (the exact S-D assignment integer program)")
     tensor = _tensor(xb, cb, cost).reshape(B, -1)
     perms = _perms(n).astype(np.int64)                        # (n!, n)
     nf = perms.shape[0]
@@ -498,6 +593,11 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
         better = val < best
         best = np.where(better, val, best)
         best_g = np.where(better, g[arg], best_g)
+    if not np.all(np.isfinite(best)):
+        raise ValueError(
+            "`x` and `cov`: the total cost of every grouping overflows the floating-point "
+            "range; split the scene or gate the candidate groups first"
+        )
     groups = np.empty((B, n, m), dtype=np.int64)
     groups[:, :, 0] = np.arange(n)
     rem = best_g
@@ -507,6 +607,43 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
     groups = groups.reshape(*batch, n, m)
     cost_out = best.reshape(batch)
     return GroupingResult(groups, float(cost_out) if not batch else cost_out, cost, "bruteforce")
+
+
+def _greedy_total(c, m, n):
+    """Cost of the greedy grouping (cheapest free candidate group first): an upper bound."""
+    work = c.reshape((n,) * m).copy()
+    total = 0.0
+    for _ in range(n):
+        t = np.unravel_index(np.argmin(work), work.shape)
+        total += work[t]
+        for i, j in enumerate(t):
+            index = [slice(None)] * m
+            index[i] = j
+            work[tuple(index)] = np.inf
+    return total
+
+
+def _condition_costs(c_raw, m, n, bound=None):
+    """Costs HiGHS can take without changing the optimum.
+
+    Shift to a minimum of 0 (every grouping has n groups: a constant). If the
+    largest cost exceeds ``_HIGHS_COST_SCALE``, cap every cost at ``K = 2 U + 1``,
+    ``U`` the total of some grouping (`bound`; the greedy one by default): a grouping holding a capped
+    group costs at least ``K > U >= optimum``, so the optimum is unchanged; then,
+    if ``K`` itself is that large, scale all costs by ``_HIGHS_COST_SCALE / K``
+    (a positive factor, the same optimum; HiGHS treats costs from 1e20 on as
+    infinite).
+    """
+    c = c_raw - c_raw.min()
+    if c.max() <= _HIGHS_COST_SCALE:
+        return c
+    if bound is None:
+        bound = _greedy_total(c, m, n)
+    cap = 2.0 * bound + 1.0
+    c = np.minimum(c, cap)
+    if cap > _HIGHS_COST_SCALE:
+        c = c * (_HIGHS_COST_SCALE / cap)
+    return c
 
 
 @functools.lru_cache(maxsize=16)
@@ -520,14 +657,9 @@ def _sd_constraints(m, n):
     return A, idx
 
 
-def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
-    """Solve the S-D assignment for a flat cost vector over the n**m tuples.
-
-    Returns the flat indices of the n chosen tuples and whether the LP
-    relaxation's solution was already integral.
-    """
+def _sd_solve_once(c, m, n, *, relaxation=True, time_limit=None):
+    """One HiGHS solve of the S-D assignment with conditioned costs `c`."""
     A, _ = _sd_constraints(m, n)
-    c = c_raw - c_raw.min()               # every grouping has n groups: a constant shift
     z, integral = None, False
     if relaxation:
         lp = linprog(c, A_eq=A, b_eq=np.ones(m * n), bounds=(0, 1), method="highs")
@@ -548,6 +680,29 @@ def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
     tuples = np.array(np.unravel_index(chosen, (n,) * m))          # (m, n)
     if chosen.size != n or np.any(np.sort(tuples, axis=1) != np.arange(n)):
         raise RuntimeError("HiGHS returned an infeasible grouping")
+    return chosen, integral
+
+
+def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
+    """Solve the S-D assignment for a flat cost vector over the n**m tuples.
+
+    Returns the flat indices of the n chosen tuples and whether the LP
+    relaxation's solution was already integral. With costs above
+    ``_HIGHS_COST_SCALE`` the cap of :func:`_condition_costs` is tightened to
+    each solution's own total until it no longer improves, so the rescaled
+    costs resolve the optimum to the precision of a double.
+    """
+    c0 = c_raw - c_raw.min()
+    if c0.max() <= _HIGHS_COST_SCALE:
+        return _sd_solve_once(c0, m, n, relaxation=relaxation, time_limit=time_limit)
+    bound = _greedy_total(c0, m, n)
+    for _ in range(64):
+        chosen, integral = _sd_solve_once(_condition_costs(c0, m, n, bound), m, n,
+                                          relaxation=relaxation, time_limit=time_limit)
+        total = c0[chosen].sum()
+        if not total < bound * (1 - 1e-12):
+            break
+        bound = total
     return chosen, integral
 
 
@@ -582,7 +737,10 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     Raises
     ------
     ValueError
-        For bad input (see :func:`group_costs`).
+        For bad input (see :func:`group_costs`), or more than
+        :data:`MAX_CANDIDATE_GROUPS` candidate groups :math:`n^m` per scene.
+    TypeError
+        If `relaxation` is not a boolean.
     RuntimeError
         If the solver does not return a proven optimum.
 
@@ -596,6 +754,10 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         \\min_z \\sum_t c_t z_t \\quad\\text{s.t.}\\quad
         \\sum_{t:\\,t_i = j} z_t = 1 \\;\\; (i = 1..m,\\; j = 1..n),
         \\qquad z_t \\in \\{0, 1\\}.
+
+    Costs of any size are accepted: when they exceed 1e9 they are capped above
+    twice the greedy grouping's total (which cannot change the optimum) and
+    rescaled by a positive factor before HiGHS sees them.
 
     For :math:`m = 2` this is the linear assignment problem (its LP relaxation
     is integral); for :math:`m \\ge 3` it is the NP-hard S-D assignment problem
@@ -615,11 +777,15 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     ([[0, 1, 0], [1, 0, 1]], 'milp')
     """
     cost = as_choice(cost, "cost", _COSTS)
-    relaxation = bool(relaxation)
+    relaxation = as_bool(relaxation, "relaxation")
     if time_limit is not None:
         time_limit = float(as_positive(time_limit, "time_limit"))
     xb, cb, batch = _reports_iv(x, cov)
     B, m, n, _ = xb.shape
+    check_size(n**m, MAX_CANDIDATE_GROUPS,
+               what=f"candidate groups n**m = {n}**{m} of one scene (`x` with m = {m}, n = {n})",
+               alternative="a gate on the candidate groups or Lagrangian relaxation "
+                           "(Deb et al. 1997), or splitting the scene into clusters")
     groups = np.empty((B, n, m), dtype=np.int64)
     totals = np.empty(B)
     integral = np.zeros(B, dtype=bool)
@@ -632,6 +798,11 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
             raise RuntimeError(f"scene {b}: {exc}") from None
         groups[b] = _normalise(np.array(np.unravel_index(chosen, (n,) * m)).T)
         totals[b] = c_raw[chosen].sum()
+        if not np.isfinite(totals[b]):
+            raise ValueError(
+                f"`x` and `cov`: scene {b}: the total cost of the best grouping overflows "
+                "the floating-point range; split the scene or gate the candidate groups first"
+            )
     groups = groups.reshape(*batch, n, m)
     cost_out = totals.reshape(batch)
     integral = integral.reshape(batch)
@@ -658,6 +829,12 @@ def binding_hypotheses(n_targets: int, n_sources: int) -> np.ndarray:
         ``p`` under hypothesis ``h``; :math:`H = (n!)^m`, in
         :func:`itertools.product` order of the sources' permutations.
 
+    Raises
+    ------
+    ValueError
+        If :math:`(n!)^m` exceeds :data:`MAX_BINDING_HYPOTHESES` (checked before
+        anything is built; use :func:`group_sd` with the tracks as source 0).
+
     Examples
     --------
     >>> binding_hypotheses(2, 2).shape
@@ -667,8 +844,16 @@ def binding_hypotheses(n_targets: int, n_sources: int) -> np.ndarray:
     """
     n = as_int(n_targets, "n_targets", minimum=1)
     m = as_int(n_sources, "n_sources", minimum=1)
+    _check_bindings(n, m)
     perms = _perms(n).astype(np.int64)
     return np.array([np.stack(p) for p in itertools.product(perms, repeat=m)])
+
+
+def _check_bindings(n, m):
+    check_size(math.factorial(n) ** m, MAX_BINDING_HYPOTHESES,
+               what=f"binding hypotheses (n!)**m (`n_targets` n = {n}, `n_sources` m = {m})",
+               alternative="group_sd on the m + 1 sources with the tracks as source 0 "
+                           "(the exact ML binding, without enumeration)")
 
 
 def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarray:
@@ -700,7 +885,9 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
     Raises
     ------
     ValueError
-        For inconsistent shapes or singular covariances.
+        For inconsistent shapes, covariances that are not symmetric positive
+        definite, more than :data:`MAX_BINDING_HYPOTHESES` hypotheses, or costs
+        beyond the floating-point range.
 
     Notes
     -----
@@ -758,7 +945,13 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
     else:
         tcb = np.broadcast_to(tc, (*batch, n, d, d)).reshape(-1, n, d, d)
     B = xb.shape[0]
+    _check_bindings(n, m)
+    H = math.factorial(n) ** m
+    check_size(8 * B * (H + (n ** (m + 1) if cost == "ml" else 0)) + 8 * H * m * n,
+               MEMORY_LIMIT, what=f"bytes of binding costs (`x`: {B} scene(s) x {H} hypotheses)",
+               alternative="fewer scenes per call")
     hyp = binding_hypotheses(n, m)                                   # (H, m, n)
+    (xb, cb, tb, tcb), log_s2 = _rescale(xb, cb, tb, tcb)
     if cost == "paper":
         S = cb[:, :, :, None] + tcb[:, None, None, :]               # (B, m, n_j, n_p, d, d)
         D = xb[:, :, :, None] - tb[:, None, None, :]                 # (B, m, n_j, n_p, d)
@@ -771,11 +964,11 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
         bc = max(tcb.shape[0], cb.shape[0])
         ce = np.concatenate([np.broadcast_to(tcb[:, None], (bc, 1, n, d, d)),
                              np.broadcast_to(cb, (bc, m, n, d, d))], axis=1)
-        tensor = _ml_tensor(xe, ce).reshape(B, -1)
+        tensor = _ml_tensor(xe, ce).reshape(B, -1) + m * d * log_s2
         w = np.array([n ** (m - i) for i in range(m + 1)])
         flat = np.arange(n) * w[0] + np.einsum("hip,i->hp", hyp, w[1:])   # (H, n)
         out = tensor[:, flat].sum(axis=-1)
-    return out.reshape(*batch, hyp.shape[0])
+    return _finite_costs(out).reshape(*batch, hyp.shape[0])
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -853,6 +1046,9 @@ def grouping_scene(n_targets: int, n_sources: int, *, cov, spacing: float = 1.0,
                 f"{np.shape(track_cov)}"
             ) from None
         tcov = as_covariance(tcov, "track_cov")
+    check_size(8 * trials * (4 * m * n * d + 3 * n * d + m * n), MEMORY_LIMIT,
+               what=f"bytes of scenes (`trials` = {trials} x {m} sources x {n} targets x d = {d})",
+               alternative="several calls with generators spawned from one SeedSequence")
     rng = as_rng(rng)
     if layout == "line":
         truth = np.zeros((trials, n, d))

@@ -424,3 +424,351 @@ def test_other_bad_input():
         grouping.n_groupings(2.0, 2)
     with pytest.raises(TypeError, match="`rng`"):
         grouping.grouping_scene(2, 2, cov=np.eye(2)[None, None], rng=np.random.RandomState(0))
+
+
+# ================================================================ property and fuzz suite
+# Every public function of the module: valid generated input gives finite results that
+# satisfy the invariants; invalid generated input raises ValueError/TypeError naming the
+# public argument. The example budget is the CI profile of tests/conftest.py.
+import mpmath  # noqa: E402
+
+PUBLIC = ["n_groupings", "group_costs", "group_bruteforce", "group_sd", "binding_hypotheses",
+          "binding_costs", "grouping_scene", "GroupingScene.is_correct"]
+
+
+@st.composite
+def problems(draw, m_range=(2, 4), n_range=(1, 4), d_range=(1, 3)):
+    """A grouping problem: reports (m, n, d), SPD covariances per report or per source."""
+    m = draw(st.integers(*m_range))
+    n = draw(st.integers(*n_range))
+    if m >= 4:
+        n = min(n, 3)
+    d = draw(st.integers(*d_range))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0, 2, size=(1, n, d)) + draw(st.floats(0.05, 1.0)) * \
+        rng.standard_normal((m, n, d))
+    per_report = draw(st.booleans())
+    cov = rand_spd(rng, (m, n) if per_report else (m, 1), d, floor=0.05) * \
+        draw(st.floats(0.01, 2.0))
+    return x, cov
+
+
+def assert_valid_grouping(groups, m, n):
+    groups = np.asarray(groups)
+    assert groups.shape == (n, m)
+    np.testing.assert_array_equal(groups[:, 0], np.arange(n))
+    # every report of every source in exactly one group: each column a permutation
+    np.testing.assert_array_equal(np.sort(groups, axis=0), np.broadcast_to(np.arange(n)[:, None],
+                                                                          (n, m)))
+
+
+@given(prob=problems(), cost=st.sampled_from(["ml", "pairwise"]))
+def test_property_sd_is_a_partition_and_equals_bruteforce(prob, cost):
+    x, cov = prob
+    m, n = x.shape[:2]
+    bf = grouping.group_bruteforce(x, cov, cost=cost)
+    sd = grouping.group_sd(x, cov, cost=cost)
+    for res in (bf, sd):
+        assert_valid_grouping(res.groups, m, n)
+        assert np.isfinite(res.cost)
+    tensor = grouping.group_costs(x, cov, cost=cost)
+    assert sd.cost == pytest.approx(tensor[tuple(sd.groups.T)].sum(), rel=1e-12, abs=1e-12)
+    # optimal: the MILP's total equals enumeration's minimum (decisions may differ on ties)
+    assert sd.cost == pytest.approx(bf.cost, rel=1e-9, abs=1e-9)
+    if not np.isclose(sd.cost, bf.cost, rtol=0, atol=0):
+        return
+    np.testing.assert_array_equal(sd.groups, bf.groups)
+
+
+@given(prob=problems(n_range=(2, 4)), k=st.integers(-480, 480),
+       cost=st.sampled_from(["ml", "pairwise"]))
+def test_property_costs_scale_exactly_over_the_float_range(prob, k, cost):
+    # x -> s x, cov -> s^2 cov with s = 2**(k/2): the quadratic forms are invariant, the ML
+    # cost shifts by (m - 1) d log s^2 per group; decisions are unchanged. Over s from
+    # 1e-72 to 1e72 every input stays comfortably inside the float range.
+    x, cov = prob
+    m, n, d = x.shape
+    s2 = np.ldexp(1.0, k)
+    s = np.sqrt(s2)
+    base = grouping.group_costs(x, cov, cost=cost)
+    scaled = grouping.group_costs(x * s, cov * s2, cost=cost)
+    assert np.all(np.isfinite(scaled))
+    shift = (m - 1) * d * np.log(s2) if cost == "ml" else 0.0
+    np.testing.assert_allclose(scaled, base + shift, rtol=1e-9, atol=1e-9 * (1 + abs(shift)))
+    a = grouping.group_sd(x, cov, cost=cost)
+    b = grouping.group_sd(x * s, cov * s2, cost=cost)
+    assert b.cost == pytest.approx(a.cost + n * shift, rel=1e-9, abs=1e-9 * (1 + n * abs(shift)))
+
+
+@pytest.mark.parametrize("scale", [1e-150, 1e-30, 1e10, 1e30, 1e150])
+def test_extreme_scales_against_mpmath(scale):
+    # m = 2, d = 1: c_ML = (a1 - a2)^2 / (s1^2 + s2^2) + log(s1^2 + s2^2), in 50 digits
+    mpmath.mp.dps = 50
+    a = np.array([0.3, -1.1]) * scale
+    sig2 = np.array([0.5, 2.0]) * scale**2 if scale**2 > 0 and np.isfinite(scale**2) else None
+    if sig2 is None or np.any(sig2 == 0) or not np.all(np.isfinite(sig2)):
+        # the variance itself is outside the float range: scale sigma less than x
+        sig2 = np.array([0.5, 2.0]) * scale
+        a = np.array([0.3, -1.1]) * np.sqrt(scale)
+    got = grouping.group_costs(a.reshape(2, 1, 1), sig2.reshape(2, 1, 1, 1)).item()
+    A = [mpmath.mpf(float(v)) for v in a]
+    S = [mpmath.mpf(float(v)) for v in sig2]
+    ref = (A[0] - A[1]) ** 2 / (S[0] + S[1]) + mpmath.log(S[0] + S[1])
+    assert got == pytest.approx(float(ref), rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("scale", [1e6, 1e10, 1e14, 1e50, 1e100])
+def test_large_finite_costs_do_not_break_the_solver(scale):
+    # Defect reproduced: candidate-group costs above 1e20 (reports far apart in units
+    # of their error) made HiGHS report "status 4" and group_sd raise. The costs are
+    # now capped (the optimum cannot change) and rescaled before HiGHS sees them.
+    rng = np.random.default_rng(int(np.log10(scale)))
+    for _ in range(3):
+        x = rng.normal(size=(3, 4, 2)) * scale
+        cov = np.eye(2)[None, None]
+        bf = grouping.group_bruteforce(x, cov)
+        sd = grouping.group_sd(x, cov)
+        np.testing.assert_array_equal(sd.groups, bf.groups)
+        assert np.isfinite(sd.cost) and sd.cost == pytest.approx(bf.cost, rel=1e-9)
+
+
+def test_condition_costs_keeps_the_optimum():
+    # the cap at twice the greedy total plus one never removes the optimum; and the
+    # rescale keeps every cost below HiGHS's infinite-cost threshold
+    rng = np.random.default_rng(21)
+    for _ in range(20):
+        c = np.exp(rng.uniform(0, 80, size=27))              # costs up to ~1e35
+        cond = grouping._condition_costs(c, 3, 3)
+        assert cond.max() <= grouping._HIGHS_COST_SCALE * (1 + 1e-12)
+        chosen, _ = grouping._sd_solve(c, 3, 3)
+        best = min(c[[np.ravel_multi_index((np.arange(3), p, q), (3, 3, 3))]].sum()
+                   for p in itertools.permutations(range(3))
+                   for q in itertools.permutations(range(3)))
+        assert c[chosen].sum() == pytest.approx(best, rel=1e-9)
+
+
+def test_overflowing_costs_are_refused_not_returned():
+    x = np.array([[[0.0], [1e200]], [[1e200], [0.0]]])
+    for fn in (grouping.group_costs, grouping.group_bruteforce, grouping.group_sd):
+        with pytest.raises(ValueError, match=r"`x` and `cov`.*floating-point range"):
+            fn(x, np.ones((1, 1, 1, 1)))
+
+
+@given(n=st.integers(1, 8), m=st.integers(2, 6), binding=st.booleans())
+def test_property_n_groupings(n, m, binding):
+    k = grouping.n_groupings(n, m, binding=binding)
+    assert k == math.factorial(n) ** (m - 1 + binding)
+    assert k == grouping.n_groupings(n, m + 1) if binding else k >= 1
+
+
+@given(n=st.integers(1, 4), m=st.integers(1, 3))
+def test_property_binding_hypotheses(n, m):
+    if math.factorial(n) ** m > 20_000:
+        return
+    hyp = grouping.binding_hypotheses(n, m)
+    assert hyp.shape == (grouping.n_groupings(n, m, binding=True), m, n)
+    np.testing.assert_array_equal(np.sort(hyp, axis=-1), np.broadcast_to(np.arange(n), hyp.shape))
+    assert len({h.tobytes() for h in hyp}) == len(hyp)
+
+
+@given(prob=problems(m_range=(1, 3), n_range=(1, 3)), seed=st.integers(0, 2**32 - 1))
+def test_property_binding_costs(prob, seed):
+    x, cov = prob
+    m, n, d = x.shape
+    if m < 2:
+        x, cov = np.concatenate([x, x]), np.concatenate([cov, cov])
+        m = 2
+    rng = np.random.default_rng(seed)
+    tracks = x.mean(axis=0) + 0.2 * rng.standard_normal((n, d))
+    tcov = rand_spd(rng, (n,), d, floor=0.05)
+    paper = grouping.binding_costs(x, cov, tracks, tcov)
+    ml = grouping.binding_costs(x, cov, tracks, tcov, cost="ml")
+    H = grouping.n_groupings(n, m, binding=True)
+    assert paper.shape == ml.shape == (H,)
+    assert np.all(np.isfinite(paper)) and np.all(np.isfinite(ml)) and np.all(paper >= 0)
+    # the exact ML binding is the grouping of m + 1 sources with the tracks as source 0
+    sd = grouping.group_sd(np.concatenate([tracks[None], x]),
+                           np.concatenate([np.broadcast_to(tcov, (1, n, d, d)),
+                                           np.broadcast_to(cov, (m, n, d, d))]))
+    assert sd.cost == pytest.approx(ml.min(), rel=1e-9, abs=1e-9)
+
+
+@given(n=st.integers(1, 5), m=st.integers(1, 4), d=st.integers(1, 3),
+       trials=st.integers(1, 4), seed=st.integers(0, 2**32 - 1),
+       layout=st.sampled_from(["line", "uniform"]), tracks=st.booleans())
+def test_property_grouping_scene(n, m, d, trials, seed, layout, tracks):
+    cov = np.eye(d)[None, None] * 0.01
+    kw = dict(cov=cov, layout=layout, trials=trials, track_cov=np.eye(d) if tracks else None)
+    s = grouping.grouping_scene(n, m, rng=seed, **kw)
+    again = grouping.grouping_scene(n, m, rng=seed, **kw)
+    np.testing.assert_array_equal(s.reports, again.reports)       # same seed, same scene
+    assert s.reports.shape == (trials, m, n, d) and np.all(np.isfinite(s.reports))
+    np.testing.assert_array_equal(np.sort(s.owner, axis=-1),
+                                  np.broadcast_to(np.arange(n), s.owner.shape))
+    if m >= 2:
+        for g in s.true_groups:
+            assert_valid_grouping(g, m, n)
+        assert np.all(s.is_correct(s.true_groups))
+    assert (s.tracks is not None) == tracks
+
+
+# ---------------------------------------------------------------- fuzz: invalid input
+def _raises_naming(names, fn, *args, **kwargs):
+    with pytest.raises((ValueError, TypeError)) as info:
+        fn(*args, **kwargs)
+    text = str(info.value)
+    assert any(f"`{n}`" in text for n in names), text
+    return text
+
+
+GOOD_X = np.zeros((2, 3, 2))
+GOOD_COV = np.eye(2)[None, None]
+
+bad_arrays = st.sampled_from([
+    ("nan", lambda a: np.where(np.arange(a.size).reshape(a.shape) == 0, np.nan, a)),
+    ("inf", lambda a: np.where(np.arange(a.size).reshape(a.shape) == 0, np.inf, a)),
+    ("bool", lambda a: a.astype(bool)),
+    ("str", lambda a: a.astype(str)),
+    ("flat", lambda a: a.reshape(-1)),
+    ("none", lambda a: None),
+])
+bad_covs = st.sampled_from([
+    ("negative definite", -np.eye(2)[None, None]),
+    ("singular", np.diag([1.0, 0.0])[None, None]),
+    ("non-symmetric", np.array([[[[1.0, 0.5], [0.0, 1.0]]]])),
+    ("wrong d", np.eye(3)[None, None]),
+    ("wrong m", np.broadcast_to(np.eye(2), (3, 3, 2, 2))),
+    ("nan", np.full((1, 1, 2, 2), np.nan)),
+    ("too few dims", np.eye(2)),
+    ("zero", np.zeros((1, 1, 2, 2))),
+])
+
+
+@given(bad=bad_arrays, fn=st.sampled_from(["group_costs", "group_bruteforce", "group_sd"]))
+def test_fuzz_bad_reports(bad, fn):
+    _, make = bad
+    _raises_naming(["x"], getattr(grouping, fn), make(GOOD_X + 1.0), GOOD_COV)
+
+
+@given(bad=bad_covs, fn=st.sampled_from(["group_costs", "group_bruteforce", "group_sd"]))
+def test_fuzz_bad_covariances(bad, fn):
+    _, cov = bad
+    _raises_naming(["cov"], getattr(grouping, fn), GOOD_X, cov)
+
+
+@given(bad=bad_covs, which=st.sampled_from(["cov", "track_cov"]))
+def test_fuzz_bad_binding_covariances(bad, which):
+    _, c = bad
+    kwargs = {"cov": GOOD_COV, "track_cov": np.eye(2)[None]}
+    kwargs[which] = c if which == "cov" else c[0] if c.ndim == 4 else c
+    _raises_naming([which], grouping.binding_costs, np.zeros((2, 2, 2)), kwargs["cov"],
+                   np.zeros((2, 2)), kwargs["track_cov"])
+
+
+@given(bad=bad_arrays)
+def test_fuzz_bad_tracks(bad):
+    _, make = bad
+    _raises_naming(["tracks"], grouping.binding_costs, np.zeros((2, 2, 2)), GOOD_COV,
+                   make(np.ones((2, 2))), np.eye(2)[None])
+
+
+bad_ints = st.sampled_from([0, -3, 2.0, True, "3", None, 1.5, np.float64(2.0)])
+
+
+@given(value=bad_ints, which=st.sampled_from(["n_targets", "n_sources"]),
+       fn=st.sampled_from(["n_groupings", "binding_hypotheses", "grouping_scene"]))
+def test_fuzz_bad_counts(value, which, fn):
+    args = {"n_targets": 2, "n_sources": 2}
+    args[which] = value
+    if fn == "binding_hypotheses" and which == "n_sources" and value is True:
+        value = 0
+        args[which] = value
+    kw = {"cov": GOOD_COV} if fn == "grouping_scene" else {}
+    if fn != "grouping_scene" and value in (0,) and which == "n_sources" and fn == "binding_hypotheses":
+        pass
+    _raises_naming([which], getattr(grouping, fn), args["n_targets"], args["n_sources"], **kw)
+
+
+@given(value=st.sampled_from(["no", 1, 0, None, 1.0, "True"]),
+       which=st.sampled_from(["binding", "relaxation"]))
+def test_fuzz_bad_flags(value, which):
+    if which == "binding":
+        _raises_naming(["binding"], grouping.n_groupings, 3, 2, binding=value)
+    else:
+        _raises_naming(["relaxation"], grouping.group_sd, GOOD_X, GOOD_COV, relaxation=value)
+
+
+@given(value=st.sampled_from(["nearest", "", None, 1, "ML", "paper"]),
+       fn=st.sampled_from(["group_costs", "group_bruteforce", "group_sd"]))
+def test_fuzz_bad_cost_names(value, fn):
+    _raises_naming(["cost"], getattr(grouping, fn), GOOD_X, GOOD_COV, cost=value)
+
+
+@given(value=st.sampled_from([0.0, -1.0, np.nan, np.inf, "1", True, None]))
+def test_fuzz_bad_time_limit(value):
+    if value is None:
+        return    # None means "no limit"
+    _raises_naming(["time_limit"], grouping.group_sd, GOOD_X, GOOD_COV, time_limit=value)
+
+
+@given(kw=st.sampled_from([{"spacing": 0.0}, {"spacing": -1.0}, {"spacing": np.nan},
+                           {"spacing": [1.0, 2.0, 3.0]}, {"layout": "grid"},
+                           {"trials": 0}, {"trials": 2.5}, {"rng": "seed"},
+                           {"rng": np.random.RandomState(0)},
+                           {"track_cov": -np.eye(2)}, {"track_cov": np.eye(3)},
+                           {"cov": np.eye(2)}, {"cov": -np.eye(2)[None, None]}]))
+def test_fuzz_bad_scene_arguments(kw):
+    args = {"cov": GOOD_COV}
+    args.update(kw)
+    _raises_naming(list(kw), grouping.grouping_scene, 3, 2, **args)
+
+
+@given(value=st.sampled_from([0, -1, 1.5, True, "10"]))
+def test_fuzz_bad_max_groupings(value):
+    _raises_naming(["max_groupings"], grouping.group_bruteforce, GOOD_X, GOOD_COV,
+                   max_groupings=value)
+
+
+def test_is_correct_rejects_wrong_shapes():
+    s = grouping.grouping_scene(3, 2, cov=GOOD_COV, trials=2, rng=0)
+    _raises_naming(["groups"], s.is_correct, np.zeros((3, 2), int))
+
+
+# ---------------------------------------------------------------- resource limits
+@pytest.mark.parametrize(("call", "words"), [
+    # defect reproduced: binding-hypothesis enumeration ran away at 6 targets, 3 sources
+    (lambda: grouping.binding_hypotheses(6, 3), ["binding hypotheses", "group_sd"]),
+    (lambda: grouping.binding_costs(np.zeros((3, 6, 2)), GOOD_COV, np.zeros((6, 2)),
+                                    np.eye(2)[None]), ["binding hypotheses", "group_sd"]),
+    (lambda: grouping.group_bruteforce(np.zeros((3, 8, 1)), np.ones((1, 1, 1, 1)),
+                                       max_groupings=10**12), ["groupings", "group_sd"]),
+    (lambda: grouping.group_sd(np.zeros((5, 40, 1)), np.ones((1, 1, 1, 1))),
+     ["candidate groups", "Lagrangian relaxation"]),
+    (lambda: grouping.group_costs(np.zeros((2000, 3, 40, 2)), GOOD_COV),
+     ["bytes of group costs", "fewer scenes"]),
+    (lambda: grouping.grouping_scene(1000, 10, cov=GOOD_COV, trials=10**6),
+     ["bytes of scenes", "SeedSequence"]),
+    (lambda: grouping.n_groupings(10**6, 3), ["decimal digits", "lgamma"]),
+])
+def test_size_limits_refuse_before_allocating(call, words):
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match="refused") as info:
+        call()
+    assert time.perf_counter() - t0 < 2.0       # checked before any allocation
+    for w in words:
+        assert w in str(info.value)
+    assert "limit" in str(info.value)
+
+
+def test_limits_are_documented_constants():
+    assert grouping.n_groupings(6, 2, binding=True) <= grouping.MAX_BINDING_HYPOTHESES
+    assert grouping.n_groupings(6, 3, binding=True) > grouping.MAX_BINDING_HYPOTHESES
+    assert grouping.binding_hypotheses(6, 2).shape == (518_400, 2, 6)
+    for name in ("MAX_BINDING_HYPOTHESES", "MAX_GROUPINGS", "MAX_CANDIDATE_GROUPS"):
+        assert name in grouping.__all__
+
+
+def test_public_functions_are_all_fuzzed():
+    assert set(PUBLIC) >= {n for n in grouping.__all__ if callable(getattr(grouping, n))
+                           and not isinstance(getattr(grouping, n), type)}
