@@ -523,9 +523,10 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     geo = _as_geometry(geometry)
     sr, sb = _as_sigmas(sigma_r, sigma_beta, geo)
     n = as_int(trials, "trials", minimum=1)
-    check_size(n, MAX_TRIALS, what="trials", alternative="several calls with spawned seeds")
+    check_size(n, MAX_TRIALS, what="trials (`trials`)",
+               alternative="several calls with spawned seeds")
     n_t = geo.targets.shape[0]
-    check_size(8 * 8 * n_t * n, MEMORY_LIMIT, what="bytes of polar reports",
+    check_size(8 * 8 * n_t * n, MEMORY_LIMIT, what="bytes of polar reports for `trials`",
                alternative="association_experiment (chunked) or several smaller calls")
     root = _root_seed(rng)
     (r1, b1), (r2, b2) = geo.polar1, geo.polar2
@@ -663,6 +664,23 @@ def _chol_quadratic(d0, d1, a, b, c):
     return z1 * z1 + z2 * z2, np.log(a) + np.log(l22sq)   # S = |z|^2, ln det C = 2 ln(l11 l22)
 
 
+def _as_cov_stack(cov: np.ndarray, name: str) -> np.ndarray:
+    """Symmetric positive-definite 2x2 matrices, not singular to working precision."""
+    c = as_covariance(cov, name, dim=2)
+    # scaled to a largest variance of 1, so the test neither underflows nor overflows
+    m = np.maximum(c[..., 0, 0], c[..., 1, 1])
+    m = np.where(m > 0, m, 1.0)
+    a, b, d = c[..., 0, 0] / m, c[..., 0, 1] / m, c[..., 1, 1] / m
+    prod = a * d
+    det = prod - b * b
+    bad = ~(det > 1e-12 * prod)
+    if np.any(bad):
+        raise ValueError(f"`{name}` must be positive definite; {int(np.count_nonzero(bad))} of "
+                         f"{bad.size} matrices are singular or nearly so (determinant below "
+                         f"1e-12 of the product of the variances): {_describe(c)}")
+    return c
+
+
 def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     """The quadratic form :math:`S` for every pair of radar-1 and radar-2 reports.
 
@@ -723,8 +741,8 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     a2 = as_float_array(xy2, "xy2", ndim_min=2, last_dims=(None, 2))
     c1 = as_float_array(cov1, "cov1", ndim_min=3, last_dims=(None, 2, 2))
     c2 = as_float_array(cov2, "cov2", ndim_min=3, last_dims=(None, 2, 2))
-    c1 = as_covariance(c1, "cov1", dim=2)          # symmetric, positive definite
-    c2 = as_covariance(c2, "cov2", dim=2)
+    c1 = _as_cov_stack(c1, "cov1")
+    c2 = _as_cov_stack(c2, "cov2")
     if c1.shape[-3] != a1.shape[-2] or c2.shape[-3] != a2.shape[-2]:
         raise ValueError("`cov1`/`cov2` must have one 2x2 matrix per report of `xy1`/`xy2`; "
                          f"received shapes {c1.shape} for {a1.shape} and {c2.shape} for "
@@ -737,7 +755,8 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
                          f"{c2.shape}") from None
     lead = np.broadcast_shapes(a1.shape[:-2], c1.shape[:-3], a2.shape[:-2], c2.shape[:-3])
     n_pairs = math.prod(lead) * a1.shape[-2] * a2.shape[-2]
-    check_size(8 * 12 * n_pairs, MEMORY_LIMIT, what="bytes of pair statistics",
+    check_size(8 * 12 * n_pairs, MEMORY_LIMIT,
+               what="bytes of pair statistics for `xy1` x `xy2`",
                alternative="smaller batches of reports")
     # pairs: radar-1 report on axis -2, radar-2 report on axis -1
     with np.errstate(over="ignore", invalid="ignore"):
@@ -750,7 +769,8 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     if not all(np.isfinite(x).all() for x in (d0, d1, s11, s22)):
         raise ValueError("`xy1` - `xy2` or `cov1` + `cov2` overflows the float range; "
                          "rescale the coordinates (e.g. to km)")
-    s, logdet = _chol_quadratic(d0, d1, s11, s12, s22)
+    with np.errstate(over="ignore", invalid="ignore"):
+        s, logdet = _chol_quadratic(d0, d1, s11, s12, s22)
     if not (np.isfinite(s).all() and np.isfinite(logdet).all()):
         raise ValueError("the statistic overflows the float range: `xy1` - `xy2` is too large "
                          "against the spread of `cov1` + `cov2`; rescale the coordinates")
@@ -1056,11 +1076,11 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     sr, sb = _as_sigmas(sigma_r, sigma_beta, geo)
     meths = _as_methods(methods)
     n_trials = as_int(trials, "trials", minimum=1)
-    check_size(n_trials, MAX_TRIALS, what="trials",
+    check_size(n_trials, MAX_TRIALS, what="trials (`trials`)",
                alternative="several calls with spawned seeds, adding the counts")
     chunk = as_int(chunk_size, "chunk_size", minimum=1)
     per_trial = 8 * (40 * n + 16 * n * n + math.factorial(n) * (n + 4))
-    check_size(per_trial * min(chunk, n_trials), MEMORY_LIMIT,
+    check_size(per_trial * chunk, MEMORY_LIMIT,
                what=f"bytes of working memory for `chunk_size` = {chunk}",
                alternative=f"a `chunk_size` of at most {MEMORY_LIMIT // per_trial}")
     p_lo = _scalar(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
@@ -1376,10 +1396,12 @@ def offset_sweep(offsets_range, offsets_cross, *, methods=("linearized", "additi
     for name, arr in (("offsets_range", ar), ("offsets_cross", ac)):
         if arr.ndim != 1 or arr.size == 0:
             raise ValueError(f"`{name}` must be a non-empty 1-D array; received shape {arr.shape}")
-    check_size(ar.size * ac.size, MAX_GRID_POINTS, what="grid points",
+    check_size(ar.size * ac.size, MAX_GRID_POINTS,
+               what="grid points (`offsets_range` x `offsets_cross`)",
                alternative="a coarse grid refined around its best point")
     n_trials = as_int(trials, "trials", minimum=1)
-    check_size(ar.size * ac.size * n_trials, MAX_TRIALS, what="trials over the whole grid",
+    check_size(ar.size * ac.size * n_trials, MAX_TRIALS,
+               what="trials over the whole grid (`trials` per point)",
                alternative="fewer grid points or trials per point")
     if np.any(ar == 0) and np.any(ac == 0):
         raise ValueError("`offsets_range` and `offsets_cross` must not both contain 0: the "

@@ -391,3 +391,390 @@ def test_bad_input_names_the_argument():
         sep.fit_target2_offset(sw, (0.3, 0.5, 0.2))
     with pytest.raises(ValueError, match="`noncentrality`"):
         sep.approximate_outcomes(np.zeros((3, 3)))
+
+
+# ================================================================ trust: validation, limits,
+# reproducibility, and a property + fuzz suite over every public function
+PUBLIC = ["radar2_position", "polar_from", "paper_geometry", "simulate_polar",
+          "to_common_frame", "pair_statistic", "per_report_outcome", "joint_outcome",
+          "association_experiment", "false_pair_noncentrality", "approximate_outcomes",
+          "collect", "offset_sweep", "fit_target2_offset"]
+GEO = sep.paper_geometry(-0.5, -5.0)
+
+
+def test_every_public_function_is_covered_here():
+    funcs = {n for n in sep.__all__ if callable(getattr(sep, n))
+             and not isinstance(getattr(sep, n), type)}
+    assert funcs == set(PUBLIC)
+
+
+# ---------------------------------------------------------------- issue-12 defects, reproduced
+def test_pair_statistic_refuses_non_symmetric_and_negative_definite_covariances():
+    eye = np.eye(2)[None]
+    nonsym = np.array([[[1.0, 0.5], [-0.5, 1.0]]])
+    negdef = -np.eye(2)[None]
+    # the sum with a large positive covariance would be positive definite: the defect
+    big = 10 * eye
+    for bad in (nonsym, negdef):
+        with pytest.raises(ValueError, match="`cov1`"):
+            sep.pair_statistic([[0.0, 0.0]], bad, [[1.0, 0.0]], big)
+        with pytest.raises(ValueError, match="`cov2`"):
+            sep.pair_statistic([[0.0, 0.0]], big, [[1.0, 0.0]], bad)
+    with pytest.raises(ValueError, match="symmetric"):
+        sep.pair_statistic([[0.0, 0.0]], nonsym, [[1.0, 0.0]], eye)
+
+
+def test_sigma_beta_limit_is_the_conversion_modules():
+    lim = conversion.SIGMA_BETA_MAX
+    rep = sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=lim, trials=2, rng=0)
+    assert rep.sigma_beta == lim
+    with pytest.raises(ValueError, match="SIGMA_BETA_MAX"):
+        sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=np.nextafter(lim, 1.0), trials=2)
+    with pytest.raises(ValueError, match="`sigma_beta`"):
+        sep.association_experiment(GEO, sigma_beta=0.6, trials=10)
+    with pytest.raises(ValueError, match="`sigma_beta`"):
+        sep.false_pair_noncentrality(GEO, sigma_beta=0.7)
+
+
+@pytest.mark.parametrize("chunks", [(61, 4096), (4099, 65_536), (999, 1 << 17)])
+def test_result_of_a_seed_does_not_depend_on_chunk_size(chunks):
+    n = 65_536 + 300                             # crosses a block boundary (65 536)
+    a, b = (sep.association_experiment(GEO, trials=n, rng=5, chunk_size=c) for c in chunks)
+    for lab in a.results:
+        for field in ("per_report", "joint", "joint_ungated", "true_reject", "false_pass",
+                      "all_correct"):
+            np.testing.assert_array_equal(getattr(a[lab], field).successes,
+                                          getattr(b[lab], field).successes)
+
+
+def test_simulate_polar_has_the_experiments_draws_across_blocks():
+    n = sep.BLOCK_TRIALS + 5
+    rep = sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG, trials=n, rng=9)
+    res = sep.association_experiment(GEO, methods=("linearized",), trials=n, rng=9,
+                                     chunk_size=4099)
+    cart = sep.to_common_frame(rep)
+    k = sep.pair_statistic(cart.xy1, cart.cov1, cart.xy2, cart.cov2)
+    passed = k < res.threshold
+    np.testing.assert_array_equal(res["linearized"].true_reject.successes,
+                                  n - passed[:, [0, 1], [0, 1]].sum(axis=0))
+    np.testing.assert_array_equal(res["linearized"].false_pass.successes,
+                                  passed[:, [0, 1], [1, 0]].sum(axis=0))
+    head = sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG, trials=10, rng=9)
+    # a SeedSequence and the int seed it wraps give the same draws
+    ss = sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG, trials=10,
+                            rng=np.random.SeedSequence(9))
+    np.testing.assert_array_equal(ss.beta2, head.beta2)
+    # a Generator is advanced: two calls differ, a re-seeded one repeats
+    g = np.random.default_rng(1)
+    x, y = (sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG, trials=3, rng=g).r1
+            for _ in range(2))
+    assert not np.array_equal(x, y)
+    z = sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG, trials=3,
+                           rng=np.random.default_rng(1)).r1
+    np.testing.assert_array_equal(x, z)
+
+
+def test_sizes_are_refused_before_allocation():
+    with pytest.raises(ValueError, match="`trials`"):
+        sep.association_experiment(GEO, trials=sep.MAX_TRIALS + 1)
+    with pytest.raises(ValueError, match="`chunk_size`"):
+        sep.association_experiment(GEO, trials=10**7, chunk_size=10**9)
+    with pytest.raises(ValueError, match="bytes of polar reports"):
+        sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG, trials=10**8)
+    eight = sep.Geometry(30.0, 0.0, np.array([[100.0 + 3 * k, 100.0] for k in range(8)]))
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match="associate_joint"):
+        sep.association_experiment(eight, trials=10)
+    with pytest.raises(ValueError, match="associate_joint"):
+        sep.joint_outcome(np.zeros((8, 8)))
+    with pytest.raises(ValueError, match="bytes of pairing costs"):
+        sep.joint_outcome(np.zeros((40_000, 7, 7)))
+    with pytest.raises(ValueError, match="grid points"):
+        sep.offset_sweep(np.arange(1, 200.0), np.arange(1, 100.0), trials=10)
+    assert time.perf_counter() - t0 < 1.0
+
+
+def test_zero_and_negative_sigmas_name_the_argument():
+    for kw, name in ((dict(sigma_r=0.0, sigma_beta=DEG), "sigma_r"),
+                     (dict(sigma_r=-0.1, sigma_beta=DEG), "sigma_r"),
+                     (dict(sigma_r=0.1, sigma_beta=0.0), "sigma_beta"),
+                     (dict(sigma_r=0.1, sigma_beta=-DEG), "sigma_beta"),
+                     (dict(sigma_r=[0.1, 0.2], sigma_beta=DEG), "sigma_r")):
+        with pytest.raises(ValueError, match=f"`{name}`"):
+            sep.simulate_polar(GEO, trials=2, **kw)
+        with pytest.raises(ValueError, match=f"`{name}`"):
+            sep.association_experiment(GEO, trials=2, **kw)
+        with pytest.raises(ValueError, match=f"`{name}`"):
+            sep.false_pair_noncentrality(GEO, **kw)
+
+
+def test_hand_written_bad_input_cases():
+    cases = [
+        (TypeError, "`base`", lambda: sep.radar2_position("30", 0.0)),
+        (TypeError, "`base_azimuth`", lambda: sep.radar2_position(30.0, True)),
+        (ValueError, "`base`", lambda: sep.radar2_position(0.0, 0.0)),
+        (ValueError, "`xy`", lambda: sep.polar_from([[np.nan, 1.0]])),
+        (ValueError, "`xy`", lambda: sep.polar_from([[1e308, 0.0]], (-1e308, 0.0))),
+        (ValueError, "`origin`", lambda: sep.polar_from([[1.0, 1.0]], (0.0, 0.0, 0.0))),
+        (ValueError, "`offset_range`", lambda: sep.paper_geometry([1.0, 2.0], 3.0)),
+        (ValueError, "`offset_cross`", lambda: sep.paper_geometry(0.0, np.inf)),
+        (ValueError, "`range1`", lambda: sep.paper_geometry(0.0, 1.0, range1=-5.0)),
+        (ValueError, "`offset_range`", lambda: sep.paper_geometry(1.7e308, -1.7e308)),
+        (ValueError, "`targets`", lambda: sep.Geometry(30.0, 0.0, np.zeros((0, 2)))),
+        (ValueError, "`targets`", lambda: sep.Geometry(30.0, 0.0, np.zeros((2, 3)))),
+        (ValueError, "`base`", lambda: sep.Geometry(-1.0, 0.0, np.ones((2, 2)))),
+        (TypeError, "`geometry`", lambda: sep.simulate_polar(None, sigma_r=0.1, sigma_beta=DEG)),
+        (TypeError, "`trials`", lambda: sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG,
+                                                           trials=2.0)),
+        (TypeError, "`trials`", lambda: sep.association_experiment(GEO, trials=True)),
+        (TypeError, "`rng`", lambda: sep.association_experiment(
+            GEO, trials=2, rng=np.random.RandomState(0))),
+        (TypeError, "`reports`", lambda: sep.to_common_frame(GEO)),
+        (ValueError, "`method`", lambda: sep.to_common_frame(
+            sep.simulate_polar(GEO, sigma_r=0.1, sigma_beta=DEG, rng=0), method="exact")),
+        (TypeError, "`xy1`", lambda: sep.pair_statistic("a", np.eye(2)[None], [[0.0, 0.0]],
+                                                        np.eye(2)[None])),
+        (ValueError, "`cov2`", lambda: sep.pair_statistic([[0.0, 0.0]], np.eye(2)[None],
+                                                          [[0.0, 0.0]], [[[1.0, 0.0],
+                                                                          [0.0, np.nan]]])),
+        (ValueError, "overflow", lambda: sep.pair_statistic([[1e200, 0.0]], np.eye(2)[None],
+                                                            [[-1e200, 0.0]], np.eye(2)[None])),
+        (ValueError, "`statistic`", lambda: sep.per_report_outcome([[-1.0, 2.0], [3.0, 4.0]], 9.2)),
+        (ValueError, "`statistic`", lambda: sep.per_report_outcome(np.zeros((2, 0, 0)), 9.2)),
+        (ValueError, "`threshold`", lambda: sep.per_report_outcome(np.eye(2), [9.0, 9.0])),
+        (ValueError, "`threshold`", lambda: sep.joint_outcome(np.eye(2), threshold=0.0)),
+        (ValueError, "`logdet`", lambda: sep.joint_outcome(np.eye(2), [[0.0, np.inf],
+                                                                       [0.0, 0.0]])),
+        (ValueError, "`geometry`", lambda: sep.association_experiment(sep.paper_geometry())),
+        (ValueError, "`chunk_size`", lambda: sep.association_experiment(GEO, chunk_size=0)),
+        (ValueError, "`p_false_reject`", lambda: sep.association_experiment(
+            GEO, trials=2, p_false_reject=0.0)),
+        (TypeError, "`methods`", lambda: sep.association_experiment(GEO, methods=5)),
+        (ValueError, "`bias_method`", lambda: sep.false_pair_noncentrality(
+            GEO, bias_method="none")),
+        (ValueError, "`noncentrality`", lambda: sep.approximate_outcomes(-np.ones((2, 2)))),
+        (ValueError, "`p_false_reject`", lambda: sep.approximate_outcomes(np.zeros((2, 2)),
+                                                                           1.0)),
+        (ValueError, "`experiments`", lambda: sep.collect([], "linearized")),
+        (TypeError, "`experiments`", lambda: sep.collect([GEO], "linearized")),
+        (TypeError, "`label`", lambda: sep.collect([_tiny_run()], 3)),
+        (ValueError, "`field`", lambda: sep.collect([_tiny_run()], "linearized", "nope")),
+        (ValueError, "`offsets_cross`", lambda: sep.offset_sweep([1.0], [[1.0]], trials=10)),
+        (TypeError, "`trials`", lambda: sep.offset_sweep([1.0], [1.0], trials=10.5)),
+        (TypeError, "`sweep`", lambda: sep.fit_target2_offset(_tiny_run())),
+        (ValueError, "`target`", lambda: sep.fit_target2_offset(_tiny_sweep(), (0.5, 1.5))),
+        (ValueError, "`method`", lambda: sep.fit_target2_offset(_tiny_sweep(),
+                                                                method="additive")),
+    ]
+    for err, name, call in cases:
+        with pytest.raises(err, match=name):
+            call()
+    assert len(cases) >= 40
+
+
+def _tiny_run(**kw):
+    return sep.association_experiment(GEO, trials=50, rng=0, **kw)
+
+
+def _tiny_sweep():
+    return sep.offset_sweep([1.0], [-5.0], methods=("linearized",), trials=20, rng=0)
+
+
+# ---------------------------------------------------------------- properties (valid input)
+finite = st.floats(-1e3, 1e3, allow_nan=False)
+offsets = st.tuples(st.floats(-3.0, 3.0), st.floats(-12.0, 12.0)).filter(
+    lambda o: abs(o[0]) + abs(o[1]) > 0.05)
+
+
+@given(st.floats(1e-3, 1e6), st.floats(-10.0, 10.0))
+def test_property_radar2_position_has_length_base(b, a):
+    p = sep.radar2_position(b, a)
+    assert np.isfinite(p).all() and math.hypot(*p) == pytest.approx(b, rel=1e-12)
+
+
+@given(st.tuples(finite, finite), st.tuples(finite, finite))
+def test_property_polar_from_is_finite_and_inverts(xy, o):
+    if math.hypot(xy[0] - o[0], xy[1] - o[1]) < 1e-6:
+        with pytest.raises(ValueError, match="`xy`"):
+            sep.polar_from([xy], o)
+        return
+    r, b = sep.polar_from([xy], o)
+    assert r[0] > 0 and -math.pi <= b[0] <= math.pi
+    np.testing.assert_allclose([o[0] + r[0] * math.cos(b[0]), o[1] + r[0] * math.sin(b[0])],
+                               xy, atol=1e-9 * (1 + r[0]))
+
+
+@given(offsets, st.floats(20.0, 1e4), st.floats(1.0, 200.0))
+def test_property_paper_geometry_places_target2_at_its_offset(off, r1, base):
+    g = sep.paper_geometry(*off, range1=r1, base=base)
+    d = g.targets[1] - g.targets[0]
+    assert math.hypot(*d) == pytest.approx(math.hypot(*off), rel=1e-6, abs=1e-9)
+    assert np.isfinite(g.polar2[0]).all()
+
+
+@given(offsets, st.floats(0.01, 1.0), st.floats(1e-4, 0.5), st.integers(1, 50),
+       st.integers(0, 2**32))
+def test_property_simulation_conversion_and_statistic_are_finite(off, sr, sb, n, seed):
+    g = sep.paper_geometry(*off)
+    rep = sep.simulate_polar(g, sigma_r=sr, sigma_beta=sb, trials=n, rng=seed)
+    assert rep.r1.shape == (n, 2) and np.isfinite(rep.beta2).all()
+    for m in ("linearized", "additive"):
+        cart = sep.to_common_frame(rep, method=m)
+        k, ld = sep.pair_statistic(cart.xy1, cart.cov1, cart.xy2, cart.cov2, return_logdet=True)
+        assert k.shape == (n, 2, 2) and (k >= 0).all() and np.isfinite(ld).all()
+
+
+@given(st.lists(st.floats(-1e3, 1e3), min_size=4, max_size=4),
+       st.lists(st.floats(1e-3, 1e3), min_size=6, max_size=6), st.floats(-0.9, 0.9),
+       st.floats(1e-150, 1e150))
+def test_property_pair_statistic_is_scale_invariant_and_agrees_with_solve(xs, sd, rho, scale):
+    # scaling positions by s and covariances by s^2 leaves kappa unchanged, over a wide range
+    def cov(a, b):
+        return np.array([[a * a, rho * a * b], [rho * a * b, b * b]])
+    xy1, xy2 = np.array([xs[:2]]), np.array([xs[2:]])
+    c1, c2 = cov(sd[0], sd[1])[None], cov(sd[2], sd[3])[None]
+    d, S = xy1[0] - xy2[0], c1[0] + c2[0]
+    want = d @ np.linalg.solve(S, d)
+    k = sep.pair_statistic(xy1, c1, xy2, c2)[0, 0]
+    assert k == pytest.approx(want, rel=1e-6, abs=1e-9)
+    ks = sep.pair_statistic(scale * xy1, scale**2 * c1, scale * xy2, scale**2 * c2)[0, 0]
+    assert ks == pytest.approx(k, rel=1e-6, abs=1e-9)
+
+
+@given(st.integers(1, 5), st.lists(st.floats(0.0, 30.0), min_size=25, max_size=25),
+       st.floats(0.5, 20.0), st.floats(0.5, 20.0))
+def test_property_outcomes_are_codes_and_gates_monotone(n, vals, t1, t2):
+    s = np.array(vals[: n * n]).reshape(n, n)
+    lo, hi = sorted((t1, t2))
+    out_lo, out_hi = sep.per_report_outcome(s, lo), sep.per_report_outcome(s, hi)
+    assert set(np.unique(out_lo)) <= {sep.CORRECT, sep.WRONG, sep.NO_DECISION}
+    # a wider gate only lets more pairs pass: a report with two or more passing pairs at
+    # the narrow gate stays undecided at the wide one
+    ambiguous = (s < lo).sum(axis=-1) >= 2
+    assert (out_hi[ambiguous] == sep.NO_DECISION).all()
+    assert ((s < lo) <= (s < hi)).all()
+    j = sep.joint_outcome(s, threshold=lo)
+    j_hi = sep.joint_outcome(s, threshold=hi)
+    assert not (j_hi == sep.NO_DECISION and j != sep.NO_DECISION)       # monotone gate
+    assert sep.joint_outcome(s) in (sep.CORRECT, sep.WRONG)
+
+
+@given(offsets, st.sampled_from(["linearized", "additive", "multiplicative"]),
+       st.integers(1, 400), st.integers(0, 2**32))
+def test_property_experiment_counts_partition_and_bound(off, m, n, seed):
+    res = sep.association_experiment(sep.paper_geometry(*off), methods=(m,), trials=n,
+                                     rng=seed, chunk_size=97)
+    r = res[m]
+    per = np.asarray(r.per_report.successes)
+    assert (per.sum(axis=-1) == n).all()
+    assert (per[:, 1] <= np.asarray(r.true_reject.successes)).all()   # wrong needs a miss
+    assert int(np.sum(r.joint.successes)) == n
+    assert np.isfinite(r.per_report.estimate).all()
+
+
+@given(offsets, st.floats(0.02, 0.5), st.floats(1e-4, 0.3), st.floats(1e-6, 0.5))
+def test_property_noncentrality_and_approximation(off, sr, sb, p_lo):
+    g = sep.paper_geometry(*off)
+    lam = sep.false_pair_noncentrality(g, sigma_r=sr, sigma_beta=sb)
+    assert np.isfinite(lam).all() and (lam >= 0).all() and (np.diag(lam) == 0).all()
+    pr = sep.approximate_outcomes(lam, p_lo)
+    assert np.isfinite(pr).all() and (pr >= -1e-12).all()
+    np.testing.assert_allclose(pr.sum(axis=-1), 1.0, atol=1e-12)
+
+
+@given(st.integers(1, 4), st.integers(1, 3), st.integers(0, 2**16))
+def test_property_sweep_collect_and_fit(k_r, k_c, seed):
+    ar = np.linspace(-1.0, 1.0, k_r) + 0.1
+    ac = np.linspace(-6.0, -4.0, k_c)
+    sw = sep.offset_sweep(ar, ac, methods=("linearized",), trials=30, rng=seed)
+    a, c, miss = sep.fit_target2_offset(sw)
+    assert a in ar and c in ac and 0 <= miss <= 2
+    runs = [_tiny_run(), _tiny_run()]
+    assert sep.collect(runs, "linearized").estimate.shape == (2, 2, 3)
+
+
+# ---------------------------------------------------------------- fuzz (invalid input)
+bad_numbers = st.sampled_from([np.nan, np.inf, -np.inf, "1.0", True, None, [1.0, "x"]])
+
+
+@given(bad_numbers, st.sampled_from(["base", "base_azimuth"]))
+def test_fuzz_radar2_position(bad, which):
+    kw = {"base": 30.0, "base_azimuth": 0.0, which: bad}
+    with pytest.raises((ValueError, TypeError), match=f"`{which}`"):
+        sep.radar2_position(**kw)
+
+
+@given(bad_numbers, st.sampled_from(["offset_range", "offset_cross", "range1", "azimuth1",
+                                     "base", "base_azimuth"]))
+def test_fuzz_paper_geometry(bad, which):
+    args = {"offset_range": 0.1, "offset_cross": -5.0}
+    args[which] = bad
+    with pytest.raises((ValueError, TypeError), match=f"`{which}`"):
+        sep.paper_geometry(**args)
+
+
+@given(st.sampled_from([np.nan, np.inf, 0.0, -1.0, "0.1", True, None, [0.1, 0.2], 1.0]),
+       st.sampled_from(["sigma_r", "sigma_beta"]),
+       st.sampled_from(["simulate_polar", "association_experiment", "false_pair_noncentrality"]))
+def test_fuzz_sigmas(bad, which, func):
+    kw = {"sigma_r": 0.1, "sigma_beta": DEG, which: bad}
+    if which == "sigma_r" and bad == 1.0:
+        kw["sigma_r"] = 100.0                        # above a tenth of the shortest range
+    extra = {"trials": 2} if func != "false_pair_noncentrality" else {}
+    with pytest.raises((ValueError, TypeError), match=f"`{which}`"):
+        getattr(sep, func)(GEO, **kw, **extra)
+
+
+@given(st.sampled_from(["cov1", "cov2"]),
+       st.sampled_from(["nonsym", "negdef", "singular", "nan", "shape", "str"]),
+       st.floats(0.1, 10.0))
+def test_fuzz_pair_statistic_covariances(which, kind, s):
+    bad = {"nonsym": [[[s, 0.3 * s], [-0.3 * s, s]]], "negdef": [[[-s, 0.0], [0.0, -s]]],
+           "singular": [[[s, s], [s, s]]], "nan": [[[s, 0.0], [0.0, np.nan]]],
+           "shape": [[[s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]]],
+           "str": [[["a", "b"], ["c", "d"]]]}[kind]
+    kw = {"xy1": [[0.0, 0.0]], "cov1": np.eye(2)[None], "xy2": [[1.0, 0.0]],
+          "cov2": 100 * np.eye(2)[None], which: bad}
+    with pytest.raises((ValueError, TypeError), match=f"`{which}`"):
+        sep.pair_statistic(**kw)
+
+
+@given(st.sampled_from([np.nan, -1.0, "x", None]), st.sampled_from([np.nan, 0.0, -2.0, "9"]))
+def test_fuzz_outcome_rules(bad_s, bad_t):
+    s = np.array([[1.0, 20.0], [3.0, 5.0]])
+    with pytest.raises((ValueError, TypeError), match="`threshold`"):
+        sep.per_report_outcome(s, bad_t)
+    with pytest.raises((ValueError, TypeError), match="`threshold`"):
+        sep.joint_outcome(s, threshold=bad_t)
+    s_bad = s.astype(object)
+    s_bad[0, 1] = bad_s
+    with pytest.raises((ValueError, TypeError), match="`statistic`"):
+        sep.per_report_outcome(s_bad, 9.2)
+    with pytest.raises((ValueError, TypeError), match="`statistic`"):
+        sep.joint_outcome(s_bad)
+
+
+@given(st.sampled_from([("trials", 0), ("trials", 2.5), ("trials", True),
+                        ("chunk_size", 0), ("chunk_size", 10**12), ("chunk_size", "1"),
+                        ("p_false_reject", 0.0), ("p_false_reject", 1.0),
+                        ("p_false_reject", np.nan), ("methods", ()), ("methods", ("x",)),
+                        ("methods", (("linearized", "y"),)), ("rng", "seed"),
+                        ("geometry", "paper")]))
+def test_fuzz_association_experiment(case):
+    name, bad = case
+    kw = {"trials": 10, name: bad}
+    geo = kw.pop("geometry", GEO)
+    match = {"methods": "`methods`|`method`|`cov_method`"}.get(name, f"`{name}`")
+    with pytest.raises((ValueError, TypeError), match=match):
+        sep.association_experiment(geo, **kw)
+
+
+@given(st.sampled_from([np.nan, -0.5, "a"]), st.integers(0, 3))
+def test_fuzz_approximate_outcomes_and_sweep(bad, pos):
+    lam = np.zeros((2, 2)).astype(object)
+    lam.flat[pos] = bad
+    with pytest.raises((ValueError, TypeError), match="`noncentrality`"):
+        sep.approximate_outcomes(lam)
+    if not (isinstance(bad, float) and np.isfinite(bad)):
+        with pytest.raises((ValueError, TypeError), match="`offsets_range`"):
+            sep.offset_sweep([0.5, bad], [-5.0], trials=5)
