@@ -368,6 +368,9 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
                       stacklevel=2)
 
     fig = fig or plt.figure()
+    # render at the figure's own resolution: artists placed in pixels at draw time
+    # (axis labels) are then where the clipping check measures them
+    fig.set_dpi(dpi)
     fig.set_layout_engine("none")
     if type(fig.get_layout_engine()).__name__ == "PlaceHolderLayoutEngine" and hasattr(
             fig, "_layout_engine"):
