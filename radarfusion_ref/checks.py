@@ -100,8 +100,7 @@ def _numeric(value, name: str, what: str) -> np.ndarray:
         arr = np.asarray(value)
     except (TypeError, ValueError):
         raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}") from None
-    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number)
-                                   or arr.dtype == bool):
+    if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
         raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}")
     if arr.size == 0:
         raise CheckError(f"{what}: `{name}` is empty (shape {arr.shape}); an empty "
@@ -169,11 +168,16 @@ def check_close(value, reference, *, what: str, rtol: float = 1e-9, atol: float 
     ...
     radarfusion_ref.checks.CheckError: two routes: `value` has 1 non-finite entries: array [ 1. nan] with shape (2,)
     """
+    return _check_close(value, reference, what=what, rtol=rtol, atol=atol)
+
+
+def _check_close(value, reference, *, what, rtol, atol, names=("value", "reference")) -> str:
+    """:func:`check_close`, with the caller's public names for the two inputs."""
     what = _as_what(what)
     rtol = _tolerance(rtol, "rtol", upper=1.0)
     atol = _tolerance(atol, "atol")
-    v = _numeric(value, "value", what).astype(float)
-    r = _numeric(reference, "reference", what).astype(float)
+    v = _numeric(value, names[0], what).astype(float)
+    r = _numeric(reference, names[1], what).astype(float)
     _same_shape(v, r, what)
     diff = np.abs(v - r)
     allowed = atol + rtol * np.abs(r)
@@ -230,7 +234,11 @@ def check_equal(value, reference, *, what: str) -> str:
     for name, x in (("value", value), ("reference", reference)):
         if x is None:
             raise TypeError(f"{what}: `{name}` is None; a check needs values")
-        a = np.asarray(x)
+        try:
+            a = np.asarray(x)
+        except ValueError:
+            raise TypeError(f"{what}: `{name}` must be a regular array; received "
+                            f"{_describe(x)}") from None
         if a.size == 0:
             raise CheckError(f"{what}: `{name}` is empty (shape {a.shape}); an empty "
                              "comparison proves nothing")
@@ -288,7 +296,10 @@ def check_true(condition, *, what: str) -> str:
     TypeError: weights are positive: `condition` must be a bool or a boolean array; received None
     """
     what = _as_what(what)
-    arr = np.asarray(condition) if condition is not None else None
+    try:
+        arr = np.asarray(condition) if condition is not None else None
+    except ValueError:
+        arr = None
     if arr is None or arr.dtype != bool:
         raise TypeError(f"{what}: `condition` must be a bool or a boolean array; received "
                         f"{_describe(condition)}")

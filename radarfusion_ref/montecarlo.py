@@ -55,10 +55,12 @@ def _as_exact(exact, shape) -> np.ndarray:
     if arr.size == 0:
         raise ValueError("`exact` must not be empty; an empty comparison proves nothing")
     try:
-        np.broadcast_shapes(arr.shape, shape)
+        ok = np.broadcast_shapes(arr.shape, shape) == tuple(shape)
     except ValueError:
-        raise ValueError(f"`exact` with shape {arr.shape} does not broadcast against the "
-                         f"estimate's shape {shape}") from None
+        ok = False
+    if not ok:
+        raise ValueError(f"`exact` with shape {arr.shape} does not broadcast to the "
+                         f"estimate's shape {tuple(shape)}")
     return arr
 
 
@@ -230,7 +232,10 @@ def proportion(successes, trials, *, confidence: float = 0.95,
     confidence = float(as_probability(confidence, "confidence"))
     method = as_choice(method, "method", ("wilson", "clopper-pearson"))
     if trials is None:
-        arr = np.asarray(successes)
+        try:
+            arr = np.asarray(successes)
+        except ValueError:
+            arr = np.asarray(None)
         if arr.dtype != bool or arr.ndim < 1 or arr.shape[-1] == 0:
             raise ValueError(
                 "with `trials=None`, `successes` must be a non-empty boolean array whose last "

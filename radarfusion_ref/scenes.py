@@ -161,9 +161,15 @@ def ellipse_covariance(angle, major, minor) -> np.ndarray:
     array([[1., 0.],
            [0., 4.]])
     """
-    theta = float(as_float_array(angle, "angle"))
-    a = float(as_positive(major, "major"))
-    b = float(as_positive(minor, "minor"))
+    theta, a, b = (as_float_array(angle, "angle"), as_positive(major, "major"),
+                   as_positive(minor, "minor"))
+    for name, v in (("angle", theta), ("major", a), ("minor", b)):
+        if v.ndim:
+            raise TypeError(f"`{name}` must be a scalar; received an array of shape {v.shape}")
+    theta, a, b = float(theta), float(a), float(b)
+    if a * a == 0 or b * b == 0 or not np.isfinite(a * a):
+        raise ValueError(f"`major`, `minor` must square to positive finite variances; "
+                         f"received {major!r}, {minor!r}")
     c, s = np.cos(theta), np.sin(theta)
     rot = np.array([[c, -s], [s, c]])
     return rot @ np.diag([a * a, b * b]) @ rot.T

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .checks import CheckError, _record
-from .checks import check_close as check_close_numbers
+from .checks import CheckError, _check_close, _record
 
 __all__ = ["show", "check_zero", "check_close", "SymbolicCheckError"]
 
@@ -80,7 +79,7 @@ def check_zero(label: str, expr, *, quiet: bool = False):
 
     if not isinstance(label, str) or not label.strip():
         raise TypeError(f"`label` must be a non-empty string; received {label!r}")
-    if expr is None or isinstance(expr, (str, bytes)):
+    if expr is None or isinstance(expr, (str, bytes, bool)):
         raise TypeError(f"`expr` must be a sympy expression or matrix; received {expr!r}")
     if isinstance(expr, sp.MatrixBase):
         if 0 in expr.shape:
@@ -134,7 +133,8 @@ def check_close(derived, package, *, what: str = "derivation and package", rtol:
     'derivation and package agree on 2 values'
     """
     try:
-        check_close_numbers(package, derived, what=what, rtol=rtol, atol=atol)
+        _check_close(package, derived, what=what, rtol=rtol, atol=atol,
+                     names=("package", "derived"))
     except CheckError as exc:
         raise SymbolicCheckError(str(exc)) from None
     return f"{what} agree on {np.size(package)} values"

@@ -1,0 +1,119 @@
+"""Bad input at every public entry point of the package: refused, and refused by name.
+
+For every public function of every module (its ``__all__``), each required
+argument in turn receives generated garbage — ``None``, strings (numeric ones
+too), booleans, NaN, infinities, empty and ragged lists, dictionaries — while
+the other required arguments receive the same kind of garbage. The call must
+raise :class:`ValueError` or :class:`TypeError` (never a raw ``LinAlgError``,
+``IndexError``, ``AttributeError`` …, never a result), and the message must
+name, in backticks, one of the function's public arguments. The check helpers
+(:mod:`radarfusion_ref.checks`, :mod:`radarfusion_ref.symbolic`) may also fail
+with their :class:`~radarfusion_ref.checks.CheckError`: failing is their job.
+
+Empty arrays are not garbage here: for element-wise functions an empty input
+has an empty answer. Where a result is undefined on empty input, the module's
+own tests require the refusal.
+
+The per-module test files hold the hand-written bad-input cases and the property
+tests on valid generated input; this file is the net under all of them.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import pkgutil
+import re
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import radarfusion_ref
+from radarfusion_ref.checks import CheckError
+
+#: Functions that take no data (styles, ledgers) or whose arguments are callables and
+#: drawing targets checked in their own test files.
+SKIP = {
+    "plotting.use_book_style", "plotting.book_style", "checks.passed", "checks.summary",
+    "interactive.controls", "interactive.sweep_player", "interactive.slider",
+    "symbolic.show",
+    # labels and a True condition are legitimate: check_equal("abc", "abc") holds;
+    # its refusals are tested in tests/test_checks.py
+    "checks.check_equal", "checks.check_true",
+}
+
+
+def public_functions():
+    out = []
+    for info in pkgutil.iter_modules(radarfusion_ref.__path__):
+        if info.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"radarfusion_ref.{info.name}")
+        for name in getattr(module, "__all__", []):
+            obj = getattr(module, name)
+            if not inspect.isfunction(obj) or f"{info.name}.{name}" in SKIP:
+                continue
+            params = [p for p in inspect.signature(obj).parameters.values()
+                      if p.default is inspect.Parameter.empty
+                      and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+            if params:
+                out.append((f"{info.name}.{name}", obj, params))
+    return out
+
+
+FUNCTIONS = public_functions()
+
+GARBAGE = st.sampled_from([
+    None, "abc", "1.5", True, np.nan, np.inf, -np.inf, [[1.0, 2.0], [3.0]], {"a": 1},
+    [np.nan, 1.0], ["1", "2"], object(),
+])
+
+
+def call(fn, params, values):
+    args, kwargs = [], {}
+    for p, v in zip(params, values, strict=True):
+        if p.kind == p.KEYWORD_ONLY:
+            kwargs[p.name] = v
+        else:
+            args.append(v)
+    return fn(*args, **kwargs)
+
+
+@pytest.mark.parametrize(("qualname", "fn", "params"), FUNCTIONS, ids=[f[0] for f in FUNCTIONS])
+@given(data=st.data())
+def test_garbage_is_refused_by_name(qualname, fn, params, data):
+    values = [data.draw(GARBAGE, label=p.name) for p in params]
+    names = {p for p in inspect.signature(fn).parameters}
+    refusal = None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            result = call(fn, params, values)
+        except CheckError as exc:
+            if qualname.split(".")[0] not in ("checks", "symbolic"):
+                pytest.fail(f"{qualname} raised a CheckError on bad input: {exc}")
+            return
+        except (ValueError, TypeError) as exc:
+            refusal = str(exc)
+        except Exception as exc:  # the point is to report the wrong class
+            pytest.fail(f"{qualname}{tuple(values)!r} raised {type(exc).__name__}, not "
+                        f"ValueError/TypeError: {exc}")
+    if refusal is None:
+        pytest.fail(f"{qualname}{tuple(values)!r} accepted garbage and returned {result!r:.200}")
+    named = set(re.findall(r"`([A-Za-z_][\w.\[\]()]*)`", refusal))
+    assert named, f"{qualname}: the message names no argument: {refusal}"
+    bases = {re.split(r"[.\[(]", n)[0] for n in named}
+    assert bases & names, (
+        f"{qualname}: the message names {sorted(named)}, none of its arguments "
+        f"{sorted(names)}: {refusal}")
+
+
+def test_the_net_covers_the_package():
+    """Every module's public functions are in the net (or deliberately skipped)."""
+    modules = {q.split(".")[0] for q, _, _ in FUNCTIONS}
+    assert len(FUNCTIONS) >= 60, len(FUNCTIONS)
+    assert {"fusion", "proximity", "gating", "association", "features", "conversion",
+            "separated", "grouping", "checks", "montecarlo", "scenes"} <= modules
