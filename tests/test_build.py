@@ -62,3 +62,60 @@ def test_exercise_solutions_are_folded(built_book):
             names = classes.split()
             if "solution" in names:
                 assert "dropdown" in names, f"{docname}: a solution is not folded ({classes})"
+
+
+WIDGET_STATE = re.compile(
+    r'<script type="application/vnd\.jupyter\.widget-state\+json">(.*?)</script>', re.S)
+
+
+def test_no_widget_state_without_a_widget_view(built_book):
+    """Controls cells are `remove-cell`: their widget state must not reach the page
+    (``_ext/radarfusion_pages.py`` drops it)."""
+    offenders = {}
+    for page in html_pages():
+        text = page.read_text(encoding="utf-8")
+        state = sum(len(s) for s in WIDGET_STATE.findall(text))
+        if state and "application/vnd.jupyter.widget-view+json" not in text:
+            offenders[page.name] = state
+    assert not offenders, f"widget-state bytes on pages that show no widget: {offenders}"
+
+
+def test_no_thebe_and_no_script_address_on_the_network(built_book):
+    """Thebe is off: neither its scripts nor its CDN address (THEBE_JS_URL) are on a page."""
+    inline_url = re.compile(r"<script[^>]*>[^<]*?(?:https?:)?//[^\s\"'<>]+?\.m?js\b", re.I)
+    offenders = {}
+    for page in HTML.rglob("*.html"):
+        text = page.read_text(encoding="utf-8")
+        hits = [h[-80:] for h in inline_url.findall(text)]
+        if "THEBE_JS_URL" in text or "sphinx-thebe" in text:
+            hits.append("sphinx-thebe")
+        if hits:
+            offenders[str(page.relative_to(HTML))] = hits[:3]
+    assert not offenders, f"pages referring to network scripts or Thebe: {offenders}"
+
+
+def test_exercises_and_equations_are_numbered_per_chapter(built_book):
+    """Exercise numbers restart in every chapter (1.1, 1.2, ...; 2.1, ...), and so do the
+    labelled equations."""
+    for docname in toc_docnames():
+        text = (HTML / f"{docname}.html").read_text(encoding="utf-8")
+        numbers = re.findall(r'<span class="caption-number">Exercise (\d+(?:\.\d+)*)', text)
+        if numbers:
+            assert re.fullmatch(r"\d+\.1", numbers[0]), f"{docname}: first exercise {numbers[0]}"
+            chapters = {n.split(".")[0] for n in numbers}
+            assert len(chapters) == 1, f"{docname}: exercises of several chapters {numbers}"
+        eqnos = re.findall(r'class="eqno">\((\d+(?:\.\d+)*)\)', text)
+        if eqnos:
+            assert re.fullmatch(r"\d+\.\d+", eqnos[0]), f"{docname}: equation ({eqnos[0]})"
+
+
+def test_players_have_enough_frames(built_book):
+    from radarfusion_ref.interactive import MIN_FRAMES
+
+    short = {}
+    for page in html_pages():
+        counts = [int(n) for n in re.findall(r"var frames = new Array\((\d+)\)",
+                                             page.read_text(encoding="utf-8"))]
+        if any(n < MIN_FRAMES for n in counts):
+            short[page.name] = counts
+    assert not short, f"players with fewer than {MIN_FRAMES} frames: {short}"
