@@ -134,3 +134,20 @@ def test_built_page_teaches_on_its_own(built_book, docname):
         assert m.figure_first, f"{docname}: no figure before the first display equation"
         assert m.first_exercise == f"{MAIN_PAGES[docname]}.1", (
             f"{docname}: first exercise numbered {m.first_exercise}")
+
+
+@pytest.mark.book
+@pytest.mark.parametrize("docname", ALL_NOTEBOOKS)
+def test_every_notebook_page_offers_its_ipynb(built_book, docname):
+    html_dir = ROOT / "_build" / "html"
+    page = (html_dir / f"{docname}.html").read_text(encoding="utf-8")
+    name = docname.rsplit("/", 1)[-1]
+    assert re.search(rf'href="[^"]*_sources/{re.escape(docname)}\.ipynb"', page), (
+        f"{docname}: no .ipynb in the download menu")
+    notebook = html_dir / "_sources" / f"{docname}.ipynb"
+    assert notebook.exists(), notebook
+    import nbformat
+
+    nb = nbformat.read(notebook, as_version=4)
+    assert any(c.get("outputs") for c in nb.cells if c.cell_type == "code"), (
+        f"{name}: the offered notebook is not the executed one")
