@@ -6,17 +6,18 @@ report is converted to Cartesian coordinates in its own radar's frame
 (:func:`radarfusion_ref.conversion.polar_to_cartesian`, linearized or
 bias-corrected), radar 2's reports are shifted into radar 1's frame, and every
 pair (report :math:`q` of radar :math:`p`, report :math:`f` of radar :math:`g`)
-is scored by the quadratic form
+is scored by the proximity measure (the book's notation; the paper's quadratic
+form :math:`S^{qf}_{pg}` with :math:`\\hat\\alpha \\to \\hat x`, :math:`C \\to \\Sigma`)
 
 .. math::
 
-    S^{qf}_{pg} = (\\hat\\alpha_{pq} - \\hat\\alpha_{gf})^T
-    (C_{pq} + C_{gf})^{-1} (\\hat\\alpha_{pq} - \\hat\\alpha_{gf}),
+    \\kappa_{jk} = \\Delta_{jk}^T S_{jk}^{-1} \\Delta_{jk}, \\quad
+    \\Delta_{jk} = \\hat x_{1j} - \\hat x_{2k}, \\quad S_{jk} = \\Sigma_{1j} + \\Sigma_{2k},
 
 which is :math:`\\chi^2(2)` when the two reports belong to one target (and the
 conversion is unbiased with a correct covariance), and noncentral
 :math:`\\chi'^2(2, \\lambda)` otherwise. A pair passes the gate when
-:math:`S` is below the :math:`\\chi^2(2)` quantile at the false-rejection
+:math:`\\kappa` is below the gate :math:`\\gamma`, the :math:`\\chi^2(2)` quantile at the false-rejection
 probability :math:`P_{\\text{lo}} = 0.01`.
 
 Decision outcomes (Table 1 of the paper), for the report of target :math:`i`
@@ -35,7 +36,7 @@ by radar 1 compared with every report of radar 2:
 * :func:`simulate_polar` — noisy polar reports of both radars, vectorized over
   trials;
 * :func:`to_common_frame` — conversion to Cartesian in radar 1's frame;
-* :func:`pair_statistic` — :math:`S` for every pair, by a hand-written batched
+* :func:`pair_statistic` — :math:`\\kappa` for every pair, by a hand-written batched
   2×2 Cholesky factorisation (and :math:`\\ln\\det`);
 * :func:`per_report_outcome`, :func:`joint_outcome` — the decision rules;
 * :func:`association_experiment` — the Table 1 Monte-Carlo experiment,
@@ -50,7 +51,7 @@ Units: kilometres and radians throughout.
 
 .. [1] A. V. Prosov, "Analysis of the effect of linearization errors of radar
    measurements on the reliability of associating data from spatially
-   separated radars" — Fig. 1, eqs. (1)–(4), the quadratic form :math:`S`,
+   separated radars" — Fig. 1, eqs. (1)–(4), the quadratic form :math:`\\kappa`,
    Table 1.
 .. [2] D. Lerro, Y. Bar-Shalom, "Tracking with debiased consistent converted
    measurements versus EKF", IEEE Trans. AES 29 (1993) 1015–1022.
@@ -612,7 +613,7 @@ def to_common_frame(reports: PolarReports, *, method: str = "linearized",
 
     .. math::
 
-        \\hat\\alpha_{2j} = p_2 + \\hat r_{2j}(\\cos\\hat\\beta_{2j}, \\sin\\hat\\beta_{2j})^T,
+        \\hat x_{2j} = p_2 + \\hat r_{2j}(\\cos\\hat\\beta_{2j}, \\sin\\hat\\beta_{2j})^T,
 
     with the covariance unchanged (the paper neglects survey errors).
 
@@ -682,7 +683,7 @@ def _as_cov_stack(cov: np.ndarray, name: str) -> np.ndarray:
 
 
 def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
-    """The quadratic form :math:`S` for every pair of radar-1 and radar-2 reports.
+    """The quadratic form :math:`\\kappa` for every pair of radar-1 and radar-2 reports.
 
     Parameters
     ----------
@@ -695,7 +696,7 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     cov2 : array_like, shape (..., n2, 2, 2)
         Their covariances.
     return_logdet : bool, optional
-        Also return :math:`\\ln\\det(C_{1i} + C_{2j})`, needed by the
+        Also return :math:`\\ln\\det(\\Sigma_{1i} + \\Sigma_{2j})`, needed by the
         likelihood of a joint hypothesis.
 
     Returns
@@ -718,13 +719,13 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     -----
     .. math::
 
-        S_{ij} = (\\hat\\alpha_{1i} - \\hat\\alpha_{2j})^T (C_{1i} + C_{2j})^{-1}
-        (\\hat\\alpha_{1i} - \\hat\\alpha_{2j}) = z_1^2 + z_2^2,
+        \\kappa_{ij} = (\\hat x_{1i} - \\hat x_{2j})^T (\\Sigma_{1i} + \\Sigma_{2j})^{-1}
+        (\\hat x_{1i} - \\hat x_{2j}) = z_1^2 + z_2^2,
 
-    with :math:`C_{1i} + C_{2j} = L L^T` factored by hand
+    with :math:`\\Sigma_{1i} + \\Sigma_{2j} = L L^T` factored by hand
     (:math:`l_{11} = \\sqrt{c_{11}}`, :math:`l_{21} = c_{12}/l_{11}`,
     :math:`l_{22} = \\sqrt{c_{22} - l_{21}^2}`) and
-    :math:`z = L^{-1}(\\hat\\alpha_{1i} - \\hat\\alpha_{2j})` by forward
+    :math:`z = L^{-1}(\\hat x_{1i} - \\hat x_{2j})` by forward
     substitution — batched over every leading axis, no inverse.
 
     References
@@ -798,9 +799,9 @@ def per_report_outcome(statistic, threshold) -> np.ndarray:
     Parameters
     ----------
     statistic : array_like, shape (..., n, n)
-        :math:`S` from :func:`pair_statistic`.
+        :math:`\\kappa` from :func:`pair_statistic`.
     threshold : float
-        Gate :math:`\\kappa_{\\text{th}}` (a pair passes when :math:`S < \\kappa_{\\text{th}}`).
+        Gate :math:`\\gamma` (a pair passes when :math:`\\kappa < \\gamma`).
 
     Returns
     -------
@@ -842,13 +843,13 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
     Parameters
     ----------
     statistic : array_like, shape (..., n, n)
-        :math:`S` from :func:`pair_statistic` (``n`` ≤ 7: all :math:`n!`
+        :math:`\\kappa` from :func:`pair_statistic` (``n`` ≤ 7: all :math:`n!`
         pairings are enumerated).
     logdet : array_like, shape (..., n, n), optional
-        :math:`\\ln\\det(C_{1i} + C_{2j})`; with it the rule is maximum
-        likelihood, without it minimum summed :math:`S`.
+        :math:`\\ln\\det(\\Sigma_{1i} + \\Sigma_{2j})`; with it the rule is maximum
+        likelihood, without it minimum summed :math:`\\kappa`.
     threshold : float, optional
-        Gate for the chosen pairing's summed :math:`S` (a :math:`\\chi^2(2n)`
+        Gate for the chosen pairing's summed :math:`\\kappa` (a :math:`\\chi^2(2n)`
         quantile). If given, a pairing whose sum reaches it gives
         :data:`NO_DECISION`.
 
@@ -873,10 +874,10 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
 
     .. math::
 
-        -2\\ln L(\\pi) = \\sum_i \\bigl[S_{i\\pi(i)} + \\ln\\det(C_{1i} + C_{2\\pi(i)})\\bigr],
+        -2\\ln L(\\pi) = \\sum_i \\bigl[\\kappa_{i\\pi(i)} + \\ln\\det(\\Sigma_{1i} + \\Sigma_{2\\pi(i)})\\bigr],
 
     and the rule picks :math:`\\hat\\pi = \\arg\\min_\\pi`. Under the true
-    pairing the sum of the :math:`S` is :math:`\\chi^2(2n)`.
+    pairing the sum of the :math:`\\kappa` is :math:`\\chi^2(2n)`.
 
     Examples
     --------
@@ -961,7 +962,7 @@ class ExperimentResult:
     trials : int
         Number of Monte-Carlo trials (the same draws for every method).
     threshold : float
-        The per-pair gate :math:`\\kappa_{\\text{th}}` (:math:`\\chi^2(2)` quantile).
+        The per-pair gate :math:`\\gamma` (:math:`\\chi^2(2)` quantile).
     joint_threshold : float
         The gate of the joint pairing (:math:`\\chi^2(2n)` quantile).
     geometry : Geometry
@@ -1012,7 +1013,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
 
     Every trial draws one polar report per target and radar; each method
     converts the *same* draws (common random numbers, so differences between
-    methods are paired and precise), computes :math:`S` for all pairs and
+    methods are paired and precise), computes :math:`\\kappa` for all pairs and
     scores the decisions. Trials are processed in chunks of `chunk_size`, all
     vectorized (no per-trial Python loop). The draws are made per block of
     :data:`BLOCK_TRIALS` trials from spawned seed sequences, so the result of a
@@ -1171,7 +1172,7 @@ def _pair_kernel(xy, cov, radar2):
 # --------------------------------------------------------------------------- approximation
 def false_pair_noncentrality(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
                              sigma_beta=PAPER["sigma_beta"], bias_method: str | None = None):
-    """Noncentrality :math:`\\lambda_{ij}` of :math:`S` for every pair, linear-Gaussian model.
+    """Noncentrality :math:`\\lambda_{ij}` of :math:`\\kappa` for every pair, linear-Gaussian model.
 
     Parameters
     ----------
@@ -1186,8 +1187,8 @@ def false_pair_noncentrality(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     Returns
     -------
     numpy.ndarray, shape (n, n)
-        :math:`\\lambda_{ij} = \\mu_{ij}^T (C_{1i} + C_{2j})^{-1} \\mu_{ij}` with
-        :math:`\\mu_{ij} = E[\\hat\\alpha_{1i} - \\hat\\alpha_{2j}]` and the
+        :math:`\\lambda_{ij} = \\mu_{ij}^T (\\Sigma_{1i} + \\Sigma_{2j})^{-1} \\mu_{ij}` with
+        :math:`\\mu_{ij} = E[\\hat x_{1i} - \\hat x_{2j}]` and the
         linearized covariances (2a–c) evaluated at the true coordinates. The
         diagonal is 0 without `bias_method`.
 
@@ -1198,9 +1199,9 @@ def false_pair_noncentrality(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
 
     Notes
     -----
-    If :math:`\\hat\\alpha_{1i} - \\hat\\alpha_{2j} \\sim \\mathcal N(\\mu, C)` then
-    :math:`S \\sim \\chi'^2(2, \\lambda)`. The model ignores that the
-    covariances used in :math:`S` are evaluated at the *measured* coordinates.
+    If :math:`\\hat x_{1i} - \\hat x_{2j} \\sim \\mathcal N(\\mu, S_{ij})` then
+    :math:`\\kappa \\sim \\chi'^2(2, \\lambda)`. The model ignores that the
+    covariances used in :math:`\\kappa` are evaluated at the *measured* coordinates.
 
     Examples
     --------
@@ -1246,7 +1247,7 @@ def approximate_outcomes(noncentrality, p_false_reject=PAPER["p_false_reject"]):
 
     Notes
     -----
-    With :math:`a_i = P\\{S_{ii} < \\kappa\\}` and :math:`b_i = P\\{S_{ij} < \\kappa\\}`
+    With :math:`a_i = P\\{\\kappa_{ii} < \\gamma\\}` and :math:`b_i = P\\{\\kappa_{ij} < \\gamma\\}`
     (noncentral :math:`\\chi^2(2)` CDFs, :func:`radarfusion_ref.gating.p_false_accept`),
 
     .. math::
