@@ -9,7 +9,7 @@ density (Grachov & Korneev 2010, eq. (8), corrected — see the chapter)
 .. math::
 
     f(\\Pi \\mid T_k) = \\mathcal N(\\Pi;\\ \\Pi_k, \\sigma_{\\Pi k}^2),
-    \\qquad k = 1, \\dots, L.
+    \\qquad k = 1, \\dots, K.
 
 .. rubric:: Public functions
 
@@ -121,7 +121,7 @@ def _as_flag(value, name):
 
 # ----------------------------------------------------------------------------- validation
 def _types_iv(type_means, type_vars, priors):
-    """Validate the type description; return means, variances and log priors, each (L,)."""
+    """Validate the type description; return means, variances and log priors, each (K,)."""
     means = as_float_array(type_means, "type_means")
     if means.ndim != 1 or means.size == 0:
         raise ValueError("`type_means` must be a non-empty 1-D array (one mean per type); "
@@ -256,12 +256,12 @@ def _relative_log_joint(xs, means, log_vars, log_priors, ref):
 
 
 def _log_posterior(xs, means, log_vars, log_priors):
-    """Normalised log posterior of the types, ``(..., L)``, over the whole float range.
+    """Normalised log posterior of the types, ``(..., K)``, over the whole float range.
 
     Parameters are as in :func:`_relative_log_joint`. The reference type is first
     taken from a cheap estimate of the log-joint, then replaced by the best type
     of the exact differences, so every difference is <= 0 and ``exp`` of them
-    cannot overflow; the log-sum of those is then between 0 and ``log L``.
+    cannot overflow; the log-sum of those is then between 0 and ``log K``.
     """
     shape = np.broadcast_shapes(*(np.shape(x) for x in xs),
                                 *(np.shape(lv)[:-1] for lv in log_vars))
@@ -389,14 +389,14 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
         Measured (or fused) feature :math:`\\hat\\Pi`.
     feature_var : array_like, broadcastable to `feature`
         Variance :math:`v \\ge 0` of its error; ``0`` treats the feature as exact.
-    type_means, type_vars : array_like, shape (L,)
+    type_means, type_vars : array_like, shape (K,)
         :math:`\\Pi_k` and :math:`\\sigma_{\\Pi k}^2 > 0` of the type densities (8).
     log : bool, optional
         Return the log-likelihood (default: the likelihood).
 
     Returns
     -------
-    numpy.ndarray, shape (..., L)
+    numpy.ndarray, shape (..., K)
 
     Raises
     ------
@@ -457,16 +457,16 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
         Its error variance :math:`v \\ge 0` (for the fused feature,
         :attr:`FusedFeature.var`). ``0`` with ``priors=None`` reproduces the
         paper's plug-in rule (13).
-    type_means, type_vars : array_like, shape (L,)
+    type_means, type_vars : array_like, shape (K,)
         :math:`\\Pi_k` and :math:`\\sigma_{\\Pi k}^2 > 0` of the type densities.
-    priors : array_like, shape (L,), optional
+    priors : array_like, shape (K,), optional
         Prior type probabilities :math:`p_k \\ge 0` summing to 1 (default uniform).
     log : bool, optional
         Return log-probabilities (useful for log-loss: no underflow to 0).
 
     Returns
     -------
-    numpy.ndarray, shape (..., L)
+    numpy.ndarray, shape (..., K)
         :math:`P(T_k \\mid \\tilde\\Pi)`; sums to 1 over the last axis.
 
     Raises
@@ -487,7 +487,7 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
 
         P(T_k \\mid \\hat\\Pi_1, \\hat\\Pi_2)
         = \\frac{p_k\\, \\mathcal N(\\tilde\\Pi;\\ \\Pi_k,\\ \\sigma_{\\Pi k}^2 + v)}
-               {\\sum_{\\ell=1}^L p_\\ell\\, \\mathcal N(\\tilde\\Pi;\\ \\Pi_\\ell,\\ \\sigma_{\\Pi \\ell}^2 + v)},
+               {\\sum_{j=1}^K p_j\\, \\mathcal N(\\tilde\\Pi;\\ \\Pi_j,\\ \\sigma_{\\Pi j}^2 + v)},
         \\qquad v = \\operatorname{Var}\\tilde\\Pi.
 
     The paper's (13) plugs :math:`\\tilde\\Pi` into :math:`f(\\Pi \\mid T_k)`, i.e.
@@ -537,7 +537,7 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
         The two radars' feature reports of the object (broadcast together).
     feature_var1, feature_var2 : array_like
         Their error variances (> 0).
-    type_means, type_vars, priors : array_like, shape (L,)
+    type_means, type_vars, priors : array_like, shape (K,)
         As in :func:`type_posterior`.
     model : {"shared", "spread"}, optional
         Feature observation model.
@@ -546,7 +546,7 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
 
     Returns
     -------
-    numpy.ndarray, shape (..., L)
+    numpy.ndarray, shape (..., K)
 
     Notes
     -----
@@ -673,7 +673,7 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
         ML estimates, as the paper does — for model 1 the corrected (12).
         ``"marginal"``: the feature value integrated out under the type
         description, giving minus twice a log-likelihood ratio.
-    type_means, type_vars, priors : array_like, shape (L,), optional
+    type_means, type_vars, priors : array_like, shape (K,), optional
         Type description, required for ``kind="marginal"``.
 
     Returns
@@ -805,7 +805,7 @@ class TypedScene:
         ``coords.reports2``).
     feature_sigma1, feature_sigma2 : float
         Feature error standard deviations of the two radars.
-    type_means, type_vars, priors : numpy.ndarray, shape (L,)
+    type_means, type_vars, priors : numpy.ndarray, shape (K,)
         The type description the scene was drawn from.
     model : str
         ``"shared"`` or ``"spread"``.
@@ -830,7 +830,7 @@ class TypedScene:
 
     @property
     def n_types(self) -> int:
-        """Number of types L."""
+        """Number of types K."""
         return int(self.type_means.size)
 
 
@@ -850,9 +850,9 @@ def typed_scene(n_objects: int, *, type_means, type_vars, priors=None, spacing: 
     ----------
     n_objects : int
         Number of objects.
-    type_means, type_vars : array_like, shape (L,)
+    type_means, type_vars : array_like, shape (K,)
         Type densities (8): means :math:`\\Pi_k` and variances :math:`\\sigma_{\\Pi k}^2`.
-    priors : array_like, shape (L,), optional
+    priors : array_like, shape (K,), optional
         Type probabilities (default uniform).
     spacing, sigma1, sigma2, trials, dim, layout :
         As in :func:`radarfusion_ref.scenes.two_radar_scene`.
@@ -956,14 +956,14 @@ class Confusion:
 
     Attributes
     ----------
-    counts : numpy.ndarray of int, shape (L, L)
+    counts : numpy.ndarray of int, shape (K, K)
         ``counts[k, l]``: objects of true type ``k`` recognised as type ``l``.
-    rate : numpy.ndarray, shape (L, L)
+    rate : numpy.ndarray, shape (K, K)
         Row-normalised counts (``nan``-free: a type that never occurred has a
         zero row and is flagged in `support`).
-    low, high : numpy.ndarray, shape (L, L)
+    low, high : numpy.ndarray, shape (K, K)
         95 % Wilson limits of each rate (objects treated as independent).
-    support : numpy.ndarray of int, shape (L,)
+    support : numpy.ndarray of int, shape (K,)
         Number of objects of each true type.
     """
 
@@ -989,7 +989,7 @@ class TriuneResult:
         Fused coordinates of each object (a lone radar-1 report if unpaired).
     sq_error : numpy.ndarray, shape (trials, n)
         Squared Euclidean error of `fused` against the truth.
-    posterior : numpy.ndarray, shape (trials, n, L)
+    posterior : numpy.ndarray, shape (trials, n, K)
         Type posterior of each object.
     recognised : numpy.ndarray of int, shape (trials, n)
         The maximum-a-posteriori type.
