@@ -279,10 +279,11 @@ def _pair_iv(x1, P1, x2, P2, P12=None):
     check_size(int(np.prod(lead, dtype=object)) * d * d, MAX_BATCH,
                what="batch elements × state entries",
                alternative="several calls on slices of the batch")
+    if P12 is not None:                          # checked once per distinct matrix
+        cov_lead = np.broadcast_shapes(P1.shape[:-2], P2.shape[:-2], P12.shape[:-2])
+        _joint_psd(*(np.broadcast_to(m, (*cov_lead, d, d)) for m in (P1, P2, P12)))
     out = [np.broadcast_to(m, (*lead, *m.shape[-2:])) for m in mats.values()]
     out[0], out[2] = out[0][..., 0], out[2][..., 0]
-    if P12 is not None:
-        _joint_psd(out[1], out[3], out[4])
     return out
 
 
@@ -405,17 +406,23 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
     """
     x1, P1, x2, P2, P12 = _pair_iv(x1, P1, x2, P2, P12)
     P21 = np.swapaxes(P12, -1, -2)
-    U = _sym(P1 + P2 - P12 - P21)                               # Cov(x2 - x1)
     try:
-        np.linalg.cholesky(U)
+        np.linalg.cholesky(_sym(P1 + P2 - P12 - P21))
     except np.linalg.LinAlgError:
         raise ValueError("`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x2 - x1) is singular: "
                          "the two tracks differ by a deterministic amount and carry the same "
                          "information; use either track") from None
+    return TrackEstimate(*_bar_shalom_campo(x1, P1, x2, P2, P12))
+
+
+def _bar_shalom_campo(x1, P1, x2, P2, P12):
+    """Bar-Shalom–Campo on validated, broadcast arrays: (estimate, covariance)."""
+    P21 = np.swapaxes(P12, -1, -2)
+    U = _sym(P1 + P2 - P12 - P21)                               # Cov(x2 - x1)
     W = np.swapaxes(_solve(U, P1 - P21), -1, -2)                # W = (P1 - P12) U^-1
     estimate = x1 + (W @ (x2 - x1)[..., None])[..., 0]         # x1 + W (x2 - x1)
     covariance = _sym(P1 - W @ (P1 - P21))                      # P1 - (P1 - P12) U^-1 (P1 - P21)
-    return TrackEstimate(estimate, covariance)
+    return estimate, covariance
 
 
 def _ci_slope(w, I1, I2, D, criterion):

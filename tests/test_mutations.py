@@ -78,6 +78,14 @@ MUTATIONS = {
                 return np.asarray(f(*a, **k)) * 1.01
             return g
         """),
+    "book/10_trackfusion": ("radarfusion_ref.trackfusion", "bar_shalom_campo", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                r = f(*a, **k)
+                return dataclasses.replace(r, covariance=np.asarray(r.covariance) * 1.01)
+            return g
+        """),
 }
 
 PREAMBLE = """\
