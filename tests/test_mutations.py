@@ -78,6 +78,13 @@ MUTATIONS = {
                 return np.asarray(f(*a, **k)) * 1.01
             return g
         """),
+    "book/09_registration": ("radarfusion_ref.registration", "bias_information", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                return np.asarray(f(*a, **k)) * 1.01
+            return g
+        """),
     "book/10_trackfusion": ("radarfusion_ref.trackfusion", "bar_shalom_campo", """
         def wrap(f):
             @functools.wraps(f)
