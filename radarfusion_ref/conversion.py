@@ -38,6 +38,20 @@ Methods (``method=``):
     eq. (3) **as printed**, :math:`\\hat r(1 - \\sigma_\\beta^2/2)(\\ldots)`, with (4a–c);
     kept only to reproduce the paper — the printed sign doubles the bias
     instead of removing it (see the book's erratum).
+``"measurement_conditioned"``
+    Duan, Han & Li's modified unbiased conversion: the mean of the truth GIVEN the
+    measurement, :math:`e^{-\\sigma_\\beta^2/2}\\hat r(\\cos\\hat\\beta, \\sin\\hat\\beta)`,
+    with the covariance of the truth given the measurement (flat prior). It is the
+    conditional mean, so its covariance is exact given the measurement; given the
+    truth it is biased by :math:`(e^{-\\sigma_\\beta^2} - 1)\\,r u(\\beta)`.
+``"decorrelated"``
+    Bordonaro, Willett & Bar-Shalom's decorrelated unbiased conversion: the
+    multiplicative position, with the covariance given the truth averaged over a
+    PRIOR position (a track's prediction, ``prior_xy``/``prior_cov``) instead of over
+    the measurement, so that the covariance is independent of the measurement's error.
+
+The paper's and the classic methods are :data:`METHODS`; :data:`ALL_METHODS` adds the
+two above.
 
 Every covariance here has the form :math:`aI + bM(\\beta)` with
 :math:`M(\\beta) = \\begin{pmatrix}\\cos 2\\beta & \\sin 2\\beta\\\\ \\sin 2\\beta & -\\cos 2\\beta\\end{pmatrix}`:
@@ -53,6 +67,12 @@ its eigenvectors point along range (variance :math:`a + b`) and across range
    measurements versus EKF", IEEE Trans. AES 29(3) (1993) 1015–1022.
 .. [3] L. Mo, X. Song, Y. Zhou, Z. K. Sun, Y. Bar-Shalom, "Unbiased converted
    measurements for tracking", IEEE Trans. AES 34(3) (1998) 1023–1027.
+.. [4] Z. Duan, C. Han, X. R. Li, "Comments on 'Unbiased converted measurements for
+   tracking'", IEEE Trans. AES 40(4) (2004) 1374–1377.
+.. [5] S. V. Bordonaro, P. Willett, Y. Bar-Shalom, "Decorrelated unbiased converted
+   measurement Kalman filter", IEEE Trans. AES 50(2) (2014) 1431–1444.
+.. [6] X. R. Li, Z. Zhao, "Measuring estimator's credibility: noncredibility index",
+   Proc. 9th Int. Conf. Information Fusion (2006).
 """
 
 from __future__ import annotations
@@ -79,6 +99,7 @@ from .errors import RadarFusionWarning
 from .montecarlo import MeanEstimate, mean
 
 __all__ = [
+    "ALL_METHODS",
     "LERRO_THRESHOLD",
     "MAX_BATCH",
     "METHODS",
@@ -98,6 +119,11 @@ __all__ = [
 
 #: The conversion methods accepted by :func:`polar_to_cartesian`.
 METHODS = ("linearized", "additive", "multiplicative", "first_order", "first_order_printed")
+
+#: Every 2-D method: :data:`METHODS` (the paper's and the classic ones, unchanged) and the
+#: current ones, Duan et al.'s measurement-conditioned conversion and Bordonaro et al.'s
+#: decorrelated one (which needs a prior position, ``prior_xy``).
+ALL_METHODS = (*METHODS, "measurement_conditioned", "decorrelated")
 
 #: Largest azimuth standard deviation accepted, in radians (≈ 28.6°): the package's one
 #: limit on :math:`\sigma_\beta` (:mod:`radarfusion_ref.separated` imports it from here).
@@ -182,12 +208,20 @@ class ConversionTrials:
     nees : numpy.ndarray, shape (..., trials)
         Normalized estimation error squared
         :math:`\\mathbf e^\\mathsf T C^{-1}\\mathbf e` with the method's own
-        covariance :math:`C`; its mean is 2 for a consistent method.
+        covariance :math:`C`; its mean is the dimension (2, or 3 in 3-D) for a
+        consistent method.
+    nees_true : numpy.ndarray or None, shape (..., trials)
+        The same error normalized by the exact mean squared error matrix given the
+        truth, :math:`\\mathbf e^\\mathsf T \\mathrm{MSE}^{-1}\\mathbf e` (from
+        :func:`conversion_moments`); filled by :func:`conversion_monte_carlo` and
+        :func:`spherical_monte_carlo`, ``None`` when built by hand. It is the
+        reference of :meth:`noncredibility`.
     """
 
     method: str
     error: np.ndarray
     nees: np.ndarray
+    nees_true: np.ndarray | None = None
 
     @property
     def trials(self) -> int:
@@ -201,6 +235,34 @@ class ConversionTrials:
     def mean_nees(self, *, confidence: float = 0.95) -> MeanEstimate:
         """Mean NEES over the trials, shape ``(...)``, with t-intervals (2 if consistent)."""
         return mean(self.nees, axis=-1, confidence=confidence)
+
+    def noncredibility(self, *, confidence: float = 0.95) -> MeanEstimate:
+        """Li & Zhao's noncredibility index, in dB, shape ``(...)``, with t-intervals.
+
+        .. math::
+
+            \\mathrm{NCI} = \\frac{10}{N}\\sum_{i=1}^N \\log_{10}
+            \\frac{\\mathbf e_i^\\mathsf T C_i^{-1}\\mathbf e_i}
+                 {\\mathbf e_i^\\mathsf T \\mathrm{MSE}^{-1}\\mathbf e_i}.
+
+        0 dB for a credible covariance (one that is the true MSE matrix); positive when
+        the covariance is too small (optimistic), negative when it is too large
+        (pessimistic). Unlike the mean NEES it weights every trial alike, so a few large
+        errors cannot hide a covariance that is wrong for most reports.
+
+        Raises
+        ------
+        ValueError
+            When :attr:`nees_true` is ``None`` (a hand-built result) or a trial has a
+            zero error (the log-ratio is undefined).
+        """
+        if self.nees_true is None:
+            raise ValueError("`nees_true` is None: the noncredibility index needs the NEES "
+                             "against the true MSE (use conversion_monte_carlo)")
+        if np.any(self.nees_true <= 0) or np.any(self.nees <= 0):
+            raise ValueError("`nees` and `nees_true` must be > 0 for the log-ratio; a trial "
+                             "has a zero error")
+        return mean(10 * np.log10(self.nees / self.nees_true), axis=-1, confidence=confidence)
 
 
 # --------------------------------------------------------------------------- validation
@@ -255,6 +317,10 @@ def _gain(method: str, s: np.ndarray) -> np.ndarray:
         return np.exp(t)
     if method == "first_order":       # eq. (3) with the derived sign
         return 1.0 + t
+    if method == "measurement_conditioned":    # Duan et al.: E[x | r̂, β̂] = e^{−t} r̂u
+        return np.exp(-t)
+    if method == "decorrelated":      # Bordonaro et al.: the multiplicative position
+        return np.exp(t)
     return 1.0 - t                    # "first_order_printed": eq. (3) as printed
 
 
@@ -263,8 +329,10 @@ def _bias_factor(method: str, s: np.ndarray) -> np.ndarray:
     t = s / 2
     if method == "linearized":
         return np.expm1(-t)
-    if method == "multiplicative":
+    if method in ("multiplicative", "decorrelated"):
         return np.zeros_like(s)
+    if method == "measurement_conditioned":   # e^{−s} − 1
+        return np.expm1(-s)
     if method == "additive":          # (e^{−t} − 1)(1 − e^{−s})
         return -np.expm1(-t) * np.expm1(-s)
     if method == "first_order_printed":
@@ -284,6 +352,9 @@ def _principal_variances(method, r, sr2, s):
     em = -np.expm1(-s)                                 # 1 − e^{−s}
     if method == "linearized":                         # eq. (2a–c): J diag(σr², σβ²) Jᵀ
         return sr2, r**2 * s
+    if method == "measurement_conditioned":            # Duan et al.: Cov[x | r̂, β̂]
+        return (0.5 * r**2 * em**2 + 0.5 * sr2 * (1 + np.exp(-2 * s)),
+                -0.5 * (r**2 + sr2) * np.expm1(-2 * s))
     if method == "multiplicative":                     # Mo et al.: MSE given the measurement
         big = np.where(s < 1e-4, 1.5 * s**2 - 0.5 * s**3 + 0.375 * s**4,
                        np.expm1(s) + 0.5 * np.expm1(-2 * s))   # e^{s} − 3/2 + e^{−2s}/2
@@ -354,6 +425,81 @@ def _convert(method, r, beta, sigma_r, sigma_beta):
     return xy, along, cross
 
 
+def _prior_iv(prior_xy, prior_cov):
+    """Validate a prior position (..., 2) and its covariance (..., 2, 2), symmetric PSD."""
+    if prior_xy is None:
+        raise ValueError("method 'decorrelated' needs `prior_xy`, the prior (predicted) position "
+                         "whose covariance is averaged over; received None")
+    xp = as_float_array(prior_xy, "prior_xy", ndim_min=1, last_dims=(2,))
+    if prior_cov is None:
+        pc = np.zeros((2, 2))
+    else:
+        pc = as_float_array(prior_cov, "prior_cov", ndim_min=2, last_dims=(2, 2))
+        scale = np.maximum(np.abs(pc).max(axis=(-2, -1)), np.finfo(float).tiny)
+        det = pc[..., 0, 0] * pc[..., 1, 1] - pc[..., 0, 1] * pc[..., 1, 0]
+        if (np.any(np.abs(pc[..., 0, 1] - pc[..., 1, 0]) > 1e-9 * scale)
+                or np.any(pc[..., 0, 0] < 0) or np.any(pc[..., 1, 1] < 0)
+                or np.any(det < -1e-12 * scale**2)):
+            raise ValueError("`prior_cov` must be symmetric positive semi-definite (..., 2, 2); "
+                             f"received {_describe(pc)}")
+    if np.any(np.hypot(xp[..., 0], xp[..., 1]) == 0):
+        raise ValueError("`prior_xy` must not be at the radar (0, 0): its azimuth is undefined; "
+                         f"received {_describe(xp)}")
+    return xp, pc
+
+
+def _prior_polar(xp, pc):
+    """Prior position and covariance → (r_p, β_p, σ_rp², σ_βp²).
+
+    The covariance is carried to polar coordinates by the Jacobian of the inverse map at
+    the prior, keeping its diagonal (Bordonaro et al. 2014, who also drop the range–azimuth
+    correlation): σ_rp² = uᵀPu, σ_βp² = u⊥ᵀPu⊥ / r_p²."""
+    r_p = np.hypot(xp[..., 0], xp[..., 1])
+    b_p = np.arctan2(xp[..., 1], xp[..., 0])
+    c, s = np.cos(b_p), np.sin(b_p)
+    p00, p01, p11 = pc[..., 0, 0], 0.5 * (pc[..., 0, 1] + pc[..., 1, 0]), pc[..., 1, 1]
+    var_r = np.maximum(p00 * c**2 + 2 * p01 * c * s + p11 * s**2, 0.0)
+    with np.errstate(over="ignore", under="ignore"):
+        var_b = np.maximum(p00 * s**2 - 2 * p01 * c * s + p11 * c**2, 0.0) / r_p**2
+    if not np.all(np.isfinite(var_b)):
+        raise ValueError("`prior_xy` is too close to the radar for `prior_cov`: the prior's "
+                         "azimuth variance overflows float64")
+    return r_p, b_p, var_r, var_b
+
+
+def _decorrelated_variances(r_p2, sr2, s, sp):
+    """Principal variances of R^D = E[Cov(x̂_mult | r, β) | prior], along u(β_p) and across.
+
+    `r_p2` is E r² = r_p² + σ_rp² over the prior, `sr2` = σr², s = σβ², `sp` = σ_βp²:
+
+        R^D = ½(E r² + σr²) e^{s} (I + e^{−2s−2sp} M(β_p)) − ½ E r² (I + e^{−2sp} M(β_p)),
+
+    written with expm1 so that no difference of nearly equal numbers appears."""
+    with np.errstate(under="ignore"):
+        d = np.exp(-2 * sp)
+        along = 0.5 * (sr2 * (np.exp(s) + d * np.exp(-s))
+                       + r_p2 * (4 * np.sinh(s / 2) ** 2 + np.expm1(-2 * sp) * np.expm1(-s)))
+        cross = 0.5 * (sr2 * (-np.exp(s) * np.expm1(-2 * s - 2 * sp))
+                       + r_p2 * (np.expm1(s) - d * np.expm1(-s)))
+    return along, cross
+
+
+def _convert_decorrelated(r, beta, sigma_r, sigma_beta, r_p, var_r, var_b):
+    """Multiplicative position and the decorrelated principal variances (about u(β_p))."""
+    s = sigma_beta**2
+    with np.errstate(over="ignore"):
+        gr = np.exp(s / 2) * r
+    if not np.all(np.isfinite(gr)):
+        raise ValueError(f"`r` is too large: the converted position overflows float64; "
+                         f"received largest entry {float(np.max(r)):.6g}")
+    xy = np.stack([gr * np.cos(beta), gr * np.sin(beta)], axis=-1)
+    e = np.frexp(np.maximum(np.maximum(r_p, np.sqrt(var_r)), sigma_r))[1]
+    rp2 = np.ldexp(r_p, -e) ** 2 + np.ldexp(np.sqrt(var_r), -e) ** 2
+    along, cross = _decorrelated_variances(rp2, np.ldexp(sigma_r, -e) ** 2, s, var_b)
+    return (xy, _unscale(along, e, "along-range variance"),
+            _unscale(cross, e, "cross-range variance"))
+
+
 def _warn_singular(along, cross, method):
     low, high = np.minimum(along, cross), np.maximum(along, cross)
     bad = low <= 1e-12 * high
@@ -367,8 +513,8 @@ def _warn_singular(along, cross, method):
 
 
 # --------------------------------------------------------------------------- public API
-def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearized"
-                       ) -> ConvertedMeasurement:
+def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearized",
+                       prior_xy=None, prior_cov=None) -> ConvertedMeasurement:
     """Convert measured range and azimuth to a Cartesian position and covariance.
 
     Parameters
@@ -383,10 +529,18 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     sigma_beta : array_like
         Azimuth error standard deviation :math:`\\sigma_\\beta` in radians,
         :math:`0 \\le \\sigma_\\beta \\le` :data:`SIGMA_BETA_MAX` (0.5 rad).
-    method : {"linearized", "additive", "multiplicative", "first_order", "first_order_printed"}
-        The conversion (keyword-only); see the module docstring.
+    method : str
+        The conversion (keyword-only), one of :data:`ALL_METHODS`: ``"linearized"``,
+        ``"additive"``, ``"multiplicative"``, ``"first_order"``, ``"first_order_printed"``,
+        ``"measurement_conditioned"``, ``"decorrelated"``; see the module docstring.
+    prior_xy : array_like, shape (..., 2), optional
+        For ``"decorrelated"`` only (and required there): the prior position of the
+        target in the radar's frame — a track's prediction — not at the radar.
+    prior_cov : array_like, shape (..., 2, 2), optional
+        For ``"decorrelated"`` only: the prior's covariance, symmetric positive
+        semi-definite (default zero: the prior is the truth).
 
-    The four arrays broadcast together to a batch shape ``(...)``.
+    The four arrays (and the prior's batch axes) broadcast together to a batch shape ``(...)``.
 
     Returns
     -------
@@ -417,7 +571,8 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     :math:`q = e^{-s/2} = E\\cos\\tilde\\beta`, every method returns
     :math:`\\hat{\\mathbf x} = g\\,\\hat r u` with gain :math:`g = 1` (linearized),
     :math:`1 + q - q^2` (additive), :math:`q^{-1}`
-    (multiplicative), :math:`1 \\pm s/2` (first order, derived / printed).
+    (multiplicative and decorrelated), :math:`1 \\pm s/2` (first order, derived / printed),
+    :math:`q` (measurement-conditioned).
     The covariances, written as :math:`aI + bM(\\hat\\beta)` (the package computes them
     from their principal variances :math:`a \\pm b` along and across the line of sight,
     with ``expm1`` and a power-of-two scaling of :math:`\\hat r` and :math:`\\sigma_r`, so
@@ -430,7 +585,12 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
         \\text{(4a–c)}:\\quad & a = \\tfrac12(\\hat r^2 + 2\\sigma_r^2) - \\tfrac12(\\hat r^2 + \\sigma_r^2)e^{-s},\\;
             b = \\tfrac12(\\hat r^2 + 2\\sigma_r^2)e^{-4s} - \\tfrac12(\\hat r^2 + \\sigma_r^2)e^{-3s}\\\\
         \\text{multiplicative}:\\quad & a = \\tfrac12(e^{s} - 2)\\hat r^2 + \\tfrac12(\\hat r^2 + \\sigma_r^2),\\;
-            b = \\tfrac12(e^{s} - 2)\\hat r^2 + \\tfrac12(\\hat r^2 + \\sigma_r^2)e^{-2s}.
+            b = \\tfrac12(e^{s} - 2)\\hat r^2 + \\tfrac12(\\hat r^2 + \\sigma_r^2)e^{-2s}\\\\
+        \\text{measurement-conditioned}:\\quad & a = \\tfrac12(\\hat r^2 + \\sigma_r^2) - \\tfrac12 e^{-s}\\hat r^2,\\;
+            b = \\tfrac12(\\hat r^2 + \\sigma_r^2)e^{-2s} - \\tfrac12 e^{-s}\\hat r^2\\\\
+        \\text{decorrelated}:\\quad & a = \\tfrac12(\\bar r^2 + \\sigma_r^2)e^{s} - \\tfrac12\\bar r^2,\\;
+            b = \\tfrac12(\\bar r^2 + \\sigma_r^2)e^{-s-2s_p} - \\tfrac12\\bar r^2 e^{-2s_p}
+            \\;\\text{ (with } M(\\beta_p)\\text{)}.
 
     (4a–c) is Lerro & Bar-Shalom's :math:`E[\\operatorname{Cov}(\\hat{\\mathbf x}\\mid r,\\beta)\\mid
     \\hat r, \\hat\\beta]` (true-conditioned covariance averaged over the truth
@@ -438,6 +598,17 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     :math:`E[(\\hat{\\mathbf x} - \\mathbf x)(\\hat{\\mathbf x} - \\mathbf x)^\\mathsf T\\mid
     \\hat r, \\hat\\beta]`. Both treat the truth as :math:`r \\sim \\mathcal N(\\hat r, \\sigma_r^2)`,
     :math:`\\beta \\sim \\mathcal N(\\hat\\beta, \\sigma_\\beta^2)` given the measurement.
+    The measurement-conditioned covariance (Duan et al. 2004) is
+    :math:`\\operatorname{Cov}[\\mathbf x \\mid \\hat r, \\hat\\beta]` under the same law, and its
+    position is :math:`E[\\mathbf x \\mid \\hat r, \\hat\\beta] = q\\hat r u`. The decorrelated
+    covariance (Bordonaro et al. 2014) averages the multiplicative conversion's covariance
+    given the truth over the PRIOR instead, :math:`r \\sim \\mathcal N(r_p, \\sigma_{rp}^2)`,
+    :math:`\\beta \\sim \\mathcal N(\\beta_p, s_p)`, with :math:`(r_p, \\beta_p)` the prior position in
+    polar form, :math:`\\sigma_{rp}^2 = u_p^\\mathsf T P u_p`, :math:`s_p = u_{p\\perp}^\\mathsf T P
+    u_{p\\perp}/r_p^2` (the prior covariance :math:`P` carried to polar coordinates, its
+    range–azimuth correlation dropped, as in the paper) and :math:`\\bar r^2 = r_p^2 +
+    \\sigma_{rp}^2`; its principal axes are those of :math:`u(\\beta_p)`, and it does not depend
+    on the measurement at all.
 
     **Limit on** :math:`\\sigma_\\beta`. The moment formulas are exact for any
     :math:`\\sigma_\\beta` (cos and sin are periodic, so even a wrapped Gaussian
@@ -451,7 +622,8 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     References
     ----------
     Prosov, eqs. (1), (2a–c), (3a–b), (4a–c); Lerro & Bar-Shalom (1993);
-    Mo, Song et al. (1998).
+    Mo, Song et al. (1998); Duan, Han & Li (2004), the modified unbiased conversion;
+    Bordonaro, Willett & Bar-Shalom (2014), the decorrelated unbiased conversion.
 
     Examples
     --------
@@ -464,8 +636,22 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     >>> polar_to_cartesian([100.0, 150.0], 0.0, 0.1, 0.02, method="multiplicative").xy.shape
     (2, 2)
     """
-    method = as_choice(method, "method", METHODS)
+    method = as_choice(method, "method", ALL_METHODS)
+    if method != "decorrelated" and (prior_xy is not None or prior_cov is not None):
+        raise ValueError("`prior_xy`/`prior_cov` are used only by method 'decorrelated'; "
+                         f"received them with method {method!r}")
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta)
+    if method == "decorrelated":
+        xp, pc = _prior_iv(prior_xy, prior_cov)
+        r_p, b_p, var_r, var_b = _prior_polar(xp, pc)
+        _check_batch(1, r=r, prior_xy=r_p, prior_cov=var_b)
+        r, beta, sigma_r, sigma_beta, r_p, b_p, var_r, var_b = broadcast(
+            r=r, beta=beta, sigma_r=sigma_r, sigma_beta=sigma_beta, prior_xy=r_p, b_p=b_p,
+            prior_cov=var_r, v_b=var_b)
+        xy, along, cross = _convert_decorrelated(r, beta, sigma_r, sigma_beta, r_p, var_r,
+                                                 var_b)
+        _warn_singular(along, cross, method)
+        return ConvertedMeasurement(xy, _rotate(along, cross, b_p), method)
     xy, along, cross = _convert(method, r, beta, sigma_r, sigma_beta)
     _warn_singular(along, cross, method)
     return ConvertedMeasurement(xy, _rotate(along, cross, beta), method)
@@ -482,7 +668,8 @@ def conversion_moments(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     sigma_r, sigma_beta : array_like
         Error standard deviations, as in :func:`polar_to_cartesian`.
     method : str
-        One of :data:`METHODS` (keyword-only).
+        One of :data:`ALL_METHODS` (keyword-only); ``"decorrelated"`` has the
+        multiplicative position, hence its moments.
 
     Returns
     -------
@@ -515,7 +702,7 @@ def conversion_moments(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     >>> bool(np.abs(m.bias).max() < 1e-12)
     True
     """
-    method = as_choice(method, "method", METHODS)
+    method = as_choice(method, "method", ALL_METHODS)
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta)
     return _moments(method, r, beta, sigma_r, sigma_beta)
 
@@ -552,7 +739,7 @@ def conversion_bias(r, beta, sigma_beta, *, method: str = "linearized") -> np.nd
     sigma_beta : array_like
         Azimuth standard deviation in radians, ``0 <= sigma_beta <= SIGMA_BETA_MAX``.
     method : str
-        One of :data:`METHODS`; the default ``"linearized"`` is conversion (1).
+        One of :data:`ALL_METHODS`; the default ``"linearized"`` is conversion (1).
 
     Returns
     -------
@@ -580,7 +767,7 @@ def conversion_bias(r, beta, sigma_beta, *, method: str = "linearized") -> np.nd
     >>> conversion_bias(150.0, 0.0, np.deg2rad(1.0), method="multiplicative").round(12)
     array([0., 0.])
     """
-    method = as_choice(method, "method", METHODS)
+    method = as_choice(method, "method", ALL_METHODS)
     r, beta, sigma_beta = broadcast(r=as_positive(r, "r", strict=False),
                                     beta=as_float_array(beta, "beta"),
                                     sigma_beta=_sigma_beta_iv(sigma_beta))
@@ -797,7 +984,9 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
         The covariance must be positive definite: ``sigma_r > 0``,
         ``sigma_beta > 0``, and ``r > 0`` for ``"linearized"``.
     method : str
-        One of :data:`METHODS` (keyword-only).
+        One of :data:`ALL_METHODS` (keyword-only). For ``"decorrelated"`` the prior is
+        taken exactly at the truth (zero prior covariance), where its covariance is the
+        exact one and the result is 2.
 
     Returns
     -------
@@ -823,7 +1012,7 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
     >>> round(float(nees_at_truth(150.0, 0.0, 0.1, 1e-4)), 4)
     2.0
     """
-    method = as_choice(method, "method", METHODS)
+    method = as_choice(method, "method", ALL_METHODS)
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, strict=True)
     if method == "linearized" and np.any(r == 0):
         raise ValueError("`r` must be > 0 for method 'linearized' (its covariance at zero "
@@ -831,8 +1020,11 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
     s = sigma_beta**2
     e = _scale(r, sigma_r)
     rn, sr2 = np.ldexp(r, -e), np.ldexp(sigma_r, -e) ** 2
-    along_c, cross_c = _principal_variances(method, rn, sr2, s)
     along_t, cross_t = _truth_variances(method, rn, sr2, s)
+    if method == "decorrelated":      # a prior exactly at the truth: R^D is Cov[x̂ | r, β]
+        along_c, cross_c = along_t, cross_t
+    else:
+        along_c, cross_c = _principal_variances(method, rn, sr2, s)
     along_m = along_t + (_bias_factor(method, s) * rn) ** 2
     tiny = np.finfo(float).tiny
     if np.any(along_c <= tiny * along_m) or np.any(cross_c <= tiny * cross_t):
@@ -845,7 +1037,8 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
 def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
                            methods=("linearized", "additive", "multiplicative"),
                            trials: int = 10_000, rng=None,
-                           chunk_size: int | None = None) -> dict[str, ConversionTrials]:
+                           chunk_size: int | None = None,
+                           prior_std=None) -> dict[str, ConversionTrials]:
     """Monte Carlo of the conversion error and NEES for several methods.
 
     All methods see the same simulated measurements (common random numbers),
@@ -858,7 +1051,7 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
         to a batch shape ``(...)``; ``r >= 8 sigma_r``; ``sigma_r > 0`` and
         ``sigma_beta > 0``, since NEES needs a positive-definite covariance).
     methods : sequence of str
-        Methods from :data:`METHODS` (keyword-only).
+        Methods from :data:`ALL_METHODS` (keyword-only).
     trials : int
         Measurements per batch element (≥ 1; batch × trials at most
         :data:`MAX_BATCH`).
@@ -869,12 +1062,18 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
         2**16 batch elements per chunk. At most :data:`MAX_BATCH`. The results
         do not depend on it: all measurements are drawn first
         (:func:`simulate_polar`), then converted chunk by chunk.
+    prior_std : array_like, optional
+        Required with ``"decorrelated"`` (and refused without it): the standard
+        deviation, in each Cartesian axis, of the prior position, drawn independently
+        per trial as ``truth + prior_std · N(0, I)`` and passed with covariance
+        ``prior_std² I``. Broadcasts with the batch; ≥ 0. These draws come after
+        all the measurements, so the other methods' results do not depend on it.
 
     Returns
     -------
     dict of str to ConversionTrials
-        ``error`` with shape ``(..., trials, 2)`` and ``nees`` with shape
-        ``(..., trials)`` for each method.
+        ``error`` with shape ``(..., trials, 2)``, ``nees`` and ``nees_true`` with
+        shape ``(..., trials)`` for each method.
 
     Raises
     ------
@@ -901,12 +1100,20 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
     if isinstance(methods, (bytes, np.ndarray)) or not hasattr(methods, "__iter__"):
         raise TypeError(f"`methods` must be a sequence of method names; received "
                         f"{_describe(methods)}")
-    methods = tuple(as_choice(m, "methods", METHODS) for m in methods)
+    methods = tuple(as_choice(m, "methods", ALL_METHODS) for m in methods)
     if not methods:
         raise ValueError("`methods` must name at least one method; received an empty sequence")
     trials = as_int(trials, "trials", minimum=1)
+    if ("decorrelated" in methods) != (prior_std is not None):
+        raise ValueError("`prior_std` is required with method 'decorrelated' and used by it "
+                         f"only; received methods {methods} and prior_std {_describe(prior_std)}")
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, strict=True,
                                              trials=trials)
+    if prior_std is not None:
+        prior_std = as_positive(prior_std, "prior_std", strict=False)
+        _check_batch(trials, r=r, prior_std=prior_std)
+        r, beta, sigma_r, sigma_beta, prior_std = broadcast(
+            r=r, beta=beta, sigma_r=sigma_r, sigma_beta=sigma_beta, prior_std=prior_std)
     batch = max(int(r.size), 1)
     check_size(batch * trials * (16 + 24 * len(methods)), MEMORY_LIMIT,
                what="bytes of measurements and results (batch × trials × (16 + 24 × methods))",
@@ -916,23 +1123,51 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
     else:
         chunk = as_int(chunk_size, "chunk_size", minimum=1, maximum=MAX_BATCH)
     chunk = min(chunk, trials)
+    rng = as_rng(rng)
     r_hat, beta_hat = simulate_polar(r, beta, sigma_r, sigma_beta, trials=trials, rng=rng)
     truth = np.stack([r * np.cos(beta), r * np.sin(beta)], axis=-1)[..., None, :]
+    if prior_std is not None:      # drawn after the measurements: other methods unchanged
+        prior = truth + prior_std[..., None, None] * rng.standard_normal((*r.shape, trials, 2))
+        r_p, b_p, var_r, var_b = _prior_polar(
+            prior, (prior_std**2)[..., None, None, None] * np.eye(2))
+        if np.any(r_p == 0):
+            raise ValueError("a drawn prior fell on the radar: `prior_std` is too large for "
+                             "this range")
     sr, sb = sigma_r[..., None], sigma_beta[..., None]
-    out = {m: (np.empty((*r.shape, trials, 2)), np.empty((*r.shape, trials))) for m in methods}
+    u_t = np.stack([np.cos(beta), np.sin(beta)], axis=-1)[..., None, :]
+    out = {m: (np.empty((*r.shape, trials, 2)), np.empty((*r.shape, trials)),
+               np.empty((*r.shape, trials))) for m in methods}
+    u0, u1 = u_t[..., 0, 0], u_t[..., 0, 1]
+    for m in methods:          # the exact MSE given the truth, in its principal axes u(β), u⊥
+        mse = _moments(m, r, beta, sigma_r, sigma_beta).mse
+        mse_a = mse[..., 0, 0] * u0**2 + 2 * mse[..., 0, 1] * u0 * u1 + mse[..., 1, 1] * u1**2
+        mse_c = mse[..., 0, 0] * u1**2 - 2 * mse[..., 0, 1] * u0 * u1 + mse[..., 1, 1] * u0**2
+        out[m] += (mse_a[..., None], mse_c[..., None])
     for lo in range(0, trials, chunk):
         sl = slice(lo, min(lo + chunk, trials))
         rh, bh = r_hat[..., sl], beta_hat[..., sl]
         u = np.stack([np.cos(bh), np.sin(bh)], axis=-1)
         for m in methods:
-            xy, along, cross = _convert(m, rh, bh, sr, sb)
+            if m == "decorrelated":
+                xy, along, cross = _convert_decorrelated(rh, bh, sr, sb, r_p[..., sl],
+                                                         var_r[..., sl], var_b[..., sl])
+                axis = np.stack([np.cos(b_p[..., sl]), np.sin(b_p[..., sl])], axis=-1)
+            else:
+                xy, along, cross = _convert(m, rh, bh, sr, sb)
+                axis = u
             err = xy - truth
-            ea = np.sum(err * u, axis=-1)                             # along the line of sight
-            ec = err[..., 1] * u[..., 0] - err[..., 0] * u[..., 1]    # across it
+            ea = np.sum(err * axis, axis=-1)                                # along the axis
+            ec = err[..., 1] * axis[..., 0] - err[..., 0] * axis[..., 1]    # across it
             if np.any(along <= 0) or np.any(cross <= 0):
                 raise ValueError("a converted covariance is singular (a measured range of 0 "
                                  "with 'linearized', or `sigma_r`/`sigma_beta` too small for "
                                  "float64 at these ranges)")
             out[m][0][..., sl, :] = err
             out[m][1][..., sl] = _finite_nees(ea**2 / along + ec**2 / cross)
-    return {m: ConversionTrials(m, err, ne) for m, (err, ne) in out.items()}
+            # against the exact MSE given the truth (principal axes along u(β), the bias on it)
+            mse_a, mse_c = out[m][3], out[m][4]
+            ta = np.sum(err * u_t, axis=-1)
+            tc = err[..., 1] * u_t[..., 0] - err[..., 0] * u_t[..., 1]
+            with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+                out[m][2][..., sl] = ta**2 / mse_a + tc**2 / mse_c
+    return {m: ConversionTrials(m, v[0], v[1], v[2]) for m, v in out.items()}

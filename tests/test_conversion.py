@@ -22,7 +22,7 @@ from scipy import integrate
 from radarfusion_ref import conversion as cv
 from radarfusion_ref.errors import RadarFusionWarning
 
-ALL = cv.METHODS
+ALL = (*cv.METHODS, "measurement_conditioned")     # every method that needs no prior
 
 
 # --------------------------------------------------------------------------- independent sympy route
@@ -94,7 +94,8 @@ def test_moments_given_truth_match_sympy(method):
     exx, exy, eyy = route["second"](r, b, sr, sb)
     g = {"linearized": 1.0, "additive": 1 + np.exp(-sb**2 / 2) - np.exp(-sb**2),
          "multiplicative": np.exp(sb**2 / 2), "first_order": 1 + sb**2 / 2,
-         "first_order_printed": 1 - sb**2 / 2}[method]
+         "first_order_printed": 1 - sb**2 / 2, "measurement_conditioned": np.exp(-sb**2 / 2)
+         }[method]
     m = cv.conversion_moments(r, b, sr, sb, method=method)
     np.testing.assert_allclose(m.mean, np.stack([g * mx, g * my], -1), rtol=1e-12)
     cov = np.empty((len(r), 2, 2))
@@ -268,6 +269,166 @@ def test_multiplicative_covariance_is_mse_given_measurement():
         e = conv.xy - np.stack([rr * np.cos(bb), rr * np.sin(bb)], -1)
         mse = np.einsum("i,j,ijk,ijl->kl", wt, wt, e, e)
         np.testing.assert_allclose(conv.cov, mse, rtol=1e-8, atol=1e-10 * rh**2)
+
+
+def test_measurement_conditioned_is_the_conditional_mean_and_covariance():
+    """Duan et al.: E[x | r̂, β̂] and Cov[x | r̂, β̂] by quadrature, the truth N(measurement, σ²)."""
+    x, wt = _gauss_hermite()
+    for rh, bh, sr, sb in zip(*_rand_inputs(16, n=6), strict=True):
+        conv = cv.polar_to_cartesian(rh, bh, sr, sb, method="measurement_conditioned")
+        rr = rh - sr * x[:, None]
+        bb = bh - sb * x[None, :]
+        pts = np.stack([rr * np.cos(bb), rr * np.sin(bb)], -1)
+        mu = np.einsum("i,j,ijk->k", wt, wt, pts)
+        cov = np.einsum("i,j,ijk,ijl->kl", wt, wt, pts - mu, pts - mu)
+        np.testing.assert_allclose(conv.xy, mu, rtol=1e-10, atol=1e-10 * rh)
+        np.testing.assert_allclose(conv.cov, cov, rtol=1e-8, atol=1e-10 * rh**2)
+
+
+def _prior_polar_by_jacobian(xp, pc):
+    """Polar prior (r_p, β_p, σ_rp², σ_βp²): the diagonal of J⁻¹ P J⁻ᵀ, J = ∂(x, y)/∂(r, β)."""
+    r_p, b_p = np.hypot(*xp), np.arctan2(xp[1], xp[0])
+    jac = np.array([[np.cos(b_p), -r_p * np.sin(b_p)], [np.sin(b_p), r_p * np.cos(b_p)]])
+    polar = np.linalg.solve(jac, np.linalg.solve(jac, pc).T)       # J⁻¹ P J⁻ᵀ (P symmetric)
+    return r_p, b_p, polar[0, 0], polar[1, 1]
+
+
+def test_decorrelated_covariance_is_truth_covariance_averaged_over_the_prior():
+    """Bordonaro et al.: E[Cov(x̂_mult | r, β) | prior] by quadrature, r ~ N(r_p, σ_rp²),
+    β ~ N(β_p, σ_βp²), with the sympy covariance given the truth (times the gain²)."""
+    x, wt = _gauss_hermite()
+    g = np.random.default_rng(7)
+    for rh, bh, sr, sb in zip(*_rand_inputs(17, n=6), strict=True):
+        xp = rh * np.array([np.cos(bh + 0.05), np.sin(bh + 0.05)]) + g.normal(0, 1, 2)
+        a = g.normal(0, 1.5, (2, 2))
+        pc = a @ a.T
+        r_p, b_p, vr, vb = _prior_polar_by_jacobian(xp, pc)
+        rr = r_p + np.sqrt(vr) * x[:, None]
+        bb = b_p + np.sqrt(vb) * x[None, :]
+        avg = np.exp(sb**2) * np.einsum("i,j,ijkl->kl", wt, wt, _truth_cov_sympy(rr, bb, sr, sb))
+        got = cv.polar_to_cartesian(rh, bh, sr, sb, method="decorrelated", prior_xy=xp,
+                                    prior_cov=pc)
+        np.testing.assert_allclose(got.cov, avg, rtol=1e-8, atol=1e-10 * rh**2)
+        np.testing.assert_allclose(got.xy, np.exp(sb**2 / 2) * rh * np.array(
+            [np.cos(bh), np.sin(bh)]), rtol=1e-12)
+        # the covariance does not depend on the measurement
+        other = cv.polar_to_cartesian(rh * 1.3, bh - 0.2, sr, sb, method="decorrelated",
+                                      prior_xy=xp, prior_cov=pc)
+        np.testing.assert_array_equal(other.cov, got.cov)
+
+
+def test_decorrelated_with_an_exact_prior_is_the_exact_covariance():
+    r, b, sr, sb = _rand_inputs(18)
+    exact = np.exp(sb**2)[:, None, None] * _truth_cov_sympy(r, b, sr, sb)
+    xp = np.stack([r * np.cos(b), r * np.sin(b)], -1)
+    got = cv.polar_to_cartesian(r * 0.9, b + 0.1, sr, sb, method="decorrelated", prior_xy=xp)
+    np.testing.assert_allclose(got.cov, exact, rtol=1e-9, atol=1e-12 * np.max(r**2))
+    np.testing.assert_allclose(cv.nees_at_truth(r, b, sr, sb, method="decorrelated"), 2.0,
+                               rtol=1e-12)
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"method": "decorrelated"}, "`prior_xy`"),
+    ({"method": "multiplicative", "prior_xy": [1.0, 1.0]}, "`prior_xy`"),
+    ({"method": "decorrelated", "prior_xy": [0.0, 0.0]}, "`prior_xy`"),
+    ({"method": "decorrelated", "prior_xy": [1.0, 1.0, 1.0]}, "`prior_xy`"),
+    ({"method": "decorrelated", "prior_xy": [1.0, np.nan]}, "`prior_xy`"),
+    ({"method": "decorrelated", "prior_xy": [1.0, 1.0], "prior_cov": -np.eye(2)}, "`prior_cov`"),
+    ({"method": "decorrelated", "prior_xy": [1.0, 1.0], "prior_cov": [[1.0, 2.0], [0.0, 1.0]]},
+     "`prior_cov`"),
+    ({"method": "decorrelated", "prior_xy": [1.0, 1.0], "prior_cov": [[1.0, 2.0], [2.0, 1.0]]},
+     "`prior_cov`"),
+    ({"method": "decorrelated", "prior_xy": [1.0, 1.0], "prior_cov": "big"}, "`prior_cov`"),
+])
+def test_decorrelated_bad_prior(kwargs, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        cv.polar_to_cartesian(100.0, 0.3, 0.5, 0.1, **kwargs)
+
+
+def test_monte_carlo_prior_std_is_required_by_decorrelated_only():
+    with pytest.raises(ValueError, match="`prior_std`"):
+        cv.conversion_monte_carlo(100.0, 0.3, 0.5, 0.1, methods=("decorrelated",), trials=3, rng=1)
+    with pytest.raises(ValueError, match="`prior_std`"):
+        cv.conversion_monte_carlo(100.0, 0.3, 0.5, 0.1, trials=3, rng=1, prior_std=1.0)
+    with pytest.raises(ValueError, match="`prior_std`"):
+        cv.conversion_monte_carlo(100.0, 0.3, 0.5, 0.1, methods=("decorrelated",), trials=3,
+                                  rng=1, prior_std=-1.0)
+
+
+def test_monte_carlo_prior_draws_leave_the_other_methods_unchanged():
+    a = cv.conversion_monte_carlo([100.0, 50.0], 0.3, 0.5, 0.2, methods=("linearized",),
+                                  trials=500, rng=4)["linearized"]
+    b = cv.conversion_monte_carlo([100.0, 50.0], 0.3, 0.5, 0.2,
+                                  methods=("linearized", "decorrelated"), trials=500, rng=4,
+                                  prior_std=2.0)
+    np.testing.assert_array_equal(a.error, b["linearized"].error)
+    np.testing.assert_array_equal(a.nees, b["linearized"].nees)
+
+
+def test_monte_carlo_decorrelated_matches_the_direct_conversion_and_nees():
+    """The chunked decorrelated NEES equals the generic NEES of polar_to_cartesian's output,
+    with the prior re-drawn from the same stream (after the measurements)."""
+    r, b, sr, sb, ps, n = 80.0, -0.7, 0.5, 0.3, 1.5, 300
+    out = cv.conversion_monte_carlo(r, b, sr, sb, methods=("decorrelated",), trials=n, rng=9,
+                                    prior_std=ps)["decorrelated"]
+    g = np.random.default_rng(9)
+    rh = r + sr * g.standard_normal(n)
+    bh = b + sb * g.standard_normal(n)
+    xp = r * np.array([np.cos(b), np.sin(b)]) + ps * g.standard_normal((n, 2))
+    conv = cv.polar_to_cartesian(rh, bh, sr, sb, method="decorrelated", prior_xy=xp,
+                                 prior_cov=ps**2 * np.eye(2))
+    truth = r * np.array([np.cos(b), np.sin(b)])
+    np.testing.assert_allclose(out.error, conv.xy - truth, rtol=1e-12, atol=1e-12 * r)
+    err = conv.xy - truth
+    direct = np.einsum("ni,ni->n", err, np.linalg.solve(conv.cov, err[..., None])[..., 0])
+    np.testing.assert_allclose(out.nees, direct, rtol=1e-9)
+
+
+@pytest.mark.parametrize("method", [*ALL, "decorrelated"])
+def test_noncredibility_index_is_the_mean_log_ratio(method):
+    """NCI against a direct evaluation: the exact MSE from the sympy route, NEES by solve."""
+    r, b, sr, sb, n = 90.0, 1.1, 0.5, 0.25, 400
+    kw = {"prior_std": 1.0} if method == "decorrelated" else {}
+    out = cv.conversion_monte_carlo(r, b, sr, sb, methods=(method,), trials=n, rng=5,
+                                    **kw)[method]
+    route = _sympy_route()
+    g = {"linearized": 1.0, "additive": 1 + np.exp(-sb**2 / 2) - np.exp(-sb**2),
+         "multiplicative": np.exp(sb**2 / 2), "decorrelated": np.exp(sb**2 / 2),
+         "first_order": 1 + sb**2 / 2, "first_order_printed": 1 - sb**2 / 2,
+         "measurement_conditioned": np.exp(-sb**2 / 2)}[method]
+    mean_xy = g * np.array(route["mean"](r, b, sr, sb))
+    bias = mean_xy - r * np.array([np.cos(b), np.sin(b)])
+    mse = g**2 * _truth_cov_sympy(r, b, sr, sb) + np.outer(bias, bias)
+    e = out.error
+    ntrue = np.einsum("ni,ni->n", e, np.linalg.solve(mse, e.T).T)
+    np.testing.assert_allclose(out.nees_true, ntrue, rtol=1e-8)
+    nci = out.noncredibility()
+    ref = 10 * np.log10(out.nees / ntrue)
+    assert nci.estimate == pytest.approx(ref.mean(), rel=1e-8, abs=1e-10)
+    assert nci.std_error == pytest.approx(ref.std(ddof=1) / np.sqrt(n), rel=1e-6)
+
+
+def test_noncredibility_needs_the_true_nees():
+    t = cv.ConversionTrials("linearized", np.ones((3, 2)), np.ones(3))
+    with pytest.raises(ValueError, match="`nees_true`"):
+        t.noncredibility()
+
+
+def test_new_methods_consistent_and_biased_as_derived_by_monte_carlo():
+    """Mean NEES 2 (given the truth, over the measurements) for the decorrelated covariance
+    with an exact prior; the measurement-conditioned bias given the truth is
+    (e^{−σβ²} − 1) r u(β) (by the sympy route: E cos w = e^{−σβ²/2}, twice)."""
+    r, b, sr, sb, n = 100.0, 0.3, 1.0, 0.3, 100_000
+    out = cv.conversion_monte_carlo(r, b, sr, sb, methods=("measurement_conditioned",
+                                                           "decorrelated"),
+                                    trials=n, rng=21, prior_std=0.0)
+    ecos = float(_sympy_route()["ecos"].subs({sp.Symbol("k", positive=True): 1,
+                                              sp.Symbol("sigma_beta", positive=True): sb}))
+    bias = (ecos**2 - 1) * r * np.array([np.cos(b), np.sin(b)])
+    est = out["measurement_conditioned"].bias()
+    assert np.all(np.abs(est.estimate - bias) < 5 * est.std_error)
+    mn = out["decorrelated"].mean_nees()
+    assert abs(mn.estimate - 2.0) < 5 * mn.std_error
 
 
 def test_additive_gain_subtracts_the_averaged_bias():
@@ -483,13 +644,17 @@ def _mp_principal(method, r, sr, sb, *, truth=False):
     r, sr, s = mpmath.mpf(r), mpmath.mpf(sr), mpmath.mpf(sb) ** 2
     e = mpmath.exp
     gain = {"linearized": 1, "additive": 1 + e(-s / 2) - e(-s), "multiplicative": e(s / 2),
-            "first_order": 1 + s / 2, "first_order_printed": 1 - s / 2}[method]
+            "first_order": 1 + s / 2, "first_order_printed": 1 - s / 2,
+            "measurement_conditioned": e(-s / 2)}[method]
     if truth:
         e2 = r**2 + sr**2
         a = gain**2 * (e2 / 2 - e(-s) * r**2 / 2)
         b = gain**2 * (e2 * e(-2 * s) / 2 - e(-s) * r**2 / 2)
     elif method == "linearized":
         return sr**2, r**2 * s
+    elif method == "measurement_conditioned":
+        a = (r**2 + sr**2) / 2 - e(-s) * r**2 / 2
+        b = (r**2 + sr**2) * e(-2 * s) / 2 - e(-s) * r**2 / 2
     elif method == "multiplicative":
         k = (e(s) - 2) * r**2
         a, b = k / 2 + (r**2 + sr**2) / 2, k / 2 + (r**2 + sr**2) * e(-2 * s) / 2
@@ -503,7 +668,8 @@ def _mp_bias_factor(method, sb):
     s = mpmath.mpf(sb) ** 2
     e = mpmath.exp
     gain = {"linearized": 1, "additive": 1 + e(-s / 2) - e(-s), "multiplicative": e(s / 2),
-            "first_order": 1 + s / 2, "first_order_printed": 1 - s / 2}[method]
+            "first_order": 1 + s / 2, "first_order_printed": 1 - s / 2,
+            "measurement_conditioned": e(-s / 2)}[method]
     return gain * e(-s / 2) - 1
 
 
