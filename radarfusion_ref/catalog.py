@@ -10,11 +10,13 @@ from dataclasses import dataclass
 
 __all__ = ["Chapter", "CHAPTERS", "PAPERS", "chapter_table"]
 
-#: Short keys of the source papers, with their bibliography keys.
+#: Short keys of the source papers, with their bibliography keys ("B": the chapters that go
+#: beyond the papers, with no source of their own).
 PAPERS = {
     "GK": ("Grachov & Korneev (2010)", "grachov2010"),
     "P": ("Prosov", "prosov"),
     "S": ("Sonar paper (2013)", "sonar2013"),
+    "B": ("Beyond the papers", None),
 }
 
 
@@ -70,6 +72,8 @@ CHAPTERS: tuple[Chapter, ...] = (
     Chapter("separated", 7, "Associating two separated radars", "P",
             "quadratic form $S$; Table 1", (3, 4, 6)),
     Chapter("grouping", 8, "Grouping reports of many sources", "S", "eqs. (4)–(26)", (1, 2, 4)),
+    Chapter("trackfusion", 10, "Track-to-track fusion", "B", "cross-covariance; time alignment",
+            (1, 2, 3)),
 )
 
 

@@ -90,7 +90,8 @@ def test_errata_page_includes_every_chapter_fragment():
 
 def test_errata_page_has_a_heading_per_paper():
     errata = (ROOT / "book" / "errata.md").read_text(encoding="utf-8")
-    assert len(re.findall(r"^## ", errata, flags=re.M)) == len(catalog.PAPERS)
+    papers = [key for key, (_, bibkey) in catalog.PAPERS.items() if bibkey]
+    assert len(re.findall(r"^## ", errata, flags=re.M)) == len(papers)
 
 
 @pytest.mark.parametrize("chapter", catalog.CHAPTERS, ids=lambda c: c.stem)
