@@ -72,6 +72,8 @@ CHAPTERS: tuple[Chapter, ...] = (
     Chapter("separated", 7, "Associating two separated radars", "P",
             "quadratic form $S$; Table 1", (3, 4, 6)),
     Chapter("grouping", 8, "Grouping reports of many sources", "S", "eqs. (4)–(26)", (1, 2, 4)),
+    Chapter("registration", 9, "Registration: systematic sensor biases", "B",
+            "bias model; estimation and its CRLB", (1, 2, 3, 4, 6, 7)),
     Chapter("trackfusion", 10, "Track-to-track fusion", "B", "cross-covariance; time alignment",
             (1, 2, 3)),
 )
