@@ -62,6 +62,7 @@ from . import scenes
 from ._validation import (
     MEMORY_LIMIT,
     _describe,
+    as_bool,
     as_choice,
     as_covariance,
     as_float_array,
@@ -1032,7 +1033,7 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
 
 # --------------------------------------------------------------------------- non-assignment cost
 def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
-                        object_density, innovation_cov):
+                        object_density, innovation_cov=None, logdet: bool = False):
     """Per-report non-assignment cost (in proximity units) from the likelihood ratio.
 
     Parameters
@@ -1048,6 +1049,15 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
         :math:`S = \\Sigma_1 + \\Sigma_2`, the covariance of the difference of
         two reports of one object (a scalar is a 1-D variance). Symmetric
         positive definite; variances from 1e-300 to 1e300 are handled.
+        Required with ``logdet=False``; optional with ``logdet=True`` (then
+        only validated and broadcast: the pair costs carry the determinant).
+    logdet : bool, optional
+        False (default): the cost for a matrix of proximity measures
+        :math:`\\kappa_{ij}` (``proximity_matrix(...)``), which holds
+        :math:`-\\tfrac12\\ln\\det(2\\pi S)` for the one `innovation_cov`. True:
+        the cost for a matrix of full ML costs :math:`\\kappa_{ij} +
+        \\ln\\det(2\\pi S_{ij})` (``proximity_matrix(..., logdet=True)``), right when
+        :math:`S_{ij}` differs from pair to pair.
 
     Returns
     -------
@@ -1069,7 +1079,8 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     -----
     RadarFusionWarning
         If :math:`c_0 \\le 0`: no pair with :math:`\\kappa \\ge 0` can beat
-        leaving both reports unassigned.
+        leaving both reports unassigned. (``logdet=False`` only: the full
+        costs of ``logdet=True`` may be negative).
 
     Notes
     -----
@@ -1086,6 +1097,9 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
 
         \\kappa_{ij} < 2\\ln\\frac{\\rho_T P_{D,1} P_{D,2}}{u_1 u_2} - \\ln\\det(2\\pi S)
         = 2c_0,
+
+    and, with ``logdet=True``, :math:`c_0 = \\ln(\\rho_T P_{D,1} P_{D,2}/(u_1 u_2))`
+    against the costs :math:`\\kappa_{ij} + \\ln\\det(2\\pi S_{ij})`,
 
     and with cost :math:`c_0` per unassigned report the assignment cost
     :math:`\\sum \\kappa + c_0\\,(\\#\\text{unassigned})` is, up to a constant,
@@ -1107,7 +1121,15 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     ...                         false_density2=0.1, object_density=1.0, innovation_cov=0.02)
     >>> round(float(m), 4)
     4.1478
+    >>> m_full = non_assignment_cost(p_detect1=0.9, p_detect2=0.9, false_density1=0.1,
+    ...                              false_density2=0.1, object_density=1.0, logdet=True)
+    >>> round(float(m_full - m), 4)          # = ln(2 pi 0.02) / 2
+    -1.0371
     """
+    with_logdet = as_bool(logdet, "logdet")
+    if innovation_cov is None and not with_logdet:
+        raise TypeError("`innovation_cov` is required with `logdet=False` (the covariance S of "
+                        "the difference of two reports of one object); received None")
     p1 = as_probability(p_detect1, "p_detect1", open_interval=False)
     p2 = as_probability(p_detect2, "p_detect2", open_interval=False)
     for name, p, raw in (("p_detect1", p1, p_detect1), ("p_detect2", p2, p_detect2)):
@@ -1116,8 +1138,10 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     lam1 = as_positive(false_density1, "false_density1", strict=False)
     lam2 = as_positive(false_density2, "false_density2", strict=False)
     beta = as_positive(object_density, "object_density")
-    s = as_float_array(innovation_cov, "innovation_cov")
-    if s.ndim < 2:
+    s = as_float_array(0.0 if innovation_cov is None else innovation_cov, "innovation_cov")
+    if innovation_cov is None:
+        logdet = s
+    elif s.ndim < 2:
         s = as_positive(s, "innovation_cov")
         logdet = np.log(2 * np.pi) + np.log(s)                 # no overflow of 2 pi S
     else:
@@ -1139,8 +1163,11 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
         lb = np.log(beta)
         log_u1 = np.logaddexp(np.log(lam1), lb + np.log(p1) + np.log1p(-p2))
         log_u2 = np.logaddexp(np.log(lam2), lb + np.log(p2) + np.log1p(-p1))
-    m = lb + np.log(p1) + np.log(p2) - log_u1 - log_u2 - 0.5 * logdet
-    if np.any(m <= 0):
+    m = lb + np.log(p1) + np.log(p2) - log_u1 - log_u2
+    # with logdet=True a given `innovation_cov` only shapes the result (0 * its log det)
+    m = m + (0.0 if with_logdet else -0.5) * logdet
+    # (full costs kappa + ln det 2 pi S may be negative, so c_0 <= 0 is no alarm there)
+    if not with_logdet and np.any(m <= 0):
         warnings.warn(
             "non-assignment cost <= 0: no pair with proximity >= 0 beats leaving both "
             "reports unassigned (false-report density too high for this accuracy)",
@@ -1310,8 +1337,8 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, sigma1: float, si
                         lam1, lam2, low, high)
 
 
-def proximity_matrix(reports1, reports2, sigma1: float, sigma2: float) -> np.ndarray:
-    """All pairwise proximity measures :math:`\\kappa_{ij}` of two report lists.
+def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False) -> np.ndarray:
+    """All pairwise proximity measures :math:`\\kappa_{ij}` (or full ML costs) of two report lists.
 
     A thin wrapper that broadcasts :func:`radarfusion_ref.proximity.mahalanobis_sq`
     over every (radar-1, radar-2) pair.
@@ -1319,40 +1346,104 @@ def proximity_matrix(reports1, reports2, sigma1: float, sigma2: float) -> np.nda
     Parameters
     ----------
     reports1, reports2 : array_like, shape (..., n1, d) and (..., n2, d)
-    sigma1, sigma2 : float
-        Per-coordinate error standard deviations of the two radars.
+    sigma1, sigma2 : float or array_like, shape (..., n1) and (..., n2)
+        Per-coordinate error standard deviations: one number per radar, or one
+        per report (each report's covariance is :math:`\\sigma^2 I`); arrays
+        broadcast against the reports' leading axes.
+    logdet : bool, optional
+        False (default): the proximity measure :math:`\\kappa_{ij}` alone.
+        True: the full maximum-likelihood cost
+        :math:`c_{ij} = \\kappa_{ij} + \\ln\\det(2\\pi S_{ij})`, :math:`-2\\ln` of the
+        likelihood :math:`\\mathcal N(\\hat x_{1i} - \\hat x_{2j}; 0, S_{ij})` of the pair
+        with the object's position integrated out, :math:`S_{ij} = (\\sigma_{1i}^2 +
+        \\sigma_{2j}^2) I`. Pass it with ``non_assignment_cost(..., logdet=True)``.
 
     Returns
     -------
     numpy.ndarray, shape (..., n1, n2)
         :math:`\\kappa_{ij} = \\lVert \\hat x_{1i} - \\hat x_{2j}\\rVert^2 /
-        (\\sigma_1^2 + \\sigma_2^2)` — the exponent of eq. (7) (times −2).
+        (\\sigma_{1i}^2 + \\sigma_{2j}^2)` — the exponent of eq. (7) (times −2) — plus
+        :math:`d\\ln(2\\pi(\\sigma_{1i}^2 + \\sigma_{2j}^2))` with ``logdet=True``.
+
+    Raises
+    ------
+    ValueError
+        For reports of different dimensions or unbroadcastable batch axes, sigmas
+        that are not > 0 or do not broadcast against the reports, and sizes
+        beyond the memory limit.
+    TypeError
+        For non-numeric input or a `logdet` that is not a bool.
+
+    Notes
+    -----
+    With one variance per radar the log-determinant is the same for every
+    pair: it cannot change which complete pairing is best, only how a pair
+    compares with leaving its reports unassigned. With one variance per report
+    it is not a sum of a row term and a column term, and it can change the
+    joint decision (the book's page on the full ML cost). It is computed in the log
+    domain, :math:`\\ln(\\sigma_1^2 + \\sigma_2^2)` by :func:`numpy.logaddexp`, so
+    no variance in the float range overflows.
 
     Examples
     --------
     >>> proximity_matrix([[0.0], [1.0]], [[0.5]], 0.3, 0.4)
     array([[1.],
            [1.]])
+    >>> proximity_matrix([[0.0]], [[0.5]], 0.3, 0.4, logdet=True).round(4)   # 1 + ln(2 pi 0.25)
+    array([[1.4516]])
     """
     r1 = as_float_array(reports1, "reports1", ndim_min=2)
     r2 = as_float_array(reports2, "reports2", ndim_min=2)
+    with_logdet = as_bool(logdet, "logdet")
     if r1.shape[-1] != r2.shape[-1]:
         raise ValueError("`reports1` and `reports2` must have the same last dimension d; "
                          f"received shapes {r1.shape} and {r2.shape}")
+    sd1 = as_positive(sigma1, "sigma1")
+    sd2 = as_positive(sigma2, "sigma2")
+    shapes = []
+    for name, sd, r in (("sigma1", sd1, r1), ("sigma2", sd2, r2)):
+        try:
+            shapes.append(np.broadcast_shapes(sd.shape, r.shape[:-1]))
+        except ValueError:
+            raise ValueError(f"`{name}` must be one number or one per report, broadcasting "
+                             f"against the reports' shape without d {r.shape[:-1]}; received "
+                             f"shape {sd.shape}") from None
+        if shapes[-1][-1] != r.shape[-2]:
+            raise ValueError(f"`{name}` must be one number or one per report (last axis "
+                             f"{r.shape[-2]}); received shape {sd.shape}")
     try:
-        batch = np.broadcast_shapes(r1.shape[:-2], r2.shape[:-2])
+        batch = np.broadcast_shapes(shapes[0][:-1], shapes[1][:-1])
     except ValueError:
-        raise ValueError("`reports1` and `reports2` must have broadcastable leading (batch) "
-                         f"axes; received shapes {r1.shape} and {r2.shape}") from None
+        raise ValueError("`reports1` and `reports2` (with `sigma1`, `sigma2`) must have "
+                         f"broadcastable leading (batch) axes; received shapes {r1.shape}, "
+                         f"{r2.shape}, {sd1.shape} and {sd2.shape}") from None
     n1, n2, d = r1.shape[-2], r2.shape[-2], r1.shape[-1]
-    _limit(math.prod(batch) * n1 * n2 * d * 8 * 4, MEMORY_LIMIT, name="reports1",
+    per_report = sd1.ndim > 0 or sd2.ndim > 0
+    per_pair = d + d * d if per_report else d
+    _limit(math.prod(batch) * n1 * n2 * per_pair * 8 * 4, MEMORY_LIMIT, name="reports1",
            what=f"bytes of pair differences ({math.prod(batch)} x {n1} x {n2} pairs, d = {d})",
            alternative="fewer trials per call (split the batch)")
     eye = np.eye(d)
-    v1 = float(as_positive(sigma1, "sigma1")) ** 2
-    v2 = float(as_positive(sigma2, "sigma2")) ** 2
-    out = mahalanobis_sq(r1[..., :, None, :], r2[..., None, :, :], v1 * eye, v2 * eye)
-    return np.asarray(out, dtype=float)
+    if not per_report:
+        v1, v2 = float(sd1) ** 2, float(sd2) ** 2
+        out = mahalanobis_sq(r1[..., :, None, :], r2[..., None, :, :], v1 * eye, v2 * eye)
+    else:
+        v1, v2 = np.square(np.atleast_1d(sd1)), np.square(np.atleast_1d(sd2))
+        if not (np.all(np.isfinite(v1)) and np.all(v1 > 0) and np.all(np.isfinite(v2))
+                and np.all(v2 > 0)):
+            raise ValueError("`sigma1` and `sigma2` must have squares within the float range "
+                             f"(1e-154 < sigma < 1e154); received {_describe(sd1)} and "
+                             f"{_describe(sd2)}")
+        c1 = v1[..., :, None, None, None] * eye               # (..., n1, 1, d, d)
+        c2 = v2[..., None, :, None, None] * eye               # (..., 1, n2, d, d)
+        out = mahalanobis_sq(r1[..., :, None, :], r2[..., None, :, :], c1, c2)
+    out = np.asarray(out, dtype=float)
+    if with_logdet:
+        # ln det(2 pi S) = d (ln 2 pi + ln(s1^2 + s2^2)), ln(s1^2 + s2^2) by logaddexp
+        l1 = 2 * np.log(np.atleast_1d(sd1))[..., :, None]
+        l2 = 2 * np.log(np.atleast_1d(sd2))[..., None, :]
+        out = out + d * (math.log(2 * math.pi) + np.logaddexp(l1, l2))
+    return out
 
 
 # --------------------------------------------------------------------------- Monte Carlo

@@ -69,6 +69,7 @@ from . import conversion, gating
 from ._validation import (
     MEMORY_LIMIT,
     _describe,
+    as_bool,
     as_choice,
     as_covariance,
     as_float_array,
@@ -682,7 +683,8 @@ def _as_cov_stack(cov: np.ndarray, name: str) -> np.ndarray:
     return c
 
 
-def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
+def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False,
+                   logdet: bool = False):
     """The quadratic form :math:`\\kappa` for every pair of radar-1 and radar-2 reports.
 
     Parameters
@@ -698,12 +700,22 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     return_logdet : bool, optional
         Also return :math:`\\ln\\det(\\Sigma_{1i} + \\Sigma_{2j})`, needed by the
         likelihood of a joint hypothesis.
+    logdet : bool, optional
+        False (default): the quadratic form :math:`\\kappa_{ij}` (the gate's
+        statistic). True: the full maximum-likelihood cost
+        :math:`\\kappa_{ij} + \\ln\\det(2\\pi S_{ij})`, :math:`S_{ij} = \\Sigma_{1i} +
+        \\Sigma_{2j}` — the same cost as
+        ``radarfusion_ref.association.proximity_matrix(..., logdet=True)``, for an
+        assignment solver; not a :math:`\\chi^2` statistic (it may be negative), so
+        not for :func:`per_report_outcome`.
 
     Returns
     -------
     S : numpy.ndarray, shape (..., n1, n2)
         ``S[..., i, j]`` scores report ``i`` of radar 1 against report ``j``
-        of radar 2. With ``return_logdet=True`` a tuple ``(S, logdet)``.
+        of radar 2 (with ``logdet=True`` the full cost). With
+        ``return_logdet=True`` a tuple ``(S, logdet)``, `logdet` being
+        :math:`\\ln\\det(\\Sigma_{1i} + \\Sigma_{2j})` (without :math:`2\\pi`).
 
     Raises
     ------
@@ -737,7 +749,10 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     >>> eye = np.eye(2)[None]
     >>> pair_statistic([[0.0, 0.0]], eye, [[2.0, 0.0]], eye)
     array([[2.]])
+    >>> pair_statistic([[0.0, 0.0]], eye, [[2.0, 0.0]], eye, logdet=True).round(4)
+    array([[7.062]])
     """
+    with_logdet = as_bool(logdet, "logdet")
     a1 = as_float_array(xy1, "xy1", ndim_min=2, last_dims=(None, 2))
     a2 = as_float_array(xy2, "xy2", ndim_min=2, last_dims=(None, 2))
     c1 = as_float_array(cov1, "cov1", ndim_min=3, last_dims=(None, 2, 2))
@@ -775,7 +790,8 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False):
     if not (np.isfinite(s).all() and np.isfinite(logdet).all()):
         raise ValueError("the statistic overflows the float range: `xy1` - `xy2` is too large "
                          "against the spread of `cov1` + `cov2`; rescale the coordinates")
-    return (s, logdet) if return_logdet else s
+    cost = s + (2 * math.log(2 * math.pi) + logdet) if with_logdet else s
+    return (cost, logdet) if return_logdet else cost
 
 
 # --------------------------------------------------------------------------- decisions

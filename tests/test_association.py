@@ -928,3 +928,154 @@ def test_compare_decisions_bad_shapes_and_indices():
     with pytest.raises(ValueError, match="`decided` and `truth`"):
         A.all_correct([[0, 1]], [[0, 1], [1, 0]])
     np.testing.assert_array_equal(A.all_correct(np.array([[0.0, 1.0]]), [[0, 1]]), [True])
+
+
+# ----------------------------------------------------------------------------- the full ML cost
+# Oracle: -2 * scipy.stats.multivariate_normal.logpdf of each pair's difference, with the
+# covariance S_ij = (sigma_1i^2 + sigma_2j^2) I built here; enumeration by itertools.
+
+
+def full_cost_oracle(r1, r2, s1, s2):
+    """-2 ln N(x1_i - x2_j; 0, S_ij) pair by pair, by scipy.stats."""
+    n1, n2, d = len(r1), len(r2), r1.shape[-1]
+    out = np.empty((n1, n2))
+    for i in range(n1):
+        for j in range(n2):
+            cov = (s1[i] ** 2 + s2[j] ** 2) * np.eye(d)
+            out[i, j] = -2 * stats.multivariate_normal(np.zeros(d), cov).logpdf(r1[i] - r2[j])
+    return out
+
+
+@given(st.integers(1, 4), st.integers(1, 4), st.integers(1, 3), st.integers(0, 2**31 - 1))
+def test_proximity_matrix_logdet_equals_minus_two_log_gaussian(n1, n2, d, seed):
+    g = np.random.default_rng(seed)
+    r1, r2 = g.normal(size=(n1, d)), g.normal(size=(n2, d))
+    s1, s2 = g.uniform(0.1, 3.0, n1), g.uniform(0.1, 3.0, n2)
+    got = A.proximity_matrix(r1, r2, s1, s2, logdet=True)
+    np.testing.assert_allclose(got, full_cost_oracle(r1, r2, s1, s2), rtol=1e-9, atol=1e-9)
+    kappa = A.proximity_matrix(r1, r2, s1, s2)
+    diff = r1[:, None, :] - r2[None, :, :]
+    S = s1[:, None] ** 2 + s2[None, :] ** 2
+    np.testing.assert_allclose(kappa, np.sum(diff**2, -1) / S, rtol=1e-12)
+
+
+def test_proximity_matrix_per_report_sigmas_broadcast_over_a_batch():
+    g = np.random.default_rng(4)
+    r1, r2 = g.normal(size=(5, 3, 2)), g.normal(size=(5, 4, 2))
+    s1, s2 = g.uniform(0.2, 1.0, (5, 3)), g.uniform(0.2, 1.0, 4)
+    got = A.proximity_matrix(r1, r2, s1, s2, logdet=True)
+    assert got.shape == (5, 3, 4)
+    for t in range(5):
+        np.testing.assert_allclose(got[t], full_cost_oracle(r1[t], r2[t], s1[t], s2),
+                                   rtol=1e-9)
+    # a scalar sigma and a constant per-report array give the same matrix
+    np.testing.assert_allclose(A.proximity_matrix(r1, r2, 0.5, 0.7, logdet=True),
+                               A.proximity_matrix(r1, r2, np.full(3, 0.5), np.full(4, 0.7),
+                                                  logdet=True), rtol=1e-12)
+
+
+def test_proximity_matrix_default_unchanged_and_scalar_logdet_is_a_constant():
+    g = np.random.default_rng(5)
+    r1, r2 = g.normal(size=(6, 2)), g.normal(size=(6, 2))
+    k = A.proximity_matrix(r1, r2, 0.3, 0.4)
+    full = A.proximity_matrix(r1, r2, 0.3, 0.4, logdet=True)
+    np.testing.assert_allclose(full - k, 2 * math.log(2 * math.pi * 0.25), rtol=1e-12)
+    best = min(itertools.permutations(range(6)), key=lambda p: sum(full[i, p[i]]
+                                                                    for i in range(6)))
+    np.testing.assert_array_equal(A.associate_joint(k).row_to_col, best)
+
+
+def test_logdet_changes_no_complete_pairing_when_variances_are_per_radar():
+    """ln det(2 pi S_ij) is a row term plus a column term only if one side is constant."""
+    g = np.random.default_rng(6)
+    for _ in range(50):
+        r1, r2 = g.normal(size=(5, 1)), g.normal(size=(5, 1))
+        s1, s2 = g.uniform(0.1, 2.0, 5), np.full(5, 0.8)
+        full = full_cost_oracle(r1, r2, s1, s2)
+        kappa = A.proximity_matrix(r1, r2, s1, s2)
+        perms = list(itertools.permutations(range(5)))
+        ld = [sum(full[i, p[i]] - kappa[i, p[i]] for i in range(5)) for p in perms]
+        assert max(ld) - min(ld) < 1e-9
+
+
+def test_logdet_changes_the_joint_decision_with_per_report_variances():
+    """A hand-built case: the kappa-optimal and the likelihood-optimal pairings differ."""
+    r1 = np.array([[0.0], [0.05]])
+    r2 = np.array([[0.1], [0.05]])
+    s1, s2 = np.array([0.05, 1.0]), np.array([0.05, 1.0])
+    kappa = A.proximity_matrix(r1, r2, s1, s2)
+    full = A.proximity_matrix(r1, r2, s1, s2, logdet=True)
+    oracle = full_cost_oracle(r1, r2, s1, s2)
+    by_kappa = min(itertools.permutations(range(2)), key=lambda p: kappa[0, p[0]] + kappa[1, p[1]])
+    by_ml = min(itertools.permutations(range(2)), key=lambda p: oracle[0, p[0]] + oracle[1, p[1]])
+    assert by_kappa != by_ml
+    np.testing.assert_array_equal(A.associate_joint(kappa).row_to_col, by_kappa)
+    np.testing.assert_array_equal(A.associate_joint(full).row_to_col, by_ml)
+
+
+@given(st.floats(0.05, 1.0), st.floats(0.05, 1.0), st.floats(0.0, 2.0), st.floats(0.0, 2.0),
+       st.floats(0.1, 5.0), st.floats(1e-3, 10.0))
+def test_non_assignment_cost_logdet_closed_form(p1, p2, l1, l2, rho, var):
+    """c_0 with logdet=True is ln(rho_T P1 P2 / (u1 u2)), written out here."""
+    u1 = l1 + rho * p1 * (1 - p2)
+    u2 = l2 + rho * p2 * (1 - p1)
+    kw = dict(p_detect1=p1, p_detect2=p2, false_density1=l1, false_density2=l2,
+              object_density=rho)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RadarFusionWarning)
+        full = A.non_assignment_cost(**kw, logdet=True)
+        part = A.non_assignment_cost(**kw, innovation_cov=var)
+    if u1 * u2 == 0:
+        assert full == np.inf and part == np.inf
+        return
+    expected = math.log(rho * p1 * p2 / (u1 * u2))
+    assert full == pytest.approx(expected, rel=1e-9, abs=1e-9)
+    assert full - part == pytest.approx(0.5 * math.log(2 * math.pi * var), rel=1e-9, abs=1e-9)
+
+
+def test_full_costs_and_kappa_costs_decide_alike_with_one_covariance():
+    """With one S for every pair, (kappa, c_0) and (kappa + ln det 2 pi S, c_0 full) agree."""
+    sc = A.two_radar_clutter_scene(5, spacing=1.0, sigma1=0.3, sigma2=0.4, p_detect1=0.8,
+                                   p_detect2=0.8, false_density1=0.3, false_density2=0.3,
+                                   trials=200, dim=2, layout="uniform", rng=7)
+    kw = dict(p_detect1=0.8, p_detect2=0.8, false_density1=0.3, false_density2=0.3,
+              object_density=sc.object_density)
+    c0 = A.non_assignment_cost(**kw, innovation_cov=0.25 * np.eye(2))
+    c0_full = A.non_assignment_cost(**kw, logdet=True)
+    k = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.3, 0.4))
+    f = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.3, 0.4, logdet=True))
+    a = A.associate_joint(k, miss_cost=c0)
+    b = A.associate_joint(f, miss_cost=c0_full)
+    np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
+
+
+@pytest.mark.parametrize(("kw", "name", "exc"), [
+    (dict(logdet=1), "logdet", TypeError),
+    (dict(logdet="yes"), "logdet", TypeError),
+    (dict(sigma1=np.ones(3)), "sigma1", ValueError),          # 2 reports, 3 sigmas
+    (dict(sigma2=np.ones((2, 2))), "sigma2", ValueError),     # batch 2 vs reports' batch
+    (dict(sigma1=np.array([0.3, -1.0])), "sigma1", ValueError),
+    (dict(sigma2=np.array([np.nan])), "sigma2", ValueError),
+    (dict(sigma1=np.array([1e-200, 1.0])), "sigma1", ValueError),
+])
+def test_proximity_matrix_logdet_and_sigma_bad_input(kw, name, exc):
+    args = dict(reports1=np.zeros((2, 2)), reports2=np.ones((1, 2)), sigma1=0.3, sigma2=0.4)
+    args.update(kw)
+    if name == "sigma2" and np.ndim(args["sigma2"]) == 2:
+        args["reports2"] = np.ones((3, 1, 2))
+    with pytest.raises(exc, match=f"`{name}`"):
+        A.proximity_matrix(**args)
+
+
+def test_non_assignment_cost_logdet_bad_input():
+    kw = dict(p_detect1=0.9, p_detect2=0.9, false_density1=0.1, false_density2=0.1,
+              object_density=1.0)
+    with pytest.raises(TypeError, match="`innovation_cov`"):
+        A.non_assignment_cost(**kw)
+    with pytest.raises(TypeError, match="`logdet`"):
+        A.non_assignment_cost(**kw, innovation_cov=0.1, logdet=0)
+    with pytest.raises(ValueError, match="`innovation_cov`"):
+        A.non_assignment_cost(**kw, innovation_cov=-0.1, logdet=True)
+    # with logdet=True a given covariance only shapes the result
+    out = A.non_assignment_cost(**kw, innovation_cov=np.stack([np.eye(2)] * 3), logdet=True)
+    assert out.shape == (3,) and np.all(out == out[0])

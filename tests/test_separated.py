@@ -778,3 +778,50 @@ def test_fuzz_approximate_outcomes_and_sweep(bad, pos):
     if not (isinstance(bad, float) and np.isfinite(bad)):
         with pytest.raises((ValueError, TypeError), match="`offsets_range`"):
             sep.offset_sweep([0.5, bad], [-5.0], trials=5)
+
+
+# ------------------------------------------------------------------ the full ML cost (logdet)
+# Oracle: -2 * scipy.stats.multivariate_normal.logpdf of each pair's difference, pair by pair.
+
+
+@given(st.integers(1, 3), st.integers(1, 3), st.integers(0, 2**31 - 1))
+def test_pair_statistic_logdet_is_minus_two_log_gaussian(n1, n2, seed):
+    g = np.random.default_rng(seed)
+    xy1, xy2 = g.normal(size=(n1, 2)), g.normal(size=(n2, 2))
+
+    def covs(n):
+        a = g.normal(size=(n, 2, 2))
+        return a @ np.swapaxes(a, -1, -2) + 0.1 * np.eye(2)
+
+    cov1, cov2 = covs(n1), covs(n2)
+    cost, ld = sep.pair_statistic(xy1, cov1, xy2, cov2, logdet=True, return_logdet=True)
+    for i in range(n1):
+        for j in range(n2):
+            law = stats.multivariate_normal(np.zeros(2), cov1[i] + cov2[j])
+            assert cost[i, j] == pytest.approx(-2 * law.logpdf(xy1[i] - xy2[j]), rel=1e-9,
+                                               abs=1e-9)
+            assert ld[i, j] == pytest.approx(np.linalg.slogdet(cov1[i] + cov2[j])[1],
+                                             rel=1e-9, abs=1e-12)
+    np.testing.assert_array_equal(sep.pair_statistic(xy1, cov1, xy2, cov2),
+                                  sep.pair_statistic(xy1, cov1, xy2, cov2, logdet=False))
+
+
+def test_pair_statistic_logdet_matches_association_proximity_matrix():
+    """One cost for one concept: isotropic covariances give association's full cost."""
+    from radarfusion_ref import association
+
+    g = np.random.default_rng(11)
+    xy1, xy2 = g.normal(size=(4, 2)), g.normal(size=(3, 2))
+    s1, s2 = g.uniform(0.2, 1.5, 4), g.uniform(0.2, 1.5, 3)
+    cov1 = s1[:, None, None] ** 2 * np.eye(2)
+    cov2 = s2[:, None, None] ** 2 * np.eye(2)
+    np.testing.assert_allclose(sep.pair_statistic(xy1, cov1, xy2, cov2, logdet=True),
+                               association.proximity_matrix(xy1, xy2, s1, s2, logdet=True),
+                               rtol=1e-10)
+
+
+def test_pair_statistic_logdet_bad_input():
+    eye = np.eye(2)[None]
+    for bad in (1, "yes", None):
+        with pytest.raises(TypeError, match="`logdet`"):
+            sep.pair_statistic([[0.0, 0.0]], eye, [[1.0, 0.0]], eye, logdet=bad)
