@@ -608,7 +608,9 @@ def test_moments_bias_independent_of_sigma_r_and_mse_psd(p, method):
 
 
 PUBLIC = ("polar_to_cartesian", "conversion_moments", "conversion_bias", "nonlinearity_index",
-          "simulate_polar", "nees", "nees_at_truth", "conversion_monte_carlo")
+          "simulate_polar", "nees", "nees_at_truth", "conversion_monte_carlo",
+          "spherical_to_cartesian", "spherical_moments", "simulate_spherical",
+          "spherical_monte_carlo")
 
 
 def test_public_functions_are_the_covered_ones():
@@ -972,3 +974,171 @@ def warnings_ignored():
             ctx.__exit__(*exc)
             return False
     return _Ctx()
+
+
+# =========================================================================== 3-D (range, azimuth, elevation)
+def _sph(r, b, e):
+    r, b, e = np.broadcast_arrays(r, b, e)
+    return np.stack([r * np.cos(e) * np.cos(b), r * np.cos(e) * np.sin(b), r * np.sin(e)], -1)
+
+
+def _grid3(center, sigmas, n):
+    """Gauss–Hermite nodes of three independent Gaussians and their product weights."""
+    x, wt = np.polynomial.hermite_e.hermegauss(n)
+    wt = wt / np.sqrt(2 * np.pi)
+    axes = [c + s * x for c, s in zip(center, sigmas, strict=True)]
+    grids = np.meshgrid(*axes, indexing="ij")
+    return grids, wt[:, None, None] * wt[None, :, None] * wt[None, None, :]
+
+
+CASES3 = [(100.0, 0.3, 0.4, 1.0, 0.3, 0.25), (40.0, -2.0, -0.9, 0.5, 0.05, 0.4),
+          (300.0, 1.2, 1.3, 2.0, 0.5, 0.1)]
+
+
+@pytest.mark.parametrize("case", CASES3)
+def test_3d_measurement_conditioned_and_multiplicative_by_quadrature(case):
+    """Truth ~ N(measurement, σ²) in (r, β, ε): Duan et al.'s position and covariance are its
+    conditional mean and covariance; Mo et al.'s covariance is its MSE about x_u."""
+    rh, bh, eh, sr, sb, se = case
+    (rr, bb, ee), wt = _grid3((rh, bh, eh), (sr, sb, se), 40)
+    pts = _sph(rr, bb, ee)
+    mu = np.einsum("ijk,ijkl->l", wt, pts)
+    cov = np.einsum("ijk,ijkl,ijkm->lm", wt, pts - mu, pts - mu)
+    mc = cv.spherical_to_cartesian(rh, bh, eh, sr, sb, se, method="measurement_conditioned")
+    np.testing.assert_allclose(mc.xyz, mu, rtol=1e-10, atol=1e-10 * rh)
+    np.testing.assert_allclose(mc.cov, cov, rtol=1e-8, atol=1e-10 * rh**2)
+    mu_u = cv.spherical_to_cartesian(rh, bh, eh, sr, sb, se, method="multiplicative")
+    mse = np.einsum("ijk,ijkl,ijkm->lm", wt, mu_u.xyz - pts, mu_u.xyz - pts)
+    np.testing.assert_allclose(mu_u.cov, mse, rtol=1e-8, atol=1e-10 * rh**2)
+
+
+@pytest.mark.parametrize("case", CASES3)
+def test_3d_moments_given_truth_by_quadrature(case):
+    """Mean and covariance given the truth, the plain conversion's by quadrature over the
+    errors, scaled by each method's gain G (the multiplicative gain makes it unbiased)."""
+    r, b, e, sr, sb, se = case
+    (rr, bb, ee), wt = _grid3((r, b, e), (sr, sb, se), 40)
+    pts = _sph(rr, bb, ee)
+    mu = np.einsum("ijk,ijkl->l", wt, pts)
+    cov = np.einsum("ijk,ijkl,ijkm->lm", wt, pts - mu, pts - mu)
+    lam = mu / _sph(r, b, e)                       # the damping, measured by quadrature
+    gains = {"linearized": np.ones(3), "additive": 1 + lam - lam**2,
+             "multiplicative": 1 / lam, "measurement_conditioned": lam}
+    for m, g in gains.items():
+        mom = cv.spherical_moments(r, b, e, sr, sb, se, method=m)
+        np.testing.assert_allclose(mom.mean, g * mu, rtol=1e-9)
+        np.testing.assert_allclose(mom.cov, np.outer(g, g) * cov, rtol=1e-8, atol=1e-10 * r**2)
+        bias = g * mu - _sph(r, b, e)
+        np.testing.assert_allclose(mom.bias, bias, atol=1e-9 * r)
+        np.testing.assert_allclose(mom.mse, mom.cov + np.outer(bias, bias), rtol=1e-8,
+                                   atol=1e-9 * r**2)
+    assert np.abs(cv.spherical_moments(*case, method="multiplicative").bias).max() == 0.0
+
+
+def test_3d_additive_is_the_truth_covariance_averaged_over_the_truth():
+    """Σᵃ = E[Cov(r̂a | truth) | measurement], both expectations by (nested) quadrature."""
+    rh, bh, eh, sr, sb, se = 100.0, 0.3, 0.4, 1.0, 0.3, 0.25
+    n = 10
+    (rr, bb, ee), wt = _grid3((rh, bh, eh), (sr, sb, se), n)       # the truth | measurement
+    x, w1 = np.polynomial.hermite_e.hermegauss(n)
+    w1 = w1 / np.sqrt(2 * np.pi)
+    wi = w1[:, None, None] * w1[None, :, None] * w1[None, None, :]
+    inner = _sph(rr[..., None, None, None] + sr * x[:, None, None],
+                 bb[..., None, None, None] + sb * x[None, :, None],
+                 ee[..., None, None, None] + se * x[None, None, :])
+    m_in = np.einsum("pqr,ijkpqrl->ijkl", wi, inner)
+    d = inner - m_in[..., None, None, None, :]
+    c_in = np.einsum("pqr,ijkpqrl,ijkpqrm->ijklm", wi, d, d)
+    avg = np.einsum("ijk,ijklm->lm", wt, c_in)
+    got = cv.spherical_to_cartesian(rh, bh, eh, sr, sb, se, method="additive")
+    np.testing.assert_allclose(got.cov, avg, rtol=1e-7, atol=1e-9 * rh**2)
+    # its position subtracts the averaged bias E[(Λ − I) x | measurement]
+    mu = np.einsum("ijk,ijkl->l", wt, _sph(rr, bb, ee))
+    lam = mu / _sph(rh, bh, eh)
+    np.testing.assert_allclose(got.xyz, _sph(rh, bh, eh) - (lam - 1) * mu, rtol=1e-9)
+
+
+def test_3d_linearized_is_the_jacobian_covariance():
+    """J diag(σ²) Jᵀ with J by central differences."""
+    r, b, e, sr, sb, se = 150.0, 0.7, -0.3, 0.2, 0.01, 0.02
+    h = 1e-6
+    jac = np.stack([(_sph(*(np.array([r, b, e]) + h * np.eye(3)[k]))
+                     - _sph(*(np.array([r, b, e]) - h * np.eye(3)[k]))) / (2 * h)
+                    for k in range(3)], axis=1)
+    ref = jac @ np.diag([sr**2, sb**2, se**2]) @ jac.T
+    got = cv.spherical_to_cartesian(r, b, e, sr, sb, se)
+    np.testing.assert_allclose(got.cov, ref, rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(got.xyz, _sph(r, b, e), rtol=1e-14)
+
+
+@pytest.mark.parametrize("method", cv.METHODS_3D)
+def test_3d_reduces_to_2d_in_the_horizontal_plane(method):
+    r, b, sr, sb = _rand_inputs(30)
+    three = cv.spherical_to_cartesian(r, b, 0.0, sr, sb, 0.0, method=method)
+    with warnings_ignored():
+        two = cv.polar_to_cartesian(r, b, sr, sb, method=method)
+    np.testing.assert_allclose(three.xyz[:, :2], two.xy, rtol=1e-12, atol=1e-12 * r.max())
+    np.testing.assert_allclose(three.cov[:, :2, :2], two.cov, rtol=1e-9,
+                               atol=1e-11 * r.max() ** 2)
+
+
+@pytest.mark.parametrize("method", cv.METHODS_3D)
+def test_3d_monte_carlo_agrees_with_the_moments(method):
+    case = (100.0, 0.3, 0.4, 1.0, 0.2, 0.15)
+    n = 100_000
+    out = cv.spherical_monte_carlo(*case, methods=(method,), trials=n, rng=3)[method]
+    mom = cv.spherical_moments(*case, method=method)
+    est = out.bias()
+    assert np.all(np.abs(est.estimate - mom.bias) < 5 * est.std_error)
+    emp = np.cov(out.error.T)
+    d = np.sqrt(np.diag(mom.cov))
+    se = np.sqrt((np.outer(d, d) ** 2 + mom.cov**2) / n)
+    assert np.all(np.abs(emp - mom.cov) < 6 * se)
+    # NEES against the exact MSE has mean 3 and a χ²-like scale
+    nt = cv.ConversionTrials(method, out.error, out.nees_true)
+    assert abs(nt.mean_nees().estimate - 3.0) < 5 * nt.mean_nees().std_error
+    # the NEES is e C⁻¹ e with the conversion's own covariance, by solve
+    rh, bh, eh = (v[:50] for v in cv.simulate_spherical(*case, trials=n, rng=3))
+    conv = cv.spherical_to_cartesian(rh, bh, eh, *case[3:], method=method)
+    err = conv.xyz - _sph(*case[:3])
+    ref = np.einsum("ni,ni->n", err, np.linalg.solve(conv.cov, err[..., None])[..., 0])
+    np.testing.assert_allclose(out.nees[:50], ref, rtol=1e-8)
+
+
+def test_3d_bad_input():
+    base = (100.0, 0.3, 0.1, 0.5, 0.01, 0.01)
+    with pytest.raises(ValueError, match=r"`sigma_epsilon`.*SIGMA_BETA_MAX"):
+        cv.spherical_to_cartesian(*base[:5], 1.0)
+    with pytest.raises(ValueError, match="`sigma_beta`"):
+        cv.spherical_to_cartesian(*base[:4], 2.0, 0.01)
+    with pytest.raises(ValueError, match="`method`"):
+        cv.spherical_to_cartesian(*base, method="decorrelated")
+    with pytest.raises(ValueError, match="`epsilon`"):
+        cv.spherical_to_cartesian(100.0, 0.3, np.nan, 0.5, 0.01, 0.01)
+    with pytest.raises(ValueError, match=r"`r`.*`epsilon`"):
+        cv.spherical_moments(np.ones(3), 0.3, np.ones(2), 0.5, 0.01, 0.01)
+    with pytest.raises(ValueError, match="`methods`"):
+        cv.spherical_monte_carlo(*base, methods=(), trials=3, rng=1)
+    with pytest.raises(ValueError, match="`sigma_epsilon`"):
+        cv.spherical_monte_carlo(*base[:5], 0.0, trials=3, rng=1)
+    with pytest.raises(ValueError, match="`r`"):
+        cv.simulate_spherical(1.0, 0.3, 0.1, 0.5, 0.01, 0.01, trials=3, rng=1)
+    with pytest.raises((ValueError, TypeError), match="`trials`"):
+        cv.simulate_spherical(*base, trials=0, rng=1)
+    with pytest.warns(RadarFusionWarning):
+        cv.spherical_to_cartesian(100.0, 0.3, np.pi / 2, 0.5, 0.01, 0.01)
+
+
+@settings(max_examples=15)
+@given(st.floats(1.0, 1e4, **finite), st.floats(-10, 10, **finite), st.floats(-1.5, 1.5, **finite),
+       st.floats(1e-3, 10, **finite), st.floats(1e-4, cv.SIGMA_BETA_MAX, **finite),
+       st.floats(1e-4, cv.SIGMA_BETA_MAX, **finite), st.sampled_from(cv.METHODS_3D))
+def test_3d_properties(r, b, e, sr, sb, se, method):
+    with warnings_ignored():
+        out = cv.spherical_to_cartesian(r, b, e, sr, sb, se, method=method)
+    assert out.xyz.shape == (3,) and out.cov.shape == (3, 3)
+    np.testing.assert_allclose(out.cov, out.cov.T, rtol=0, atol=1e-12 * np.abs(out.cov).max())
+    assert np.linalg.eigvalsh(out.cov)[0] >= -1e-9 * np.abs(out.cov).max()
+    m = cv.spherical_moments(r, b, e, sr, sb, se, method=method)
+    assert np.linalg.eigvalsh(m.mse - m.cov)[0] >= -1e-9 * np.abs(m.mse).max()
+    np.testing.assert_allclose(m.mean - m.bias, _sph(r, b, e), rtol=1e-12, atol=1e-12 * r)
