@@ -43,7 +43,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
+from scipy import sparse, stats
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
 from ._validation import (
@@ -54,6 +54,7 @@ from ._validation import (
     as_float_array,
     as_int,
     as_positive,
+    as_probability,
     as_rng,
     check_size,
 )
@@ -127,12 +128,28 @@ class GroupingResult:
     cost_kind : str
         ``"ml"`` or ``"pairwise"``.
     method : str
-        ``"bruteforce"`` (enumeration of all groupings) or ``"milp"`` (the
-        integer program of :func:`group_sd`).
+        ``"bruteforce"`` (enumeration of all groupings), ``"milp"`` (the
+        integer program of :func:`group_sd`) or ``"lagrangian"`` (its
+        Lagrangian relaxation).
     relaxation_integral : bool or numpy.ndarray of bool or None
-        For ``"milp"``: whether the integer program's LP relaxation already had
-        an integral optimum (so no branching was needed). ``None`` for
-        ``"bruteforce"``.
+        For ``"milp"`` on the full tensor: whether the integer program's LP
+        relaxation already had an integral optimum (so no branching was
+        needed). ``None`` otherwise.
+    lower_bound : float or numpy.ndarray
+        A proved lower bound on the optimal total cost: the cost itself for the
+        exact methods, the best Lagrangian dual value for ``"lagrangian"``.
+    gap : float or numpy.ndarray
+        Proved relative duality gap
+        :math:`(\text{cost} - \text{lower bound}) / \\max(|\text{cost}|, 1)`
+        (0 for the exact methods).
+    history : numpy.ndarray or None, shape (iterations, 2)
+        For ``"lagrangian"`` on one scene: the best lower bound and the best
+        cost after each iteration (summed over the independent clusters).
+        ``None`` otherwise.
+
+    With missed detections and false reports (:func:`group_sd` with
+    `p_detect`), `groups` has one row per group, ``-1`` marking a source
+    without a report in that group, and the number of rows varies.
     """
 
     groups: np.ndarray
@@ -140,6 +157,13 @@ class GroupingResult:
     cost_kind: str
     method: str
     relaxation_integral: np.ndarray | bool | None = None
+    lower_bound: np.ndarray | float | None = None
+    gap: np.ndarray | float = 0.0
+    history: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.lower_bound is None:            # exact methods: the cost is its own bound
+            object.__setattr__(self, "lower_bound", self.cost)
 
 
 @dataclass(frozen=True)
@@ -706,39 +730,709 @@ def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
     return chosen, integral
 
 
+# ----------------------------------------------------------------------------- gated S-D
+_LAGRANGE_STALL = 6          # iterations without a better dual value before the step halves
+_EPS = np.finfo(float).eps
+
+
+def _detection_iv(m, p_detect, false_density, object_density):
+    """Validate the detection model; ``None`` when no argument is given."""
+    given = [a is not None for a in (p_detect, false_density, object_density)]
+    if not any(given):
+        return None
+    if not all(given):
+        missing = [n for n, g in zip(("p_detect", "false_density", "object_density"), given,
+                                     strict=True) if not g]
+        raise ValueError(
+            "`p_detect`, `false_density` and `object_density` define the dummy index together; "
+            f"received no {', '.join(f'`{n}`' for n in missing)}"
+        )
+    out = {}
+    for name, value, lo_ok, hi in (("p_detect", p_detect, False, 1.0),
+                                   ("false_density", false_density, True, None),
+                                   ("object_density", object_density, False, None)):
+        a = as_float_array(value, name)
+        if name == "object_density":
+            if a.ndim != 0:
+                raise ValueError(f"`object_density` must be a number; received shape {a.shape}")
+        else:
+            try:
+                a = np.broadcast_to(a, (m,)).astype(float)
+            except ValueError:
+                raise ValueError(
+                    f"`{name}` must be a number or have shape ({m},) (one per source); "
+                    f"received shape {a.shape}"
+                ) from None
+        bad = (a < 0 if lo_ok else a <= 0) | ((a > hi) if hi is not None else False)
+        if np.any(bad):
+            rng_txt = "(0, 1]" if hi is not None else ("[0, inf)" if lo_ok else "(0, inf)")
+            raise ValueError(f"`{name}` must lie in {rng_txt}; received {value!r}")
+        out[name] = a
+    return out
+
+
+def _ragged_iv(x, cov):
+    """Reports of a single scene with possibly unequal counts: lists of (n_i, d), (n_i, d, d)."""
+    if isinstance(x, (list, tuple)):
+        xs = [as_float_array(xi, "x", ndim_min=2) for xi in x]
+    else:
+        arr = as_float_array(x, "x", ndim_min=3)
+        if arr.ndim != 3:
+            raise ValueError(
+                "`x` must be one scene, shape (m, n, d) or a list of m arrays (n_i, d), when "
+                f"`p_detect` is given (the number of groups varies); received shape {arr.shape}"
+            )
+        xs = list(arr)
+    m = len(xs)
+    if m < 2 or any(xi.ndim != 2 for xi in xs):
+        raise ValueError(
+            "`x` must hold m >= 2 sources, each an array of shape (n_i, d); received "
+            f"shapes {[xi.shape for xi in xs]}"
+        )
+    d = xs[0].shape[1]
+    if d < 1 or any(xi.shape[1] != d for xi in xs) or any(xi.shape[0] < 1 for xi in xs):
+        raise ValueError(
+            "`x`: every source must report n_i >= 1 reports of one dimension d >= 1; received "
+            f"shapes {[xi.shape for xi in xs]}"
+        )
+    cl = list(cov) if isinstance(cov, (list, tuple)) else None
+    if cl is None:
+        c = as_float_array(cov, "cov", ndim_min=2)
+        if c.ndim >= 4:
+            if c.shape[-4] not in (1, m):
+                raise ValueError(
+                    f"`cov` must have shape (m, n_i, {d}, {d}) with m = {m} (broadcastable); "
+                    f"received shape {c.shape}"
+                )
+            cl = [c[..., min(i, c.shape[-4] - 1), :, :, :] for i in range(m)]
+        else:
+            cl = [c] * m
+    if len(cl) != m:
+        raise ValueError(f"`cov` must hold one entry per source (m = {m}); received {len(cl)}")
+    cs = []
+    for i, (xi, ci) in enumerate(zip(xs, cl, strict=True)):
+        ci = as_float_array(ci, "cov", ndim_min=2)
+        if ci.ndim == 2:
+            ci = ci[None]
+        if ci.ndim != 3 or ci.shape[-2:] != (d, d) or ci.shape[0] not in (1, xi.shape[0]):
+            raise ValueError(
+                f"`cov` of source {i} must have shape ({xi.shape[0]}, {d}, {d}) or ({d}, {d}); "
+                f"received shape {ci.shape}"
+            )
+        cs.append(as_covariance(np.broadcast_to(ci, (xi.shape[0], d, d)), "cov", dim=d))
+    return xs, cs
+
+
+def _pair_statistics(xa, ca, xb, cb):
+    """``kappa[a, b]``: the fused-difference statistic of report a and report b."""
+    check_size(8 * 6 * xa.shape[0] * xb.shape[0] * (xa.shape[1] + 1) ** 2, MEMORY_LIMIT,
+               what=f"bytes of pair statistics ({xa.shape[0]} x {xb.shape[0]} report pairs)",
+               alternative="splitting the scene into regions")
+    S = ca[:, None] + cb[None, :]
+    D = xa[:, None] - xb[None, :]
+    return np.einsum("...k,...k->...", D, np.linalg.solve(S, D[..., None])[..., 0])
+
+
+def _gated_tuples(gates, counts, dummy):
+    """Tuples (K, m) whose report pairs all pass the gate (``-1``: no report of that source)."""
+    m = len(counts)
+    T = np.arange(counts[0], dtype=np.int64)[:, None]
+    if dummy:
+        T = np.vstack([T, [[-1]]])
+    for k in range(1, m):
+        check_size(T.shape[0] * counts[k], MEMORY_LIMIT,
+                   what=f"bytes of the gate mask ({T.shape[0]} partial groups x "
+                        f"{counts[k]} reports of source {k})",
+                   alternative="a narrower gate (smaller `p_false_reject`)")
+        mask = np.ones((T.shape[0], counts[k]), dtype=bool)
+        for i in range(k):
+            col = T[:, i]
+            ok = col >= 0
+            mask[ok] &= gates[i, k][col[ok]]
+        r, j = np.nonzero(mask)
+        parts = [np.hstack([T[r], j[:, None]])]
+        if dummy:
+            parts.append(np.hstack([T, np.full((T.shape[0], 1), -1)]))
+        T = np.vstack(parts)
+        check_size(8 * T.shape[0] * (m + 1), MEMORY_LIMIT,
+                   what=f"bytes of gated candidate groups ({T.shape[0]} after source {k})",
+                   alternative="a narrower gate (smaller `p_false_reject`)")
+    if dummy:
+        T = T[np.any(T >= 0, axis=1)]
+    return T
+
+
+def _tuple_ml_costs(xs, cs, T, log_s2):
+    """ML cost of every candidate group (rows of T, -1 = absent), as in group_costs."""
+    K, m = T.shape
+    d = xs[0].shape[1]
+    check_size(8 * K * (3 * d * d + 3 * d + 4), MEMORY_LIMIT,
+               what=f"bytes of group costs ({K} gated candidate groups)",
+               alternative="a narrower gate (smaller `p_false_reject`)")
+    infos, lds = zip(*(_information(c) for c in cs), strict=True)
+    W = np.zeros((K, d, d))
+    b = np.zeros((K, d))
+    ld = np.zeros(K)
+    cnt = np.zeros(K, dtype=np.int64)
+    for i in range(m):
+        p = T[:, i] >= 0
+        j = T[p, i]
+        W[p] += infos[i][j]
+        b[p] += np.einsum("kab,kb->ka", infos[i][j], xs[i][j])
+        ld[p] += lds[i][j]
+        cnt[p] += 1
+    xhat = np.linalg.solve(W, b[..., None])[..., 0]
+    q = np.zeros(K)
+    for i in range(m):
+        p = T[:, i] >= 0
+        j = T[p, i]
+        r = xs[i][j] - xhat[p]
+        q[p] += np.einsum("ka,kab,kb->k", r, infos[i][j], r)
+    chol = np.linalg.cholesky(W)
+    ld_w = 2.0 * np.sum(np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
+    out = q + ld_w + ld + (cnt - 1) * d * log_s2
+    out[cnt == 1] = 0.0
+    return out, cnt
+
+
+def _scene_candidates(xs, cs, *, cost, gamma, det):
+    """Candidate groups of one scene (tuples, costs), gated and with the dummy index.
+
+    `xs`, `cs`: per-source reports (n_i, d) and covariances (n_i, d, d);
+    `gamma`: gate threshold on the pair statistic (None: no gate); `det`: the
+    detection model (None: every source reports every target once).
+    """
+    m, d = len(xs), xs[0].shape[1]
+    counts = [xi.shape[0] for xi in xs]
+    dummy = det is not None
+    (xcat, ccat), log_s2 = _rescale(np.concatenate(xs)[None], np.concatenate(cs)[None])
+    split = np.cumsum(counts)[:-1]
+    xs_s, cs_s = np.split(xcat[0], split), np.split(ccat[0], split)
+    kappa = {}
+    if gamma is not None or cost == "pairwise":
+        for i, k in itertools.combinations(range(m), 2):
+            kappa[i, k] = _pair_statistics(xs_s[i], cs_s[i], xs_s[k], cs_s[k])
+    if gamma is None:
+        total = math.prod(n + 1 if dummy else n for n in counts) - int(dummy)
+        check_size(total, MAX_CANDIDATE_GROUPS,
+                   what=f"candidate groups of one scene (report counts {counts})",
+                   alternative="a gate on the candidate groups (`p_false_reject`)")
+        gates = {(i, k): np.ones((counts[i], counts[k]), dtype=bool)
+                 for i, k in itertools.combinations(range(m), 2)}
+    else:
+        with np.errstate(invalid="ignore"):
+            gates = {key: v <= gamma for key, v in kappa.items()}
+    T = _gated_tuples(gates, counts, dummy)
+    if cost == "pairwise":
+        c = np.zeros(T.shape[0])
+        for (i, k), v in kappa.items():
+            c += v[T[:, i], T[:, k]]
+        cnt = np.full(T.shape[0], m)
+    else:
+        c, cnt = _tuple_ml_costs(xs_s, cs_s, T, log_s2)
+    if dummy:
+        c, keep = _detection_costs(c, cnt, T, det, d)
+        T, c = T[keep], c[keep]
+    if not np.all(np.isfinite(c)):
+        _finite_costs(c)
+    return T, c
+
+
+def _detection_costs(c_ml, cnt, T, det, d):
+    """-2 ln of the likelihood of each candidate group under the detection model.
+
+    A group of the sources S (|S| >= 2) from one target: rho_T prod_S P_D prod_not-S (1 - P_D)
+    times the marginal likelihood of its reports; a lone report of source i:
+    u_i = rho_F,i + rho_T P_D,i prod_{k != i} (1 - P_D,k). Groups dearer than their
+    members left alone can never be chosen (the lone reports are a cheaper cover) and
+    are dropped, as are impossible ones (cost +inf).
+    """
+    pd, rf, rt = det["p_detect"], det["false_density"], det["object_density"]
+    m = T.shape[1]
+    with np.errstate(divide="ignore"):
+        lpd, l1m, lrf, lrt = np.log(pd), np.log1p(-pd), np.log(rf), np.log(rt)
+    miss_others = np.array([np.sum(np.delete(l1m, i)) for i in range(m)])
+    with np.errstate(invalid="ignore"):
+        lu = np.logaddexp(lrf, lrt + lpd + miss_others)             # ln u_i
+    present = T >= 0
+    lone = -2.0 * lu                                                  # cost of a lone report
+    with np.errstate(invalid="ignore"):
+        group = (c_ml + (cnt - 1) * d * math.log(2 * math.pi) - 2.0 * lrt
+                 - 2.0 * np.where(present, lpd, 0.0).sum(axis=1)
+                 - 2.0 * np.where(present, 0.0, l1m).sum(axis=1))
+    src = np.argmax(present, axis=1)
+    cost = np.where(cnt == 1, lone[src], group)
+    keep = np.isfinite(cost) & (cost < np.inf)
+    if np.all(np.isfinite(lone)):
+        alone = np.where(present, lone, 0.0).sum(axis=1)
+        keep &= (cnt == 1) | (cost < alone)
+    return cost, keep
+
+
+def _report_nodes(T, counts):
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    return np.where(T >= 0, T + offsets[:-1], -1), offsets
+
+
+def _check_cover(T, counts, dummy, why):
+    """Every report must be in some candidate group (and, without the dummy index, the
+    candidate graph's components must hold as many reports of every source)."""
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(counts)
+    nodes, offsets = _report_nodes(T, counts)
+    N = int(offsets[-1])
+    covered = np.zeros(N, dtype=bool)
+    covered[nodes[nodes >= 0]] = True
+    if not covered.all():
+        lost = np.flatnonzero(~covered)
+        i = int(np.searchsorted(offsets, lost[0], side="right") - 1)
+        mine = lost[(lost >= offsets[i]) & (lost < offsets[i + 1])] - offsets[i]
+        raise ValueError(
+            f"`x`: report(s) {mine[:10].tolist()} of source {i} cannot be grouped: no candidate "
+            f"group holds them ({why}); never a partial grouping -- widen the gate or allow "
+            "missed detections and false reports (`p_detect` < 1, `false_density` > 0)"
+        )
+    first = nodes[np.arange(T.shape[0]), np.argmax(T >= 0, axis=1)]
+    rows = np.concatenate([first[nodes[:, i] >= 0] for i in range(m)])
+    cols = np.concatenate([nodes[nodes[:, i] >= 0, i] for i in range(m)])
+    graph = sparse.coo_array((np.ones(rows.size), (rows, cols)), shape=(N, N))
+    ncomp, label = connected_components(graph, directed=False)
+    if not dummy:
+        per = np.stack([np.bincount(label[offsets[i]:offsets[i + 1]], minlength=ncomp)
+                        for i in range(m)])                          # (m, ncomp)
+        bad = np.flatnonzero(np.any(per != per[0], axis=0))
+        if bad.size:
+            comp = per[:, bad[0]]
+            i = int(np.argmax(comp != np.median(comp))) if np.any(comp != np.median(comp)) \
+                else int(np.argmax(comp))
+            mine = np.flatnonzero(label[offsets[i]:offsets[i + 1]] == bad[0])
+            raise ValueError(
+                f"`x`: the reports {mine[:10].tolist()} of source {i} cannot be grouped: their "
+                f"cluster of candidate groups holds {comp.tolist()} reports of the m = {m} "
+                f"sources, not one of each per group ({why}); widen the gate or allow missed "
+                "detections and false reports (`p_detect` < 1, `false_density` > 0)"
+            )
+    return ncomp, label, first, offsets
+
+
+def _milp_tuples(T, c, counts, *, time_limit=None, upper=None):
+    """Exact S-D on explicit candidate groups (HiGHS); (chosen, lower bound) or None."""
+    m = len(counts)
+    nodes, offsets = _report_nodes(T, counts)
+    K = T.shape[0]
+    rows = nodes.T.ravel()
+    cols = np.tile(np.arange(K), m)
+    ok = rows >= 0
+    A = sparse.csc_array((np.ones(ok.sum()), (rows[ok], cols[ok])), shape=(int(offsets[-1]), K))
+    cc = c
+    if not np.any(T < 0):             # every grouping has counts[0] groups: shift to min 0
+        shift = float(c.min())
+        cc = c - shift
+        if cc.max() > _HIGHS_COST_SCALE and upper is not None and np.isfinite(upper):
+            cc = np.minimum(cc, 2.0 * (upper - shift * counts[0]) + 1.0)   # as _condition_costs
+    top = float(np.max(np.abs(cc))) if cc.size else 0.0
+    scale = _HIGHS_COST_SCALE / top if top > _HIGHS_COST_SCALE else 1.0
+    options = {"mip_rel_gap": 0.0}
+    if time_limit is not None:
+        options["time_limit"] = time_limit
+    res = milp(cc * scale, constraints=LinearConstraint(A, 1, 1), integrality=np.ones(K),
+               bounds=Bounds(0, 1), options=options)
+    if res.status == 2:                                              # infeasible
+        return None
+    if res.status != 0 or res.x is None:
+        raise RuntimeError(
+            f"HiGHS did not return a proven optimum (status {res.status}: {res.message})"
+        )
+    chosen = np.flatnonzero(res.x > 0.5)
+    cover = np.bincount(nodes[chosen][nodes[chosen] >= 0], minlength=int(offsets[-1]))
+    if np.any(cover != 1):
+        raise RuntimeError("HiGHS returned an infeasible grouping")
+    return chosen
+
+
+def _assign(R, C, r, c, w, drow=None, dcol=None):
+    """Minimum-cost assignment on a sparse bipartite graph, optionally with a dummy.
+
+    Edges ``(r, c)`` of weight ``w`` join rows ``0..R-1`` and columns ``0..C-1``
+    (duplicates: the cheapest counts). Without a dummy every row and column is
+    matched (``R == C``); with one, row ``r`` may stay unmatched at cost
+    ``drow[r]`` and column ``c`` at ``dcol[c]`` (``inf``: must be matched).
+    The augmented square graph has the diagonal dummy blocks and, in the
+    dummy-dummy block, the transpose of the real edges (all that any optimal
+    matching needs), so it stays sparse; it is solved exactly by
+    :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching` (LAPJVsp).
+    Returns ``((rows, cols) of matched real pairs, unmatched rows, unmatched
+    columns, total cost, sum of |terms|)`` or None when no assignment exists.
+    """
+    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+
+    key = r.astype(np.int64) * max(C, 1) + c
+    o = np.lexsort((w, key))
+    key, r, c, w = key[o], r[o], c[o], w[o]
+    first = np.r_[True, np.diff(key) != 0] if key.size else np.zeros(0, bool)
+    key, r, c, w = key[first], r[first], c[first], w[first]
+    if drow is None:
+        if R != C:
+            return None
+        rows, cols, wts, N = r, c, w, R
+    else:
+        fr, fc = np.flatnonzero(np.isfinite(drow)), np.flatnonzero(np.isfinite(dcol))
+        rows = np.concatenate([r, fr, R + fc, R + c])
+        cols = np.concatenate([c, C + fr, fc, C + r])
+        wts = np.concatenate([w, drow[fr], dcol[fc], np.zeros(r.size)])
+        N = R + C
+    empty = np.zeros(0, dtype=np.int64)
+    if N == 0:
+        return (empty, empty), empty, empty, 0.0, 0.0
+    if wts.size == 0 or not np.all(np.isfinite(wts)):
+        return None
+    lo = float(wts.min())
+    graph = sparse.csr_array((wts - lo + 1.0, (rows, cols)), shape=(N, N))
+    try:
+        ri, ci = min_weight_full_bipartite_matching(graph)
+    except ValueError:
+        return None
+    real = (ri < R) & (ci < C)
+    pr, pc = ri[real], ci[real]
+    wr = w[np.searchsorted(key, pr.astype(np.int64) * max(C, 1) + pc)]
+    if drow is None:
+        rd = cd = empty
+        parts = [wr]
+    else:
+        rd = ri[(ri < R) & (ci >= C)]
+        cd = ci[(ri >= R) & (ci < C)]
+        parts = [wr, drow[rd], dcol[cd]]
+    total = float(sum(np.sum(p) for p in parts))
+    mag = float(sum(np.sum(np.abs(p)) for p in parts))
+    return (pr, pc), rd, cd, total, mag
+
+
+class _Lagrangian:
+    """Lagrangian relaxation of one S-D problem on explicit candidate groups.
+
+    Sources 2..m-1's constraints are relaxed with multipliers ``u``; what remains
+    (sources 0 and 1) is a 2-D assignment over the pairs (j0, j1), each carrying its
+    cheapest completion, solved exactly by linear assignment: its value is a lower
+    bound. A feasible grouping is recovered each iteration by fixing the relaxed
+    solution's pairs and assigning the other sources one at a time (Deb et al. 1997).
+    """
+
+    def __init__(self, T, c, counts, dummy):
+        self.T, self.c, self.counts, self.dummy = T, c, list(counts), dummy
+        m = self.m = T.shape[1]
+        self.u = [np.zeros(counts[i] + 1) for i in range(m)]    # u[i][-1] = 0: the dummy
+        self.lb, self.ub, self.best = -np.inf, np.inf, None
+        self.history = []
+        self.lam, self.stall, self.best_q, self.it = 1.0, 0, -np.inf, 0
+        self.optimal = False
+        base = np.array([n + 1 for n in counts], dtype=np.int64)
+        mult = np.concatenate([[1], np.cumprod(base)[:-1]])
+        if float(np.prod(base.astype(float))) > 2.0**62:
+            raise ValueError("`x`: too many reports for the Lagrangian's tuple keys")
+        self.mult = mult
+        # prefix keys: pref[k] over positions < k (k = 0..m)
+        contrib = (T + 1) * mult
+        self.pref = [np.zeros(T.shape[0], dtype=np.int64)]
+        for k in range(m):
+            self.pref.append(self.pref[-1] + contrib[:, k])
+        self.full_order = np.argsort(self.pref[m], kind="stable")
+        self.full_sorted = self.pref[m][self.full_order]
+        key = self.pref[2]
+        free = key == 0
+        self.free = np.flatnonzero(free)
+        idx = np.flatnonzero(~free)
+        order = idx[np.argsort(key[idx], kind="stable")]
+        ks = key[order]
+        starts = np.flatnonzero(np.r_[True, np.diff(ks) != 0]) if ks.size else np.zeros(0, int)
+        self.order, self.starts = order, starts
+        self.sizes = np.diff(np.r_[starts, ks.size])
+        self.ukeys = ks[starts]
+        self.base0 = int(base[0])
+        self.ka, self.kb = self.ukeys % base[0] - 1, self.ukeys // base[0] - 1
+
+    def _reduced(self, first):
+        rc = self.c.copy()
+        for i in range(first, self.m):
+            rc -= self.u[i][self.T[:, i]]
+        return rc
+
+    def relaxed(self):
+        rc = self._reduced(2)
+        rs = rc[self.order]
+        mins = np.minimum.reduceat(rs, self.starts) if rs.size else rs
+        pos = np.flatnonzero(rs == np.repeat(mins, self.sizes))
+        best = self.order[pos[np.searchsorted(pos, self.starts)]]
+        n0, n1 = self.counts[0], self.counts[1]
+        a, b = self.ka, self.kb
+        real = (a >= 0) & (b >= 0)
+        drow = dcol = None
+        if self.dummy:
+            drow, dcol = np.full(n0, np.inf), np.full(n1, np.inf)
+            lone_a, lone_b = (a >= 0) & (b < 0), (a < 0) & (b >= 0)
+            drow[a[lone_a]], dcol[b[lone_b]] = mins[lone_a], mins[lone_b]
+        sol = _assign(n0, n1, a[real], b[real], mins[real], drow, dcol)
+        if sol is None:
+            return None
+        (pr, pc), rd, cd, value, mag = sol
+        keys = np.concatenate([(pr + 1) + (pc + 1) * self.base0, rd + 1, (cd + 1) * self.base0])
+        chosen = best[np.searchsorted(self.ukeys, keys)]
+        fr = rc[self.free]
+        neg = self.free[fr < 0]
+        us = [self.u[i][:-1] for i in range(2, self.m)]
+        q = value + float(np.sum(fr[fr < 0])) + float(sum(np.sum(ui) for ui in us))
+        # rounding allowance of the sums behind q (never claim an unproved bound)
+        mag = mag + np.sum(np.abs(fr)) + np.sum(np.abs(self.c[chosen])) + \
+            2 * sum(np.sum(np.abs(ui)) for ui in us)
+        slack = 8.0 * _EPS * (self.T.shape[0] + sum(self.counts) + 8) * mag
+        return q, slack, np.concatenate([chosen, neg])
+
+    def recover(self, chosen):
+        """A feasible grouping from the relaxed solution (None if recovery fails)."""
+        m, T, counts = self.m, self.T, self.counts
+        keys = np.unique(self.pref[2][chosen])
+        keys = keys[keys != 0]
+        for k in range(2, m):
+            R, nk = keys.size, counts[k]
+            pk = self.pref[k]
+            pos = np.minimum(np.searchsorted(keys, pk), max(R - 1, 0))
+            ok = (keys[pos] == pk) if R else np.zeros(pk.size, bool)
+            tk = T[:, k]
+            rc = self.c.copy()
+            for i in range(k + 1, m):
+                rc -= self.u[i][T[:, i]]
+            e = ok & (tk >= 0)
+            drow = dcol = None
+            if self.dummy:
+                drow, dcol = np.full(R, np.inf), np.full(nk, np.inf)
+                s = ok & (tk < 0)
+                np.minimum.at(drow, pos[s], rc[s])
+                s = (pk == 0) & (tk >= 0)
+                np.minimum.at(dcol, tk[s], rc[s])
+            sol = _assign(R, nk, pos[e], tk[e], rc[e], drow, dcol)
+            if sol is None:
+                return None
+            (pr, pc), rd, cd, _, _ = sol
+            keys = np.sort(np.concatenate([keys[pr] + (pc + 1) * self.mult[k], keys[rd],
+                                           (cd + 1) * self.mult[k]]))
+        pos = np.searchsorted(self.full_sorted, keys)
+        if np.any(pos >= self.full_sorted.size) or np.any(self.full_sorted[pos] != keys):
+            return None
+        return self.full_order[pos]
+
+    def step(self):
+        """One iteration: relaxed problem, bound, recovery, multiplier update."""
+        self.it += 1
+        out = self.relaxed()
+        if out is None:
+            raise _Infeasible(0 if self.dummy else 1)
+        q, slack, chosen = out
+        m = self.m
+        g = [np.zeros(0)] * 2 + [
+            1.0 - np.bincount(self.T[chosen, i][self.T[chosen, i] >= 0],
+                              minlength=self.counts[i]) for i in range(2, m)]
+        norm2 = float(sum(np.sum(gi * gi) for gi in g))
+        if norm2 == 0.0:                      # relaxed optimum is feasible: it is optimal
+            total = float(self.c[chosen].sum())
+            if total < self.ub:
+                self.ub, self.best = total, chosen
+            self.lb = self.ub
+            self.optimal = True
+            self.history.append((self.lb, self.ub))
+            return
+        self.lb = max(self.lb, q - slack)
+        sol = self.recover(chosen)
+        if sol is not None:
+            total = float(self.c[sol].sum())
+            if total < self.ub:
+                self.ub, self.best = total, sol
+        self.lb = min(self.lb, self.ub)
+        self.history.append((self.lb, self.ub))
+        if q > self.best_q + 1e-12 * max(1.0, abs(q)):
+            self.best_q, self.stall = q, 0
+        else:
+            self.stall += 1
+            if self.stall >= _LAGRANGE_STALL:
+                self.lam, self.stall = self.lam / 2, 0
+        target = self.ub if np.isfinite(self.ub) else q + 0.05 * max(1.0, abs(q))
+        t = self.lam * max(target - q, 1e-9 * max(1.0, abs(q))) / norm2
+        for i in range(2, m):
+            self.u[i][:-1] += t * g[i]
+
+    def close(self, time_limit=None):
+        """Branch and bound (HiGHS) on this problem's candidates: an exact optimum."""
+        chosen = _milp_tuples(self.T, self.c, self.counts, time_limit=time_limit,
+                              upper=self.ub)
+        if chosen is None:
+            raise _Infeasible(None)
+        self.best, self.ub = chosen, float(self.c[chosen].sum())
+        self.lb, self.optimal = self.ub, True
+        self.history.append((self.lb, self.ub))
+
+
+class _Infeasible(Exception):
+    """The candidate groups admit no grouping."""
+
+
+def _solve_candidates(T, c, counts, *, dummy, method, gap, max_iter, time_limit, why):
+    """Solve one scene's S-D problem over explicit candidates, cluster by cluster.
+
+    Returns (chosen tuple indices, cost, lower bound, history (iterations, 2) or None).
+    """
+    ncomp, label, first, offsets = _check_cover(T, counts, dummy, why)
+    m = len(counts)
+    tlabel = label[first]
+    order = np.argsort(tlabel, kind="stable")
+    bounds = np.searchsorted(tlabel[order], np.arange(ncomp + 1))
+    if method == "milp":
+        chosen = _milp_tuples(T, c, counts, time_limit=time_limit)
+        if chosen is None:
+            raise ValueError(_infeasible_text(None, counts, why))
+        total = float(c[chosen].sum())
+        return chosen, total, total, None
+    # local report indices inside each cluster
+    local = []
+    for i in range(m):
+        lab = label[offsets[i]:offsets[i + 1]]
+        srt = np.argsort(lab, kind="stable")
+        loc = np.empty_like(srt)
+        starts = np.searchsorted(lab[srt], lab[srt])
+        loc[srt] = np.arange(srt.size) - starts
+        local.append((loc, np.bincount(lab, minlength=ncomp)))
+    comps = []
+    for q in range(ncomp):
+        sel = order[bounds[q]:bounds[q + 1]]
+        if sel.size == 0:
+            continue
+        Tq = np.stack([np.where(T[sel, i] >= 0, local[i][0][np.maximum(T[sel, i], 0)], -1)
+                       for i in range(m)], axis=1)
+        cnt = [int(local[i][1][q]) for i in range(m)]
+        comps.append((sel, _Lagrangian(Tq, c[sel], cnt, dummy)))
+    solvers = [s for _, s in comps]
+
+    def run(tol_of, budget):
+        for s in solvers:
+            try:
+                while not s.optimal and s.it < budget and not (s.ub - s.lb <= tol_of(s)):
+                    s.step()
+            except _Infeasible as exc:
+                raise ValueError(_infeasible_text(exc.args[0], counts, why)) from None
+
+    def totals():
+        return sum(s.ub for s in solvers), sum(s.lb for s in solvers)
+
+    run(lambda s: 0.5 * gap * max(abs(s.ub), 1.0) if np.isfinite(s.ub) else -1.0, max_iter)
+    ub, lb = totals()
+    if np.isfinite(ub) and (ub - lb) > gap * max(abs(ub), 1.0):
+        share = 0.5 * gap * max(abs(ub), 1.0) / len(solvers)
+        run(lambda s: share, 2 * max_iter)
+    ub, lb = totals()
+    if not np.isfinite(ub) or (ub - lb) > gap * max(abs(ub), 1.0):
+        # stalled clusters (a duality gap): branch and bound on their candidates only
+        worst = sorted(solvers, key=lambda s: -(s.ub - s.lb) if np.isfinite(s.ub) else -np.inf)
+        for s in worst:
+            ub, lb = totals()
+            if np.isfinite(ub) and (ub - lb) <= gap * max(abs(ub), 1.0):
+                break
+            try:
+                s.close(time_limit)
+            except _Infeasible:
+                raise ValueError(_infeasible_text(None, counts, why)) from None
+    ub, lb = totals()
+    chosen = np.concatenate([sel[s.best] for sel, s in comps])
+    length = max(len(s.history) for s in solvers)
+    hist = np.zeros((length, 2))
+    for s in solvers:
+        h = np.array(s.history)
+        hist += np.vstack([h, np.repeat(h[-1:], length - len(h), axis=0)])
+    return chosen, float(c[chosen].sum()), min(lb, float(c[chosen].sum())), hist
+
+
+def _infeasible_text(source, counts, why):
+    srcs = "sources 0 and 1" if source in (0, 1) else "the sources"
+    return (f"`x`: the gated problem has no grouping: the reports of {srcs} (report counts "
+            f"{list(counts)}) cannot all be put into groups of one report per source ({why}); "
+            "never a partial grouping -- widen the gate or allow missed detections and false "
+            "reports (`p_detect` < 1, `false_density` > 0)")
+
+
+def _groups_from_tuples(T):
+    """Rows sorted by source 0, then 1, ... (a missing report, -1, sorts last)."""
+    key = np.where(T >= 0, T, np.iinfo(np.int64).max)
+    return T[np.lexsort(key.T[::-1])]
+
+
 def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
-             time_limit: float | None = None) -> GroupingResult:
-    """Best grouping, exactly, as an S-D assignment integer program (HiGHS).
+             time_limit: float | None = None, method: str = "milp", gap: float = 0.01,
+             max_iter: int = 100, p_false_reject: float | None = None, p_detect=None,
+             false_density=None, object_density=None) -> GroupingResult:
+    """Best grouping as an S-D assignment: exactly (HiGHS) or to a proved gap (Lagrangian).
 
     Parameters
     ----------
     x : array_like, shape (..., m, n, d)
         Reports (see :func:`group_costs`); leading axes are solved one scene at a time.
+        With `p_detect`, one scene: shape ``(m, n, d)`` or a list of ``m`` arrays
+        of shape ``(n_i, d)`` (unequal report counts).
     cov : array_like, shape (..., m, n, d, d)
-        Their covariances (broadcastable).
+        Their covariances (broadcastable; with `p_detect` and a list `x`, a
+        list of ``(n_i, d, d)`` or ``(d, d)`` arrays).
     cost : {"ml", "pairwise"}, optional
-        Group cost (see :func:`group_costs`).
+        Group cost (see :func:`group_costs`); ``"ml"`` with `p_detect`.
     relaxation : bool, optional
-        Solve the LP relaxation first (default) and accept its solution when it
-        is integral — it is then optimal for the integer program too; otherwise
-        (or with ``relaxation=False``) run HiGHS branch and bound
+        ``method="milp"`` on the full tensor: solve the LP relaxation first
+        (default) and accept its solution when it is integral — it is then
+        optimal for the integer program too; otherwise (or with
+        ``relaxation=False``) run HiGHS branch and bound
         (:func:`scipy.optimize.milp`) with a zero optimality gap.
     time_limit : float, optional
-        Seconds allowed to branch and bound per scene; if HiGHS cannot prove
-        optimality in time a :class:`RuntimeError` is raised (never a silently
-        suboptimal answer).
+        Seconds allowed to branch and bound per scene (or per stalled cluster
+        of the Lagrangian); if HiGHS cannot prove optimality in time a
+        :class:`RuntimeError` is raised (never a silently suboptimal answer).
+    method : {"milp", "lagrangian"}, optional
+        ``"milp"`` (default): the exact integer program. ``"lagrangian"``: the
+        Lagrangian relaxation of Deb et al. (1997), stopped once the proved
+        gap is at most `gap`.
+    gap : float, optional
+        Relative duality gap, in (0, 1), at which ``"lagrangian"`` stops
+        (default 0.01). Clusters whose relaxation stalls above it are closed
+        by branch and bound on their own candidate groups, so the returned
+        ``gap`` never exceeds it.
+    max_iter : int, optional
+        Subgradient iterations per cluster before the gap target is tightened
+        (then twice as many before branch and bound takes over).
+    p_false_reject : float, optional
+        Gate: the probability :math:`P_{\\text{lo}}` that one true pair of
+        reports fails its gate. A candidate group is kept only if each of its
+        report pairs has :math:`\\kappa \\le \\gamma`, :math:`\\gamma` the
+        :math:`\\chi^2_d` quantile at :math:`1 - P_{\\text{lo}}`; costs are then
+        computed for the kept groups only. ``None`` (default): no gate.
+    p_detect : float or array_like of shape (m,), optional
+        Detection probability :math:`P_{D,i} \\in (0, 1]` of each source.
+        Given with `false_density` and `object_density`, every source may miss
+        targets and report false alarms (the dummy index), and report counts
+        may differ.
+    false_density : float or array_like of shape (m,), optional
+        False-report density :math:`\\rho_{F,i} \\ge 0` of each source (per unit
+        volume of the report space).
+    object_density : float, optional
+        Target density :math:`\\rho_T > 0` (per unit volume).
 
     Returns
     -------
     GroupingResult
-        ``groups`` of shape ``(..., n, m)``, total ``cost``, ``method="milp"``,
-        and ``relaxation_integral`` per scene.
+        ``groups`` of shape ``(..., n, m)`` (with `p_detect`: ``(G, m)``, -1
+        for a missing report), total ``cost``, ``method``, ``lower_bound`` and
+        the proved ``gap``; ``relaxation_integral`` for the full-tensor MILP;
+        ``history`` for the Lagrangian on one scene.
 
     Raises
     ------
     ValueError
-        For bad input (see :func:`group_costs`), or more than
-        :data:`MAX_CANDIDATE_GROUPS` candidate groups :math:`n^m` per scene.
+        For bad input (see :func:`group_costs`; `gap` outside (0, 1); a partial
+        detection model), more than :data:`MAX_CANDIDATE_GROUPS` candidate
+        groups without a gate, or a gated problem without any grouping (the
+        message names the source whose reports cannot be grouped).
     TypeError
         If `relaxation` is not a boolean.
     RuntimeError
@@ -765,6 +1459,42 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     an integral relaxed solution is an exact answer; in well-separated scenes
     this is the common case and is much faster than branch and bound.
 
+    *Gate.* The pair statistics :math:`\\kappa` of all report pairs are
+    computed first (:math:`O(m^2 n^2)`), then tuples are grown source by
+    source, keeping only those whose pairs all pass: memory follows the number
+    of gated candidates, not :math:`n^m`. A true group of :math:`m` reports
+    passes with probability at least :math:`1 - \\binom{m}{2} P_{\\text{lo}}`.
+
+    *Dummy index.* Targets form a Poisson field of density :math:`\\rho_T`;
+    source :math:`i` detects each with probability :math:`P_{D,i}` and adds
+    false reports of density :math:`\\rho_{F,i}`. A group of the sources
+    :math:`S` (:math:`|S| \\ge 2`) and a lone report of source :math:`i` cost
+
+    .. math::
+
+        c_S = c_{\\mathrm{ML}} + (|S|-1)\\,d\\ln 2\\pi - 2\\ln\\Big(\\rho_T
+              \\prod_{i\\in S} P_{D,i} \\prod_{i\\notin S}(1-P_{D,i})\\Big),
+        \\qquad c_i = -2\\ln u_i,\\;\\;
+        u_i = \\rho_{F,i} + \\rho_T P_{D,i}\\prod_{k\\ne i}(1-P_{D,k}),
+
+    so the total is :math:`-2\\ln` of the grouping's likelihood up to one
+    constant; for :math:`m = 2`, :math:`c_{12} - c_1 - c_2 = \\kappa - 2c_0`
+    with :math:`c_0` of :func:`radarfusion_ref.association.non_assignment_cost`.
+
+    *Lagrangian relaxation.* The candidate groups are split into independent
+    clusters (connected reports). In each, the constraints of sources
+    :math:`3..m` get multipliers :math:`u`; for each pair :math:`(j_1, j_2)`
+    the cheapest completion of reduced cost :math:`c_t - \\sum_{i\\ge 3}
+    u_i(t_i)` leaves a 2-D assignment over the gated pairs, solved exactly
+    (:func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`, with
+    the dummy rows and columns kept sparse). Its value plus
+    :math:`\\sum u` is a valid lower bound :math:`q(u)` (reduced by a
+    floating-point rounding allowance). A feasible grouping is recovered each
+    iteration by fixing the relaxed pairs and assigning sources
+    :math:`3, \\dots, m` one at a time, and :math:`u` moves along the
+    subgradient with a Polyak step toward the best cost found. A relaxed
+    solution that is itself feasible is optimal (gap 0).
+
     References
     ----------
     Sonar paper (2013), eqs. (24)–(26); Deb et al. (1997).
@@ -775,40 +1505,102 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     >>> r = group_sd(x, np.ones((3, 2, 1, 1)))
     >>> r.groups.tolist(), r.method
     ([[0, 1, 0], [1, 0, 1]], 'milp')
+    >>> r = group_sd(x, np.ones((3, 2, 1, 1)), method="lagrangian", p_false_reject=1e-3)
+    >>> r.groups.tolist(), r.gap
+    ([[0, 1, 0], [1, 0, 1]], 0.0)
     """
     cost = as_choice(cost, "cost", _COSTS)
     relaxation = as_bool(relaxation, "relaxation")
     if time_limit is not None:
         time_limit = float(as_positive(time_limit, "time_limit"))
+    method = as_choice(method, "method", ("milp", "lagrangian"))
+    gap = as_probability(gap, "gap")
+    if gap.ndim:
+        raise ValueError(f"`gap` must be a number in the open interval (0, 1); received shape "
+                         f"{gap.shape}")
+    gap = float(gap)
+    max_iter = as_int(max_iter, "max_iter", minimum=1)
+    p_lo = None
+    if p_false_reject is not None:
+        p_lo = as_probability(p_false_reject, "p_false_reject")
+        if p_lo.ndim:
+            raise ValueError("`p_false_reject` must be a number in (0, 1); received shape "
+                             f"{p_lo.shape}")
+        p_lo = float(p_lo)
+    why = (f"pair gate P_lo = {p_lo:g}" if p_lo is not None else "no gate")
+    if p_detect is not None or false_density is not None or object_density is not None:
+        xs, cs = _ragged_iv(x, cov)
+        det = _detection_iv(len(xs), p_detect, false_density, object_density)
+        if cost != "ml":
+            raise ValueError("`cost` must be 'ml' with missed detections and false reports "
+                             f"(`p_detect`): the likelihood defines their costs; received {cost!r}")
+        d = xs[0].shape[1]
+        gamma = None if p_lo is None else float(stats.chi2.isf(p_lo, d))
+        counts = [xi.shape[0] for xi in xs]
+        T, c = _scene_candidates(xs, cs, cost=cost, gamma=gamma, det=det)
+        chosen, total, lb, hist = _solve_candidates(
+            T, c, counts, dummy=True, method=method, gap=gap, max_iter=max_iter,
+            time_limit=time_limit, why=why)
+        return GroupingResult(_groups_from_tuples(T[chosen]), total, cost, method, None,
+                              lb, _gap_of(total, lb), hist)
     xb, cb, batch = _reports_iv(x, cov)
-    B, m, n, _ = xb.shape
-    check_size(n**m, MAX_CANDIDATE_GROUPS,
-               what=f"candidate groups n**m = {n}**{m} of one scene (`x` with m = {m}, n = {n})",
-               alternative="a gate on the candidate groups or Lagrangian relaxation "
-                           "(Deb et al. 1997), or splitting the scene into clusters")
+    B, m, n, d = xb.shape
+    if p_lo is None:
+        check_size(n**m, MAX_CANDIDATE_GROUPS,
+                   what=f"candidate groups n**m = {n}**{m} of one scene (`x` with m = {m}, n = {n})",
+                   alternative="a gate on the candidate groups (`p_false_reject`) and Lagrangian "
+                               "relaxation (`method`='lagrangian', Deb et al. 1997), or "
+                               "splitting the scene into clusters")
     groups = np.empty((B, n, m), dtype=np.int64)
     totals = np.empty(B)
+    lbs = np.empty(B)
     integral = np.zeros(B, dtype=bool)
+    hist = None
     for b in range(B):
-        c_raw = _tensor(xb[b:b + 1], cb[min(b, cb.shape[0] - 1):][:1], cost).ravel()
-        try:
-            chosen, integral[b] = _sd_solve(c_raw, m, n, relaxation=relaxation,
-                                            time_limit=time_limit)
-        except RuntimeError as exc:
-            raise RuntimeError(f"scene {b}: {exc}") from None
-        groups[b] = _normalise(np.array(np.unravel_index(chosen, (n,) * m)).T)
-        totals[b] = c_raw[chosen].sum()
+        cov_b = cb[min(b, cb.shape[0] - 1)]
+        if method == "milp" and p_lo is None:
+            c_raw = _tensor(xb[b:b + 1], cov_b[None], cost).ravel()
+            try:
+                chosen, integral[b] = _sd_solve(c_raw, m, n, relaxation=relaxation,
+                                                time_limit=time_limit)
+            except RuntimeError as exc:
+                raise RuntimeError(f"scene {b}: {exc}") from None
+            groups[b] = _normalise(np.array(np.unravel_index(chosen, (n,) * m)).T)
+            totals[b] = lbs[b] = c_raw[chosen].sum()
+        else:
+            if p_lo is None:
+                T = np.indices((n,) * m).reshape(m, -1).T
+                c = _tensor(xb[b:b + 1], cov_b[None], cost).ravel()
+            else:
+                T, c = _scene_candidates(list(xb[b]), list(cov_b), cost=cost,
+                                         gamma=float(stats.chi2.isf(p_lo, d)), det=None)
+            try:
+                chosen, totals[b], lbs[b], hist = _solve_candidates(
+                    T, c, [n] * m, dummy=False, method=method, gap=gap, max_iter=max_iter,
+                    time_limit=time_limit, why=why)
+            except ValueError as exc:
+                raise ValueError(f"scene {b}: {exc}" if batch else str(exc)) from None
+            groups[b] = _normalise(T[chosen])
         if not np.isfinite(totals[b]):
             raise ValueError(
                 f"`x` and `cov`: scene {b}: the total cost of the best grouping overflows "
                 "the floating-point range; split the scene or gate the candidate groups first"
             )
     groups = groups.reshape(*batch, n, m)
-    cost_out = totals.reshape(batch)
-    integral = integral.reshape(batch)
+    exact_full = method == "milp" and p_lo is None
+    gaps = np.array([_gap_of(t, lo) for t, lo in zip(totals, lbs, strict=True)])
     if not batch:
-        return GroupingResult(groups, float(cost_out), cost, "milp", bool(integral))
-    return GroupingResult(groups, cost_out, cost, "milp", integral)
+        return GroupingResult(groups, float(totals[0]), cost, method,
+                              bool(integral[0]) if exact_full else None,
+                              float(lbs[0]), float(gaps[0]), hist)
+    return GroupingResult(groups, totals.reshape(batch), cost, method,
+                          integral.reshape(batch) if exact_full else None,
+                          lbs.reshape(batch), gaps.reshape(batch))
+
+
+def _gap_of(total, lower):
+    """Proved relative gap (cost - lower bound) / max(|cost|, 1), never negative."""
+    return max(0.0, (float(total) - float(lower)) / max(abs(float(total)), 1.0))
 
 
 # ----------------------------------------------------------------------------- binding

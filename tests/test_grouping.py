@@ -772,3 +772,280 @@ def test_limits_are_documented_constants():
 def test_public_functions_are_all_fuzzed():
     assert set(PUBLIC) >= {n for n in grouping.__all__ if callable(getattr(grouping, n))
                            and not isinstance(getattr(grouping, n), type)}
+
+
+# ================================================================ S-D at scale: gate, Lagrangian,
+# dummy index. Oracles: brute-force enumeration of groupings and of partitions into groups of at
+# most one report per source, the dense full-tensor MILP, scipy.stats.chi2 and explicit pair loops
+# for the gate, and chapter 04's non_assignment_cost with associate_joint for m = 2.
+from radarfusion_ref import association  # noqa: E402
+
+
+def geometric_scene(m, n, seed, noise=0.25):
+    rng = np.random.default_rng(seed)
+    th = np.arange(m) * np.pi / m
+    rot = np.moveaxis(np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]]), -1, 0)
+    cov = rot @ np.diag([(2 * noise) ** 2, (noise / 2) ** 2]) @ np.swapaxes(rot, -1, -2)
+    s = grouping.grouping_scene(n, m, cov=cov[:, None], layout="uniform", rng=rng)
+    return s.reports[0], np.broadcast_to(s.cov, (m, n, 2, 2))
+
+
+def pair_kappa_loop(xa, ca, xb, cb):
+    out = np.empty((len(xa), len(xb)))
+    for a in range(len(xa)):
+        for b in range(len(xb)):
+            dlt = xa[a] - xb[b]
+            out[a, b] = dlt @ np.linalg.solve(ca[a] + cb[b], dlt)
+    return out
+
+
+@pytest.mark.parametrize(("m", "n", "p"), [(3, 6, 0.05), (3, 8, 1e-3), (4, 5, 0.01)])
+def test_gate_keeps_exactly_the_tuples_whose_pairs_pass(m, n, p):
+    x, cov = geometric_scene(m, n, seed=m * n)
+    gamma = stats.chi2.isf(p, 2)
+    kap = {(i, k): pair_kappa_loop(x[i], cov[i], x[k], cov[k])
+           for i, k in itertools.combinations(range(m), 2)}
+    expected = {t for t in itertools.product(range(n), repeat=m)
+                if all(kap[i, k][t[i], t[k]] <= gamma for i, k in kap)}
+    T, c = grouping._scene_candidates(list(x), list(cov), cost="ml", gamma=gamma, det=None)
+    assert {tuple(t) for t in T.tolist()} == expected
+    assert len(expected) < n**m                         # the gate prunes
+    # the gated groups carry the full-tensor ML cost
+    tensor = grouping.group_costs(x, cov)
+    np.testing.assert_allclose(c, tensor[tuple(T.T)], rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("cost", ["ml", "pairwise"])
+def test_wide_gate_is_the_ungated_problem(seed, cost):
+    x, cov = rand_problem(seed, 3, 5)
+    T, _ = grouping._scene_candidates(list(x), list(cov), cost=cost,
+                                      gamma=stats.chi2.isf(1e-300, 2), det=None)
+    assert T.shape[0] == 5**3                           # nothing gated out
+    dense = grouping.group_sd(x, cov, cost=cost)
+    for method in ("milp", "lagrangian"):
+        r = grouping.group_sd(x, cov, cost=cost, method=method, gap=1e-9, p_false_reject=1e-300)
+        np.testing.assert_array_equal(r.groups, dense.groups)
+        assert r.cost == pytest.approx(dense.cost, rel=1e-9, abs=1e-9)
+
+
+def test_gated_memory_follows_the_candidates_not_n_to_the_m():
+    # m = 4, n = 60: n**m = 1.3e7 candidate groups is refused without a gate
+    x, cov = geometric_scene(4, 60, seed=1)
+    with pytest.raises(ValueError, match="candidate groups"):
+        grouping.group_sd(x, cov)
+    T, _ = grouping._scene_candidates(list(x), list(cov), cost="ml",
+                                      gamma=stats.chi2.isf(1e-3, 2), det=None)
+    assert T.shape[0] < 60**4 / 500                  # 1.3e7 candidate groups without a gate
+    r = grouping.group_sd(x, cov, method="lagrangian", gap=0.01, p_false_reject=1e-3)
+    assert_valid_grouping(r.groups, 4, 60)
+    assert r.gap <= 0.01
+
+
+@pytest.mark.parametrize(("m", "n"), [(3, 3), (3, 4), (3, 5), (4, 3), (4, 4), (5, 3)])
+@pytest.mark.parametrize("seed", range(3))
+def test_lagrangian_equals_milp_and_bruteforce(m, n, seed):
+    x, cov = rand_problem(seed, m, n, noise=0.6)
+    bf = grouping.group_bruteforce(x, cov)
+    r = grouping.group_sd(x, cov, method="lagrangian", gap=1e-9)
+    np.testing.assert_array_equal(r.groups, bf.groups)
+    np.testing.assert_array_equal(r.groups, grouping.group_sd(x, cov).groups)
+    assert r.lower_bound <= bf.cost + 1e-9 * max(1, abs(bf.cost)) <= r.cost + 2e-9 * max(1, abs(bf.cost))
+
+
+@settings(deadline=None)
+@given(prob=problems(m_range=(3, 4), n_range=(2, 4)), max_iter=st.sampled_from([1, 2, 5, 50]),
+       gap=st.sampled_from([0.9, 0.3, 0.05, 1e-3]), gated=st.booleans())
+def test_property_lagrangian_bound_is_proved(prob, max_iter, gap, gated):
+    x, cov = prob
+    m, n = x.shape[:2]
+    bf = grouping.group_bruteforce(x, cov)
+    kw = {"p_false_reject": 1e-300} if gated else {}
+    r = grouping.group_sd(x, cov, method="lagrangian", gap=gap, max_iter=max_iter, **kw)
+    assert_valid_grouping(r.groups, m, n)
+    tol = 1e-9 * max(1.0, abs(bf.cost))
+    assert r.lower_bound <= bf.cost + tol            # a valid dual value
+    assert bf.cost <= r.cost + tol                   # a feasible grouping
+    assert r.gap == pytest.approx((r.cost - r.lower_bound) / max(abs(r.cost), 1.0), abs=1e-12)
+    assert 0.0 <= r.gap <= gap                       # the target is met, and proved
+    tensor = grouping.group_costs(x, cov)
+    assert r.cost == pytest.approx(tensor[tuple(r.groups.T)].sum(), rel=1e-12, abs=1e-12)
+    hist = r.history
+    assert hist.shape[1] == 2 and np.all(np.diff(hist[:, 0]) >= 0)
+    assert np.all(hist[:, 0] <= hist[:, 1])
+
+
+def test_lagrangian_bound_closes_in_a_geometric_scene():
+    x, cov = geometric_scene(3, 60, seed=5)
+    exact = grouping.group_sd(x, cov)
+    r = grouping.group_sd(x, cov, method="lagrangian", gap=0.005, p_false_reject=1e-6)
+    assert r.gap <= 0.005
+    assert r.lower_bound <= exact.cost + 1e-9 * abs(exact.cost) <= r.cost + 2e-9 * abs(exact.cost)
+    assert r.history.shape[0] >= 1
+
+
+def test_lagrangian_batch_and_result_defaults():
+    x = np.stack([rand_problem(s, 3, 4)[0] for s in range(3)])
+    cov = rand_problem(0, 3, 4)[1]
+    r = grouping.group_sd(x, cov, method="lagrangian", gap=1e-6)
+    loop = [grouping.group_bruteforce(x[b], cov) for b in range(3)]
+    for b in range(3):
+        np.testing.assert_array_equal(r.groups[b], loop[b].groups)
+    assert r.lower_bound.shape == r.gap.shape == (3,)
+    assert np.all(r.lower_bound <= r.cost + 1e-12)
+    for res in (loop[0], grouping.group_sd(x[0], cov)):
+        assert res.lower_bound == res.cost and res.gap == 0.0 and res.history is None
+
+
+# ---------------------------------------------------------------- dummy index
+def detection_costs_independent(xs, cs, groups, pd, rf, rt):
+    """-2 ln likelihood of a grouping, from group_costs on each group's own sources."""
+    m, d = len(xs), xs[0].shape[1]
+    pd = np.broadcast_to(pd, (m,))
+    rf = np.broadcast_to(rf, (m,))
+    total = 0.0
+    for g in groups:
+        S = [i for i in range(m) if g[i] >= 0]
+        if len(S) == 1:
+            i = S[0]
+            u = rf[i] + rt * pd[i] * np.prod([1 - pd[k] for k in range(m) if k != i])
+            total += -2 * np.log(u)
+            continue
+        xg = np.stack([xs[i][g[i]] for i in S])[:, None]
+        cg = np.stack([cs[i][g[i]] for i in S])[:, None]
+        lik = rt * np.prod([pd[i] if i in S else 1 - pd[i] for i in range(m)])
+        total += float(grouping.group_costs(xg, cg).ravel()[0]) + \
+            (len(S) - 1) * d * np.log(2 * np.pi) - 2 * np.log(lik)
+    return total
+
+
+def all_partial_groupings(counts):
+    """Every partition of the reports into groups holding at most one report per source."""
+    items = [(i, j) for i, n in enumerate(counts) for j in range(n)]
+    m = len(counts)
+
+    def rec(k, blocks):
+        if k == len(items):
+            yield [list(b) for b in blocks]
+            return
+        i, j = items[k]
+        for b in blocks:
+            if b[i] < 0:
+                b[i] = j
+                yield from rec(k + 1, blocks)
+                b[i] = -1
+        new = [-1] * m
+        new[i] = j
+        blocks.append(new)
+        yield from rec(k + 1, blocks)
+        blocks.pop()
+
+    yield from rec(0, [])
+
+
+@pytest.mark.parametrize(("counts", "seed"), [((2, 2, 2), 0), ((3, 2, 2), 1), ((1, 3, 2), 2),
+                                              ((2, 2, 2, 1), 3), ((3, 3, 1), 4)])
+@pytest.mark.parametrize("method", ["milp", "lagrangian"])
+def test_dummy_index_equals_enumeration_of_partitions(counts, seed, method):
+    rng = np.random.default_rng(seed)
+    truth = rng.uniform(0, 3, size=(3, 2))
+    xs = [truth[rng.integers(0, 3, n)] + 0.4 * rng.standard_normal((n, 2)) for n in counts]
+    cs = [rand_spd(rng, (n,), 2) * 0.2 for n in counts]
+    pd, rf, rt = np.array([0.9, 0.7, 0.8, 0.95])[:len(counts)], 0.05, 0.3
+    best = min(all_partial_groupings(counts),
+               key=lambda g: detection_costs_independent(xs, cs, g, pd, rf, rt))
+    want = detection_costs_independent(xs, cs, best, pd, rf, rt)
+    r = grouping.group_sd(xs, cs, method=method, gap=1e-9, p_detect=pd, false_density=rf,
+                          object_density=rt)
+    assert r.cost == pytest.approx(want, rel=1e-9, abs=1e-9)
+    assert detection_costs_independent(xs, cs, r.groups, pd, rf, rt) == pytest.approx(want,
+                                                                                         abs=1e-9)
+    # every report in exactly one group
+    for i, n in enumerate(counts):
+        assert sorted(r.groups[:, i][r.groups[:, i] >= 0].tolist()) == list(range(n))
+
+
+def test_dummy_index_m2_is_chapter_04_assignment_with_non_assignment_cost():
+    rng = np.random.default_rng(7)
+    truth = rng.uniform(0, 6, size=(6, 2))
+    s1, s2 = 0.3, 0.5
+    x1 = truth[rng.permutation(6)[:5]] + s1 * rng.standard_normal((5, 2))
+    x2 = np.vstack([truth[rng.permutation(6)[:4]] + s2 * rng.standard_normal((4, 2)),
+                    rng.uniform(0, 6, (2, 2))])
+    c1, c2 = np.eye(2) * s1**2, np.eye(2) * s2**2
+    pd1, pd2, rf1, rf2, rt = 0.9, 0.8, 0.02, 0.05, 6 / 36
+    c0 = association.non_assignment_cost(p_detect1=pd1, p_detect2=pd2, false_density1=rf1,
+                                         false_density2=rf2, object_density=rt,
+                                         innovation_cov=c1 + c2)
+    kappa = pair_kappa_loop(x1, np.broadcast_to(c1, (5, 2, 2)), x2, np.broadcast_to(c2, (6, 2, 2)))
+    ref = association.associate_joint(kappa, miss_cost=c0)
+    r = grouping.group_sd([x1, x2], [c1, c2], p_detect=[pd1, pd2], false_density=[rf1, rf2],
+                          object_density=rt)
+    pairs = {tuple(g) for g in r.groups.tolist() if min(g) >= 0}
+    assert pairs == {tuple(p) for p in ref.pairs.tolist()}
+
+
+def test_dummy_index_unequal_counts_gated_scene():
+    x, cov = geometric_scene(3, 40, seed=9)
+    rng = np.random.default_rng(9)
+    xs = [x[i][rng.random(40) < 0.85] for i in range(3)]
+    xs = [np.vstack([a, rng.uniform(0, 6.3, (2, 2))]) for a in xs]
+    cs = [cov[i, 0] for i in range(3)]
+    kw = dict(p_detect=0.85, false_density=0.05, object_density=1.0, p_false_reject=1e-4)
+    exact = grouping.group_sd(xs, cs, method="milp", **kw)
+    lag = grouping.group_sd(xs, cs, method="lagrangian", gap=0.01, **kw)
+    assert lag.lower_bound <= exact.cost + 1e-9 * abs(exact.cost)
+    assert exact.cost <= lag.cost + 1e-9 * abs(exact.cost) and lag.gap <= 0.01
+    for r in (exact, lag):
+        for i in range(3):
+            col = r.groups[:, i]
+            assert sorted(col[col >= 0].tolist()) == list(range(len(xs[i])))
+
+
+def test_infeasible_gated_problem_names_the_source():
+    x, cov = geometric_scene(3, 5, seed=2)
+    x = x.copy()
+    x[2, 3] += 1e3                                   # one report of source 2 far from all
+    with pytest.raises(ValueError, match=r"source 2") as info:
+        grouping.group_sd(x, cov, method="lagrangian", p_false_reject=1e-3)
+    assert "never a partial grouping" in str(info.value)
+    with pytest.raises(ValueError, match=r"source 2"):
+        grouping.group_sd(x, cov, method="milp", p_false_reject=1e-3)
+    # with missed detections and false reports the far report is a lone (false) report
+    r = grouping.group_sd(x, cov, p_false_reject=1e-3, p_detect=0.9, false_density=0.01,
+                          object_density=0.2)
+    assert [2, 3] in [[i, g[i]] for g in r.groups.tolist() for i in range(3)
+                      if g[i] == 3 and sum(v >= 0 for v in g) == 1]
+
+
+def test_unequal_counts_still_refused_without_the_dummy_index():
+    with pytest.raises(ValueError, match="same number n of reports"):
+        grouping.group_sd([np.zeros((3, 2)), np.zeros((2, 2))], np.eye(2)[None, None],
+                          method="lagrangian")
+
+
+@given(value=st.sampled_from([0.0, 1.0, -0.1, 1.5, np.nan, "0.01", True, None, [0.01, 0.02]]))
+def test_fuzz_bad_gap(value):
+    _raises_naming(["gap"], grouping.group_sd, GOOD_X, GOOD_COV, method="lagrangian", gap=value)
+
+
+@given(kw=st.sampled_from([{"method": "subgradient"}, {"max_iter": 0}, {"max_iter": 2.5},
+                           {"p_false_reject": 0.0}, {"p_false_reject": 1.0},
+                           {"p_false_reject": [0.1, 0.2]},
+                           {"p_detect": 0.9}, {"p_detect": 0.0, "false_density": 0.1,
+                                               "object_density": 1.0},
+                           {"p_detect": 1.2, "false_density": 0.1, "object_density": 1.0},
+                           {"p_detect": 0.9, "false_density": -1.0, "object_density": 1.0},
+                           {"p_detect": 0.9, "false_density": 0.1, "object_density": 0.0},
+                           {"p_detect": [0.9, 0.9, 0.9], "false_density": 0.1,
+                            "object_density": 1.0}]))
+def test_fuzz_bad_scaling_arguments(kw):
+    names = [k for k in kw if k != "p_detect" or len(kw) == 1] + ["p_detect", "false_density",
+                                                                  "object_density"]
+    _raises_naming(names, grouping.group_sd, GOOD_X + np.arange(3)[:, None], GOOD_COV, **kw)
+
+
+def test_dummy_index_needs_the_ml_cost_and_one_scene():
+    kw = dict(p_detect=0.9, false_density=0.1, object_density=1.0)
+    _raises_naming(["cost"], grouping.group_sd, GOOD_X, GOOD_COV, cost="pairwise", **kw)
+    _raises_naming(["x"], grouping.group_sd, np.zeros((2, 2, 3, 2)), GOOD_COV, **kw)
