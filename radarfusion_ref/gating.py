@@ -26,7 +26,12 @@ The paper's :math:`\\kappa_{\\text{th}}`, :math:`m` and :math:`V` are the book's
 * :func:`required_noncentrality` — the :math:`\\lambda` a false hypothesis needs for
   its acceptance probability to drop to a target (root-finding in the log domain);
 * :func:`gate_mahalanobis_2d` — the chunked, vectorized 2-D squared-Mahalanobis
-  + gate kernel used by Monte-Carlo experiments and the benchmark.
+  + gate kernel used by Monte-Carlo experiments and the benchmark;
+* :func:`pairwise_mahalanobis_2d` and :func:`gate_pairwise_2d` — the chunked
+  kernel for every pair of two sets of 2-D reports when each report carries its
+  own covariance (polar reports, separated radars): :math:`\\kappa_{ij}` (and
+  :math:`\\ln\\det(\\Sigma_{1i} + \\Sigma_{2j})`) or the gate decisions, batched over
+  trials.
 
 All functions broadcast over their array arguments.
 
@@ -41,8 +46,13 @@ All functions broadcast over their array arguments.
 * :func:`required_noncentrality` solves :math:`\\ln P_{\\text{fa}}(\\lambda) =
   \\ln p`, so targets down to the smallest double have their true root instead
   of a clamped constant; it refuses more than :data:`MAX_ROOTS` roots per call.
-* :func:`gate_mahalanobis_2d` refuses a `chunk_size` above :data:`MAX_CHUNK`
-  before allocating its work buffers.
+* :func:`gate_mahalanobis_2d`, :func:`pairwise_mahalanobis_2d` and
+  :func:`gate_pairwise_2d` refuse a `chunk_size` above :data:`MAX_CHUNK`
+  before allocating their work buffers; the pairwise kernels also refuse a
+  call whose result and per-report copies exceed
+  :data:`radarfusion_ref._validation.MEMORY_LIMIT`, and covariances that are
+  singular to working precision (determinant at most 1e-12 of the product of
+  the variances, where :math:`\\kappa` would have no correct digit left).
 
 .. rubric:: References
 
@@ -53,10 +63,13 @@ All functions broadcast over their array arguments.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import optimize, special, stats
 
 from ._validation import (
+    MEMORY_LIMIT,
     _describe,
     as_covariance,
     as_float_array,
@@ -72,9 +85,11 @@ __all__ = [
     "MAX_CHUNK",
     "MAX_ROOTS",
     "gate_mahalanobis_2d",
+    "gate_pairwise_2d",
     "gate_threshold",
     "in_gate",
     "p_false_accept",
+    "pairwise_mahalanobis_2d",
     "required_noncentrality",
 ]
 
@@ -540,4 +555,389 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
             np.less(kk, th, out=accepted[start:stop])
             if kappa is not None:
                 kappa[start:stop] = kk
+    return (accepted, kappa) if return_statistic else accepted
+
+
+# --------------------------------------------------------------------------- per-report covariances
+#: Default pairs per chunk of the pairwise kernels: six work buffers of 512 KiB.
+_PAIR_CHUNK = 65536
+#: Below this determinant / (product of the variances) a 2x2 covariance is singular
+#: to working precision (kappa would carry no correct digit); the same floor as
+#: :func:`radarfusion_ref.separated.pair_statistic`.
+_SINGULAR = 1e-12
+#: The fast route runs unscaled while every variance lies in [2**-900, 2**900] and
+#: every coordinate below 2**900 (no intermediate can underflow to a subnormal);
+#: outside, every pair takes the exactly scaled route of ``mahalanobis_sq``.
+_SAFE_EXP = 900
+
+
+def _report_ok(a, b, b2, d):
+    """Closed-form 2x2 test per report: (symmetric, positive definite and not singular)."""
+    with np.errstate(all="ignore"):
+        if np.array_equal(b, b2):
+            sym = np.True_
+        else:
+            top = np.maximum(np.maximum(np.abs(a), np.abs(d)), np.abs(b))
+            sym = ~(np.abs(b - b2) > 1e-9 * np.maximum(top, np.finfo(float).tiny))
+        r = b / np.sqrt(a)                           # l21 (NaN where a < 0)
+        r *= r
+        pd = (a > 0) & (d - r > _SINGULAR * d)       # l22^2 > 1e-12 d, false for NaN
+    return sym, pd
+
+
+def _refuse_covs(c: np.ndarray, name: str) -> None:
+    """Raise the full message for a stack of report covariances that failed the test."""
+    sym, pd = _report_ok(c[..., 0, 0], c[..., 0, 1], c[..., 1, 0], c[..., 1, 1])
+    if not sym.all():
+        raise ValueError(f"`{name}` must be symmetric; received {_describe(c)}")
+    if not pd.all():
+        bad = int(pd.size - np.count_nonzero(pd))
+        raise ValueError(
+            f"`{name}` must be positive definite and not singular to working precision "
+            f"(determinant above {_SINGULAR:g} of the product of the variances); "
+            f"{bad} of {pd.size} matrices are not: {_describe(c)}")
+
+
+def _pairwise_iv(x1, x2, cov1, cov2, chunk_size, out_bytes):
+    """Validate the pairwise kernels' shapes and sizes (covariances are tested per chunk)."""
+    a = as_float_array(x1, "x1", ndim_min=2, last_dims=(None, 2))
+    b = as_float_array(x2, "x2", ndim_min=2, last_dims=(None, 2))
+    c1 = as_float_array(cov1, "cov1", ndim_min=3, last_dims=(None, 2, 2))
+    c2 = as_float_array(cov2, "cov2", ndim_min=3, last_dims=(None, 2, 2))
+    n1, n2 = a.shape[-2], b.shape[-2]
+    if n1 == 0 or n2 == 0:
+        raise ValueError(f"`x1` and `x2` must hold at least one report each; received shapes "
+                         f"{a.shape} and {b.shape}")
+    for name, c, n, xname in (("cov1", c1, n1, "x1"), ("cov2", c2, n2, "x2")):
+        if c.shape[-3] not in (1, n):
+            raise ValueError(f"`{name}` must hold one 2x2 matrix per report of `{xname}` "
+                             f"(shape (..., {n}, 2, 2)); received shape {c.shape}")
+    try:
+        lead = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], c1.shape[:-3], c2.shape[:-3])
+    except ValueError:
+        raise ValueError("`x1`, `x2`, `cov1`, `cov2` must have broadcastable leading (batch) "
+                         f"axes; received shapes {a.shape}, {b.shape}, {c1.shape}, "
+                         f"{c2.shape}") from None
+    chunk = as_int(chunk_size, "chunk_size", minimum=1)
+    check_size(chunk, MAX_CHUNK, what="pairs per chunk (`chunk_size`)",
+               alternative=f"chunk_size <= {MAX_CHUNK} (the work buffers do not grow with "
+                           "the number of pairs anyway)")
+    n_lead = math.prod(lead)
+    n_pairs = n_lead * n1 * n2
+    planned = (n_pairs * out_bytes                     # the result
+               + 6 * 8 * n_lead * (n1 + n2)           # per-report component copies (at most)
+               + 19 * 8 * min(chunk, n_pairs))        # work and per-chunk report buffers
+    check_size(planned, MEMORY_LIMIT,
+               what=f"bytes for {n_pairs} pairs of `x1` x `x2` (result, per-report copies "
+                    "and work buffers)",
+               alternative="smaller batches of trials (split the leading axes of `x1`, `x2`)")
+    return a, b, c1, c2, lead, chunk
+
+
+def _report_parts(x, c, lead, n):
+    """Six (L, n) per-report views: x, y, var_x, cov_xy, cov_yx, var_y."""
+    n_lead = math.prod(lead)
+    return [np.broadcast_to(part, (*lead, n)).reshape(n_lead, n)
+            for part in (x[..., 0], x[..., 1], c[..., 0, 0], c[..., 0, 1], c[..., 1, 0],
+                         c[..., 1, 1])]
+
+
+def _tiles(lengths, chunk):
+    """Blocks (slices per axis, outer to inner) of at most `chunk` elements.
+
+    Whole outer and middle axes when the inner run can still be long (at least
+    256 elements, so each ufunc call streams), else shorter inner runs.
+    """
+    outer, mid, inner = lengths
+    bi = min(inner, chunk, max(256, chunk // (outer * mid)))
+    bm = max(1, min(mid, chunk // bi))
+    bo = max(1, min(outer, chunk // (bi * bm)))
+    for o0 in range(0, outer, bo):
+        for m0 in range(0, mid, bm):
+            for i0 in range(0, inner, bi):
+                yield (slice(o0, min(o0 + bo, outer)), slice(m0, min(m0 + bm, mid)),
+                       slice(i0, min(i0 + bi, inner)))
+
+
+def _scaled_pairs(xa, ca, xb, cb):
+    """kappa and ln det of paired reports by the exactly scaled route (or a clear refusal)."""
+    from .proximity import _pow2_scale, mahalanobis_sq
+
+    try:
+        kappa = np.atleast_1d(mahalanobis_sq(xa, xb, ca, cb))
+    except ValueError:
+        raise ValueError(
+            "`x1`, `x2`: the statistic kappa overflows the float range (it exceeds the largest "
+            "double, about 1.8e308): the reports differ by more than ~1.3e154 standard "
+            "deviations; rescale the coordinates or the covariances") from None
+    scale = _pow2_scale(ca, cb)
+    s = ca / scale[:, None, None] + cb / scale[:, None, None]
+    l21 = s[:, 0, 1] / np.sqrt(s[:, 0, 0])
+    logdet = np.log(s[:, 0, 0]) + np.log(s[:, 1, 1] - l21 * l21) + 2.0 * np.log(scale)
+    return kappa, logdet
+
+
+def _chol_block(pv, qv, work, kk, ld):
+    """kappa (and ln det) of one block, in place; False if a kappa is not finite.
+
+    The operation sequence of ``separated._chol_quadratic``, so results agree
+    bit for bit: S = L L^T, l11 = sqrt(a), l21 = b / l11, l22 = sqrt(c - l21^2),
+    z = L^-1 d, kappa = z1^2 + z2^2, ln det S = ln a + ln l22^2.
+    """
+    va, vb, vc, d0, d1, t = work
+    np.add(pv[2], qv[2], out=va)
+    np.add(pv[3], qv[3], out=vb)
+    np.add(pv[5], qv[5], out=vc)
+    if ld is not None:
+        np.log(va, out=ld)
+    np.sqrt(va, out=va)                      # l11
+    np.divide(vb, va, out=vb)                # l21
+    np.multiply(vb, vb, out=t)
+    np.subtract(vc, t, out=vc)               # l22^2
+    if ld is not None:
+        np.log(vc, out=t)
+        ld += t
+    np.sqrt(vc, out=vc)                      # l22
+    with np.errstate(over="ignore", invalid="ignore"):
+        np.subtract(pv[0], qv[0], out=d0)
+        np.divide(d0, va, out=d0)            # z1
+        np.subtract(pv[1], qv[1], out=d1)
+        np.multiply(vb, d0, out=t)
+        np.subtract(d1, t, out=d1)
+        np.divide(d1, vc, out=d1)            # z2
+        np.multiply(d0, d0, out=kk)
+        np.multiply(d1, d1, out=d1)
+        np.add(kk, d1, out=kk)
+    return bool(np.max(kk) < np.inf)         # False for an overflow or a NaN
+
+
+def _pairwise_run(a, b, c1, c2, lead, chunk, *, threshold=None, want_kappa=True,
+                  want_logdet=False):
+    """The chunked kernel; returns (kappa | None, logdet | None, accepted | None)."""
+    n1, n2 = a.shape[-2], b.shape[-2]
+    n_lead = math.prod(lead)
+    # The longest axis innermost: with many small scenes (a Monte-Carlo layout) the
+    # trials, and each chunk's reports are gathered into small contiguous buffers
+    # (a cache-sized transpose); with few large scenes the radar-2 reports.
+    trial_last = n_lead > 1 and n_lead >= n2
+    p = _report_parts(a, c1, lead, n1)
+    q = _report_parts(b, c2, lead, n2)
+    if not trial_last:
+        p = [np.ascontiguousarray(v) for v in p]
+        q = [np.ascontiguousarray(v) for v in q]
+        for parts, c, name in ((p, c1, "cov1"), (q, c2, "cov2")):
+            sym, pd = _report_ok(parts[2], parts[3], parts[4], parts[5])
+            if not (sym.all() and pd.all()):
+                _refuse_covs(c, name)
+    big = 2.0 ** _SAFE_EXP
+    with np.errstate(invalid="ignore"):
+        fast = all(float(np.max(np.abs(v))) < big for v in (a, b)) and all(
+            big > float(np.max(v)) and float(np.min(v)) > 1.0 / big
+            for v in (c1[..., 0, 0], c1[..., 1, 1], c2[..., 0, 0], c2[..., 1, 1]))
+    shape = (n1, n2, n_lead) if trial_last else (n_lead, n1, n2)
+    kappa = np.empty(shape) if want_kappa else None
+    logdet = np.empty(shape) if want_logdet else None
+    accepted = np.empty(shape, dtype=bool) if threshold is not None else None
+    size = min(chunk, n1 * n2 * n_lead)
+    work = [np.empty(size) for _ in range(7)]
+    gather = [np.empty(size) for _ in range(12)] if trial_last else None
+    for blk in _tiles(shape, chunk):
+        bshape = tuple(s.stop - s.start for s in blk)
+        k = math.prod(bshape)
+        wv = [x[:k].reshape(bshape) for x in work]
+        if trial_last:
+            si, sj, st = blk
+            m = st.stop - st.start
+            pv, qv = [], []
+            for parts, s_rep, out, c, name in ((p, si, pv, c1, "cov1"),
+                                               (q, sj, qv, c2, "cov2")):
+                nr = s_rep.stop - s_rep.start
+                base = 0 if out is pv else 6
+                for r, v in enumerate(parts):
+                    g = gather[base + r][:nr * m].reshape(nr, m)
+                    np.copyto(g, v[st, s_rep].T)
+                    out.append(g)
+                sym, pd = _report_ok(out[2], out[3], out[4], out[5])
+                if not (sym.all() and pd.all()):
+                    _refuse_covs(c, name)
+            pv = [v[:, None, :] for v in pv]
+            qv = [v[None, :, :] for v in qv]
+        else:
+            st, si, sj = blk
+            pv = [v[st, si, None] for v in p]
+            qv = [v[st, None, sj] for v in q]
+        kk = kappa[blk] if kappa is not None else wv[6]
+        ld = logdet[blk] if logdet is not None else None
+        if fast and _chol_block(pv, qv, wv[:6], kk, ld):
+            redo = None
+        elif fast:
+            redo = np.nonzero(~np.isfinite(kk))
+        else:
+            redo = np.nonzero(np.ones(bshape, dtype=bool))
+        if redo is not None:
+            # the pairs' own per-report values, by broadcasting the block's operands
+            def take(v, redo=redo, bshape=bshape):
+                return np.broadcast_to(v, bshape)[redo]
+
+            def stack(parts):
+                x = np.stack([take(parts[0]), take(parts[1])], axis=-1)
+                cv = np.empty((x.shape[0], 2, 2))
+                cv[:, 0, 0], cv[:, 0, 1] = take(parts[2]), take(parts[3])
+                cv[:, 1, 0], cv[:, 1, 1] = take(parts[3]), take(parts[5])
+                return x, cv
+
+            if not fast:
+                for parts, c, name in ((pv, c1, "cov1"), (qv, c2, "cov2")):
+                    sym, pd = _report_ok(parts[2], parts[3], parts[4], parts[5])
+                    if not (sym.all() and pd.all()):
+                        _refuse_covs(c, name)
+            kr, lr = _scaled_pairs(*stack(pv), *stack(qv))
+            kk[redo] = kr
+            if ld is not None:
+                ld[redo] = lr
+        if accepted is not None:
+            np.less(kk, threshold, out=accepted[blk])
+
+    def back(arr):
+        if arr is None:
+            return None
+        moved = np.moveaxis(arr, -1, 0) if trial_last else arr
+        return moved.reshape(*lead, n1, n2)
+
+    return back(kappa), back(logdet), back(accepted)
+
+
+def pairwise_mahalanobis_2d(x1, x2, cov1, cov2, *, chunk_size=_PAIR_CHUNK,
+                            return_logdet=False):
+    """Squared Mahalanobis distance of every pair of 2-D reports, each with its own covariance.
+
+    The per-report-covariance counterpart of :func:`gate_mahalanobis_2d`, for
+    polar reports and separated radars: for report :math:`i` of radar 1 and
+    report :math:`j` of radar 2, with :math:`S_{ij} = \\Sigma_{1i} + \\Sigma_{2j}`,
+
+    .. math::
+
+        \\kappa_{ij} = (\\hat x_{1i} - \\hat x_{2j})^T S_{ij}^{-1} (\\hat x_{1i} - \\hat x_{2j}),
+
+    for all :math:`n_1 n_2` pairs, batched over leading (trial) axes, in chunks.
+
+    Parameters
+    ----------
+    x1 : array_like, shape (..., n1, 2)
+        Radar 1's reports.
+    x2 : array_like, shape (..., n2, 2)
+        Radar 2's reports in the same frame.
+    cov1 : array_like, shape (..., n1, 2, 2) or (..., 1, 2, 2)
+        One covariance per report of `x1` (a size-1 report axis is shared),
+        symmetric positive definite and not singular to working precision.
+    cov2 : array_like, shape (..., n2, 2, 2) or (..., 1, 2, 2)
+        The same for `x2`.
+    chunk_size : int, optional
+        Pairs per chunk, from 1 to :data:`MAX_CHUNK`. The work buffers hold
+        ``chunk_size`` pairs; the result does not depend on it (bit for bit).
+    return_logdet : bool, optional
+        Also return :math:`\\ln\\det S_{ij}`, the term the full ML cost adds.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., n1, n2)
+        :math:`\\kappa_{ij}`; the leading axes are the broadcast of the four
+        arguments' leading axes. With ``return_logdet=True`` a tuple
+        ``(kappa, logdet)``. When the batch is larger than `n2`, the result is
+        stored trial axis last (a transposed view; values are the same).
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not match, an entry is not finite, a covariance is
+        not symmetric, not positive definite or singular to working precision,
+        `chunk_size` is outside [1, :data:`MAX_CHUNK`], the result would exceed
+        :data:`radarfusion_ref._validation.MEMORY_LIMIT` (both checked before
+        any allocation that grows with the pairs), or a :math:`\\kappa`
+        overflows the largest double.
+    TypeError
+        If an argument is not numeric, `chunk_size` is not an integer or
+        `return_logdet` is not a bool.
+
+    Notes
+    -----
+    Each pair's :math:`S_{ij}` is factored in closed form, :math:`S = L L^T`,
+    :math:`l_{11} = \\sqrt{s_{11}}`, :math:`l_{21} = s_{12}/l_{11}`,
+    :math:`l_{22} = \\sqrt{s_{22} - l_{21}^2}`, and :math:`z = L^{-1}\\Delta` by
+    forward substitution, :math:`\\kappa = z_1^2 + z_2^2`, :math:`\\ln\\det S =
+    \\ln s_{11} + \\ln l_{22}^2` — no inverse, no per-pair temporary array beyond
+    the chunk: each chunk is a handful of in-place ufuncs over preallocated
+    buffers, with the longest axis (the trials, in a Monte-Carlo layout)
+    innermost. The operation sequence is that of
+    :func:`radarfusion_ref.separated.pair_statistic`, so the two agree bit for
+    bit. A singular-to-working-precision report covariance is refused, which
+    guarantees every sum :math:`S_{ij}` factors (the correlation coefficient of a
+    sum of two covariances is at most the larger of theirs). Pairs whose
+    :math:`\\kappa` overflows, and every pair when a variance or coordinate lies
+    beyond :math:`2^{\\pm 900}`, take the exactly scaled route of
+    :func:`radarfusion_ref.proximity.mahalanobis_sq`.
+
+    Examples
+    --------
+    >>> eye = np.eye(2)
+    >>> pairwise_mahalanobis_2d([[0.0, 0.0], [1.0, 0.0]], [[2.0, 0.0]], [eye, 3 * eye], [eye])
+    array([[2.  ],
+           [0.25]])
+    """
+    if not isinstance(return_logdet, (bool, np.bool_)):
+        raise TypeError(f"`return_logdet` must be a bool; received {_describe(return_logdet)}")
+    a, b, c1, c2, lead, chunk = _pairwise_iv(x1, x2, cov1, cov2, chunk_size,
+                                             16 if return_logdet else 8)
+    kappa, logdet, _ = _pairwise_run(a, b, c1, c2, lead, chunk, want_logdet=bool(return_logdet))
+    return (kappa, logdet) if return_logdet else kappa
+
+
+def gate_pairwise_2d(x1, x2, cov1, cov2, *, p_false_reject=0.01, chunk_size=_PAIR_CHUNK,
+                     return_statistic=False):
+    """Chi-square gate (2 degrees of freedom) for every pair of 2-D reports with own covariances.
+
+    :func:`pairwise_mahalanobis_2d` followed by :math:`\\kappa_{ij} < \\gamma`
+    (eq-gate), without storing :math:`\\kappa` unless asked: the result is one
+    byte per pair.
+
+    Parameters
+    ----------
+    x1, x2, cov1, cov2 : array_like
+        As in :func:`pairwise_mahalanobis_2d`.
+    p_false_reject : float, optional
+        :math:`P_{\\text{lo}}` in (0, 1). Default 0.01.
+    chunk_size : int, optional
+        Pairs per chunk, from 1 to :data:`MAX_CHUNK`.
+    return_statistic : bool, optional
+        Also return :math:`\\kappa` (shape (..., n1, n2)).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (..., n1, n2)
+        Gate decisions; with ``return_statistic=True`` a tuple ``(accepted, kappa)``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`pairwise_mahalanobis_2d`, or for a `p_false_reject` that is
+        not a single number in (0, 1).
+
+    Examples
+    --------
+    >>> eye = np.eye(2)
+    >>> gate_pairwise_2d([[0.0, 0.0], [9.0, 0.0]], [[1.0, 0.0]], [eye, eye], [eye])
+    array([[ True],
+           [False]])
+    """
+    if not isinstance(return_statistic, (bool, np.bool_)):
+        raise TypeError(f"`return_statistic` must be a bool; received "
+                        f"{_describe(return_statistic)}")
+    p = as_probability(p_false_reject, "p_false_reject")
+    if p.ndim != 0:
+        raise ValueError(f"`p_false_reject` must be a scalar; received {_describe(p)}")
+    th = float(stats.chi2.isf(p, 2))
+    a, b, c1, c2, lead, chunk = _pairwise_iv(x1, x2, cov1, cov2, chunk_size,
+                                             9 if return_statistic else 1)
+    kappa, _, accepted = _pairwise_run(a, b, c1, c2, lead, chunk, threshold=th,
+                                       want_kappa=bool(return_statistic))
     return (accepted, kappa) if return_statistic else accepted

@@ -468,6 +468,10 @@ GATING_VALID = {
     "p_false_accept": dict(noncentrality=3.0, dof=2, p_false_reject=0.01),
     "required_noncentrality": dict(p_accept=0.1, dof=2, p_false_reject=0.01),
     "gate_mahalanobis_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)), cov=np.eye(2)),
+    "pairwise_mahalanobis_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)),
+                                    cov1=np.stack([np.eye(2)] * 2), cov2=np.stack([np.eye(2)] * 2)),
+    "gate_pairwise_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)),
+                             cov1=np.stack([np.eye(2)] * 2), cov2=np.stack([np.eye(2)] * 2)),
 }
 
 
@@ -497,3 +501,218 @@ def test_fuzz_probabilities_outside_open_interval_named(p, name):
     kw = dict(GATING_VALID[name], p_false_reject=p)
     with pytest.raises(ValueError, match="`p_false_reject`"):
         getattr(gating, name)(**kw)
+
+
+# ============================================================ per-report covariances (all pairs)
+from fractions import Fraction  # noqa: E402
+
+from radarfusion_ref import proximity, separated  # noqa: E402
+
+
+def _random_covs(rng, shape, cond_max=1.0):
+    """SPD 2x2 matrices with random orientation, scale over 6 decades and condition up to cond_max."""
+    theta = rng.uniform(0, np.pi, shape)
+    scale = 10.0 ** rng.uniform(-3, 3, shape)
+    cond = 10.0 ** rng.uniform(0, np.log10(cond_max), shape) if cond_max > 1 else np.ones(shape)
+    c, s = np.cos(theta), np.sin(theta)
+    rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+    lam = np.stack([scale, scale / cond], -1)
+    out = rot * lam[..., None, :] @ np.swapaxes(rot, -1, -2)
+    return 0.5 * (out + np.swapaxes(out, -1, -2))
+
+
+def _kappa_exact(d, s):
+    """d^T S^-1 d in exact rational arithmetic from the float inputs (an independent route)."""
+    d0, d1 = Fraction(d[0]), Fraction(d[1])
+    a, b, c = Fraction(s[0][0]), Fraction(s[0][1]), Fraction(s[1][1])
+    return (c * d0 * d0 - 2 * b * d0 * d1 + a * d1 * d1) / (a * c - b * b)
+
+
+def _pairs_by_loop(x1, x2, c1, c2):
+    """kappa_ij of all pairs of one scene, one exact evaluation per pair."""
+    out = np.empty((len(x1), len(x2)))
+    for i in range(len(x1)):
+        for j in range(len(x2)):
+            # the sum of the float covariances as a float, the same input the kernel factors
+            s = (c1[i] + c2[j]).tolist()
+            out[i, j] = float(_kappa_exact((x1[i] - x2[j]).tolist(), s))
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n1=st.integers(1, 6), n2=st.integers(1, 6),
+       log_cond=st.floats(0.0, 10.0))
+def test_pairwise_against_exact_rational_arithmetic(seed, n1, n2, log_cond):
+    rng = np.random.default_rng(seed)
+    x1, x2 = rng.normal(size=(n1, 2)) * 10, rng.normal(size=(n2, 2)) * 10
+    c1 = _random_covs(rng, (n1,), 10.0**log_cond)
+    c2 = _random_covs(rng, (n2,), 10.0**log_cond)
+    got = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2)
+    exact = _pairs_by_loop(x1, x2, c1, c2)
+    cond = np.array([[np.linalg.cond(c1[i] + c2[j]) for j in range(n2)] for i in range(n1)])
+    # backward-stable Cholesky: relative error a modest multiple of eps * cond(S)
+    np.testing.assert_array_less(np.abs(got - exact), 64 * 2.2e-16 * cond * np.abs(exact) + 1e-300)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), trials=st.integers(1, 40), n1=st.integers(1, 7),
+       n2=st.integers(1, 7), ill=st.booleans())
+def test_pairwise_equals_mahalanobis_sq_batched(seed, trials, n1, n2, ill):
+    rng = np.random.default_rng(seed)
+    x1, x2 = rng.normal(size=(trials, n1, 2)), rng.normal(size=(trials, n2, 2))
+    cond_max = 1e8 if ill else 1.0
+    c1 = _random_covs(rng, (trials, n1), cond_max)
+    c2 = _random_covs(rng, (trials, n2), cond_max)
+    got, logdet = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2, return_logdet=True)
+    ref = proximity.mahalanobis_sq(x1[:, :, None], x2[:, None], c1[:, :, None], c2[:, None])
+    cond = np.linalg.cond(c1[:, :, None] + c2[:, None])
+    assert got.shape == (trials, n1, n2)
+    np.testing.assert_array_less(np.abs(got - ref), 64 * 2.2e-16 * cond * ref + 1e-300)
+    sign, ref_ld = np.linalg.slogdet(c1[:, :, None] + c2[:, None])
+    assert np.all(sign > 0)
+    np.testing.assert_allclose(logdet, ref_ld, rtol=0, atol=1e-13 * cond.max() + 1e-12)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), trials=st.integers(1, 60), n=st.integers(1, 8))
+def test_pairwise_agrees_with_separated_pair_statistic_bit_for_bit(seed, trials, n):
+    # the drop-in claim: the same operation sequence as separated.pair_statistic
+    rng = np.random.default_rng(seed)
+    x1, x2 = rng.normal(size=(trials, n, 2)), rng.normal(size=(trials, n, 2))
+    c1, c2 = _random_covs(rng, (trials, n), 1e6), _random_covs(rng, (trials, n), 1e6)
+    k, ld = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2, return_logdet=True)
+    ks, lds = separated.pair_statistic(x1, c1, x2, c2, return_logdet=True)
+    assert np.array_equal(k, ks) and np.array_equal(ld, lds)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), lead=st.sampled_from([(), (1,), (3,), (40,), (2, 3)]),
+       n1=st.integers(1, 9), n2=st.integers(1, 9), chunk=st.integers(1, 600),
+       p=st.floats(1e-6, 0.5))
+def test_pairwise_chunk_size_and_layout_independent(seed, lead, n1, n2, chunk, p):
+    rng = np.random.default_rng(seed)
+    x1, x2 = rng.normal(size=(*lead, n1, 2)), rng.normal(size=(*lead, n2, 2))
+    c1, c2 = _random_covs(rng, (*lead, n1), 1e4), _random_covs(rng, (*lead, n2), 1e4)
+    k, ld = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2, return_logdet=True)
+    kc, ldc = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2, chunk_size=chunk, return_logdet=True)
+    assert k.shape == (*lead, n1, n2)
+    assert np.array_equal(k, kc) and np.array_equal(ld, ldc)
+    acc, kg = gating.gate_pairwise_2d(x1, x2, c1, c2, p_false_reject=p, chunk_size=chunk,
+                                      return_statistic=True)
+    assert np.array_equal(kg, k)
+    assert np.array_equal(acc, gating.in_gate(k, 2, p))
+    assert np.array_equal(gating.gate_pairwise_2d(x1, x2, c1, c2, p_false_reject=p), acc)
+    # every trial on its own gives the same numbers (the batch layout does not matter)
+    flat = k.reshape(-1, n1, n2)
+    x1f, x2f = x1.reshape(-1, n1, 2), x2.reshape(-1, n2, 2)
+    c1f, c2f = c1.reshape(-1, n1, 2, 2), c2.reshape(-1, n2, 2, 2)
+    for t in range(flat.shape[0]):
+        assert np.array_equal(flat[t], gating.pairwise_mahalanobis_2d(x1f[t], x2f[t], c1f[t],
+                                                                      c2f[t]))
+
+
+def test_pairwise_broadcasts_shared_covariances_and_batch_axes():
+    rng = np.random.default_rng(11)
+    x1, x2 = rng.normal(size=(5, 4, 2)), rng.normal(size=(1, 3, 2))
+    c1 = _random_covs(rng, (1, 1), 100.0)          # one covariance for every report and trial
+    c2 = _random_covs(rng, (5, 3), 100.0)
+    got = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2)
+    ref = proximity.mahalanobis_sq(x1[:, :, None], x2[:, None], c1[:, :, None], c2[:, None])
+    assert got.shape == (5, 4, 3)
+    np.testing.assert_allclose(got, ref, rtol=1e-12)
+
+
+def test_pairwise_extreme_scales_take_the_scaled_route():
+    eye = np.eye(2)
+    for s in (1e-300, 1e-200, 1e200, 1e300):
+        x1 = np.array([[0.0, 0.0], [np.sqrt(s), 0.0]])
+        got, ld = gating.pairwise_mahalanobis_2d(x1, [[0.0, np.sqrt(s)]], [s * eye, s * eye],
+                                                 [s * eye], return_logdet=True)
+        np.testing.assert_allclose(got, [[0.5], [1.0]], rtol=1e-13)
+        np.testing.assert_allclose(ld, 2 * np.log(2 * s), rtol=1e-13)
+    # a kappa beyond the largest double is refused, in the message pair_statistic uses
+    with pytest.raises(ValueError, match="overflows the float range"):
+        gating.pairwise_mahalanobis_2d([[1e200, 0.0]], [[-1e200, 0.0]], eye[None], eye[None])
+    # a kappa near it is exact: |d|^2 / 2 with d = 2e153
+    got = gating.pairwise_mahalanobis_2d([[1e153, 0.0]], [[-1e153, 0.0]], eye[None], eye[None])
+    assert got[0, 0] == pytest.approx(2e306, rel=1e-13)
+
+
+def test_pairwise_bad_input_named():
+    eye = np.eye(2)[None]
+    x = np.zeros((1, 2))
+    cases = [
+        (ValueError, "`x1` must have shape", dict(x1=np.zeros((1, 3)))),
+        (ValueError, "`x2` must be finite", dict(x2=np.array([[np.nan, 0.0]]))),
+        (ValueError, "`cov1` must have at least 3", dict(cov1=np.eye(2))),
+        (ValueError, "`cov2` must be finite", dict(cov2=np.full((1, 2, 2), np.inf))),
+        (ValueError, "`cov1` must be symmetric", dict(cov1=np.array([[[1.0, 0.5], [0.0, 1.0]]]))),
+        (ValueError, r"`cov2` must be positive definite.*1 of 1", dict(cov2=-eye)),
+        (ValueError, "`cov1` must be positive definite",
+         dict(cov1=np.array([[[1.0, 1.0], [1.0, 1.0]]]))),            # singular
+        (ValueError, "`cov1` must be positive definite",              # singular to precision
+         dict(cov1=np.array([[[1.0, 1 - 1e-14], [1 - 1e-14, 1.0]]]))),
+        (ValueError, "one 2x2 matrix per report of `x2`", dict(cov2=np.stack([eye[0]] * 3))),
+        (ValueError, "at least one report", dict(x1=np.zeros((0, 2)), cov1=np.zeros((0, 2, 2)))),
+        (ValueError, "broadcastable leading", dict(x1=np.zeros((3, 1, 2)),
+                                                   x2=np.zeros((4, 1, 2)))),
+        (TypeError, "`chunk_size`", dict(chunk_size=2.0)),
+        (ValueError, "`chunk_size`", dict(chunk_size=0)),
+        (TypeError, "`x1`", dict(x1="a")),
+    ]
+    for exc, msg, kw in cases:
+        args = dict(x1=x, x2=x, cov1=eye, cov2=eye) | kw
+        with pytest.raises(exc, match=msg):
+            gating.pairwise_mahalanobis_2d(**args)
+        with pytest.raises(exc, match=msg):
+            gating.gate_pairwise_2d(**args)
+    with pytest.raises(TypeError, match="`return_logdet`"):
+        gating.pairwise_mahalanobis_2d(x, x, eye, eye, return_logdet=1)
+    with pytest.raises(TypeError, match="`return_statistic`"):
+        gating.gate_pairwise_2d(x, x, eye, eye, return_statistic="yes")
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        gating.gate_pairwise_2d(x, x, eye, eye, p_false_reject=1.0)
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        gating.gate_pairwise_2d(x, x, eye, eye, p_false_reject=[0.01, 0.02])
+    # a bad covariance deep in a large batch is found whatever the chunking
+    rng = np.random.default_rng(2)
+    c = _random_covs(rng, (500, 4))
+    c[377, 2] = [[1.0, 2.0], [2.0, 1.0]]
+    xs = rng.normal(size=(500, 4, 2))
+    for chunk in (16, 1000, 65536):
+        with pytest.raises(ValueError, match=r"`cov2` must be positive definite.*1 of 2000"):
+            gating.gate_pairwise_2d(xs, xs, _random_covs(rng, (500, 4)), c, chunk_size=chunk)
+
+
+def test_pairwise_limits_checked_before_allocation():
+    eye = np.eye(2)
+    x = np.zeros((1, 2))
+    tracemalloc.start()
+    with pytest.raises(ValueError, match=r"refused: 1000000000 pairs per chunk"):
+        gating.pairwise_mahalanobis_2d(x, x, eye[None], eye[None], chunk_size=10**9)
+    # 2e5 x 2e5 pairs of one scene (320 GB of kappa): refused, with the alternative named
+    big = np.broadcast_to(np.zeros(2), (200_000, 2))
+    cov = np.broadcast_to(eye, (1, 2, 2))
+    with pytest.raises(ValueError, match=r"refused: \d+ bytes for 40000000000 pairs.*smaller "
+                                         r"batches"):
+        gating.gate_pairwise_2d(big, big, cov, cov)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 16 * 2**20
+
+
+def test_pairwise_gate_memory_bounded_by_chunking():
+    # The gate result is 1 byte per pair; everything else is per report or per chunk.
+    rng = np.random.default_rng(5)
+    trials, n = 20_000, 10
+    x1, x2 = rng.normal(size=(trials, n, 2)), rng.normal(size=(trials, n, 2))
+    c1, c2 = _random_covs(rng, (trials, n)), _random_covs(rng, (trials, n))
+    tracemalloc.start()
+    acc = gating.gate_pairwise_2d(x1, x2, c1, c2)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    pairs = trials * n * n
+    assert acc.shape == (trials, n, n)
+    # result (1 B/pair) + 19 buffers of 65536 doubles (~10 MiB) + slack; a per-pair
+    # temporary of doubles alone would be 8 B/pair = 16 MB here
+    assert peak < pairs + 19 * 8 * 65536 + 2**20, peak
