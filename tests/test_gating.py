@@ -552,6 +552,9 @@ def test_pairwise_against_exact_rational_arithmetic(seed, n1, n2, log_cond):
     cond = np.array([[np.linalg.cond(c1[i] + c2[j]) for j in range(n2)] for i in range(n1)])
     # backward-stable Cholesky: relative error a modest multiple of eps * cond(S)
     np.testing.assert_array_less(np.abs(got - exact), 64 * 2.2e-16 * cond * np.abs(exact) + 1e-300)
+    _, by_gate = gating.gate_pairwise_2d(x1, x2, c1, c2, return_statistic=True)
+    np.testing.assert_array_less(np.abs(by_gate - exact),
+                                 64 * 2.2e-16 * cond * np.abs(exact) + 1e-300)
 
 
 @settings(max_examples=20, deadline=None)
@@ -599,9 +602,15 @@ def test_pairwise_chunk_size_and_layout_independent(seed, lead, n1, n2, chunk, p
     assert np.array_equal(k, kc) and np.array_equal(ld, ldc)
     acc, kg = gating.gate_pairwise_2d(x1, x2, c1, c2, p_false_reject=p, chunk_size=chunk,
                                       return_statistic=True)
-    assert np.array_equal(kg, k)
-    assert np.array_equal(acc, gating.in_gate(k, 2, p))
+    # the gate's square-root-free route: chunk-independent itself, equal to rounding
+    assert np.array_equal(acc, gating.in_gate(kg, 2, p))
     assert np.array_equal(gating.gate_pairwise_2d(x1, x2, c1, c2, p_false_reject=p), acc)
+    _, kg_default = gating.gate_pairwise_2d(x1, x2, c1, c2, return_statistic=True)
+    assert np.array_equal(kg_default, kg)
+    cond = np.linalg.cond(c1[..., :, None, :, :] + c2[..., None, :, :, :])
+    np.testing.assert_array_less(np.abs(kg - k), 64 * 2.2e-16 * cond * k + 1e-300)
+    near = np.abs(k - gating.gate_threshold(p, 2)) <= 64 * 2.2e-16 * cond * k
+    assert np.array_equal(acc[~near], gating.in_gate(k, 2, p)[~near])
     # every trial on its own gives the same numbers (the batch layout does not matter)
     flat = k.reshape(-1, n1, n2)
     x1f, x2f = x1.reshape(-1, n1, 2), x2.reshape(-1, n2, 2)
