@@ -605,9 +605,6 @@ def _pairwise_iv(x1, x2, cov1, cov2, chunk_size, out_bytes):
     c1 = as_float_array(cov1, "cov1", ndim_min=3, last_dims=(None, 2, 2))
     c2 = as_float_array(cov2, "cov2", ndim_min=3, last_dims=(None, 2, 2))
     n1, n2 = a.shape[-2], b.shape[-2]
-    if n1 == 0 or n2 == 0:
-        raise ValueError(f"`x1` and `x2` must hold at least one report each; received shapes "
-                         f"{a.shape} and {b.shape}")
     for name, c, n, xname in (("cov1", c1, n1, "x1"), ("cov2", c2, n2, "x2")):
         if c.shape[-3] not in (1, n):
             raise ValueError(f"`{name}` must hold one 2x2 matrix per report of `{xname}` "
@@ -744,6 +741,11 @@ def _pairwise_run(a, b, c1, c2, lead, chunk, *, threshold=None, want_kappa=True,
     """The chunked kernel; returns (kappa | None, logdet | None, accepted | None)."""
     n1, n2 = a.shape[-2], b.shape[-2]
     n_lead = math.prod(lead)
+    if n1 * n2 * n_lead == 0:                        # no pairs: empty results
+        def empty(wanted, dtype=float):
+            return np.empty((*lead, n1, n2), dtype=dtype) if wanted else None
+
+        return empty(want_kappa), empty(want_logdet), empty(threshold is not None, bool)
     # The longest axis innermost: with many small scenes (a Monte-Carlo layout) the
     # trials, and each chunk's reports are gathered into small contiguous buffers
     # (a cache-sized transpose); with few large scenes the radar-2 reports.
@@ -887,7 +889,8 @@ def pairwise_mahalanobis_2d(x1, x2, cov1, cov2, *, chunk_size=_PAIR_CHUNK,
     ------
     ValueError
         If the shapes do not match, an entry is not finite, a covariance is
-        not symmetric, not positive definite or singular to working precision,
+        not symmetric, not positive definite or singular to working precision
+        (no reports on one side is allowed: the result is empty),
         `chunk_size` is outside [1, :data:`MAX_CHUNK`], the result would exceed
         :data:`radarfusion_ref._validation.MEMORY_LIMIT` (both checked before
         any allocation that grows with the pairs), or a :math:`\\kappa`

@@ -774,22 +774,17 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False,
     check_size(8 * 12 * n_pairs, MEMORY_LIMIT,
                what="bytes of pair statistics for `xy1` x `xy2`",
                alternative="smaller batches of reports")
-    # pairs: radar-1 report on axis -2, radar-2 report on axis -1
-    with np.errstate(over="ignore", invalid="ignore"):
-        d0 = a1[..., :, None, 0] - a2[..., None, :, 0]
-        d1 = a1[..., :, None, 1] - a2[..., None, :, 1]
-        s11 = c1[..., :, None, 0, 0] + c2[..., None, :, 0, 0]
-        s12 = c1[..., :, None, 0, 1] + c2[..., None, :, 0, 1]
-        s22 = c1[..., :, None, 1, 1] + c2[..., None, :, 1, 1]
-    d0, d1, s11, s12, s22 = np.broadcast_arrays(d0, d1, s11, s12, s22)
-    if not all(np.isfinite(x).all() for x in (d0, d1, s11, s22)):
-        raise ValueError("`xy1` - `xy2` or `cov1` + `cov2` overflows the float range; "
-                         "rescale the coordinates (e.g. to km)")
-    with np.errstate(over="ignore", invalid="ignore"):
-        s, logdet = _chol_quadratic(d0, d1, s11, s12, s22)
-    if not (np.isfinite(s).all() and np.isfinite(logdet).all()):
+    # pairs: radar-1 report on axis -2, radar-2 report on axis -1. The chunked kernel
+    # runs the operation sequence of _chol_quadratic (bit-for-bit the same numbers)
+    # without per-pair temporaries; pairs it cannot form unscaled take a scaled route.
+    try:
+        s, logdet = gating.pairwise_mahalanobis_2d(a1, a2, c1, c2, return_logdet=True)
+    except ValueError as exc:
+        if "overflows" not in str(exc):
+            raise
         raise ValueError("the statistic overflows the float range: `xy1` - `xy2` is too large "
-                         "against the spread of `cov1` + `cov2`; rescale the coordinates")
+                         "against the spread of `cov1` + `cov2`; rescale the coordinates"
+                         ) from None
     cost = s + (2 * math.log(2 * math.pi) + logdet) if with_logdet else s
     return (cost, logdet) if return_logdet else cost
 

@@ -662,7 +662,6 @@ def test_pairwise_bad_input_named():
         (ValueError, "`cov1` must be positive definite",              # singular to precision
          dict(cov1=np.array([[[1.0, 1 - 1e-14], [1 - 1e-14, 1.0]]]))),
         (ValueError, "one 2x2 matrix per report of `x2`", dict(cov2=np.stack([eye[0]] * 3))),
-        (ValueError, "at least one report", dict(x1=np.zeros((0, 2)), cov1=np.zeros((0, 2, 2)))),
         (ValueError, "broadcastable leading", dict(x1=np.zeros((3, 1, 2)),
                                                    x2=np.zeros((4, 1, 2)))),
         (TypeError, "`chunk_size`", dict(chunk_size=2.0)),
@@ -675,6 +674,12 @@ def test_pairwise_bad_input_named():
             gating.pairwise_mahalanobis_2d(**args)
         with pytest.raises(exc, match=msg):
             gating.gate_pairwise_2d(**args)
+    # no reports on one side: no pairs, an empty result of the right shape
+    k, ld = gating.pairwise_mahalanobis_2d(np.zeros((3, 0, 2)), np.zeros((3, 2, 2)),
+                                           np.zeros((3, 0, 2, 2)), np.stack([eye] * 3 * 2)
+                                           .reshape(3, 2, 2, 2), return_logdet=True)
+    assert k.shape == ld.shape == (3, 0, 2)
+    assert gating.gate_pairwise_2d(x, np.zeros((0, 2)), eye, np.zeros((0, 2, 2))).shape == (1, 0)
     with pytest.raises(TypeError, match="`return_logdet`"):
         gating.pairwise_mahalanobis_2d(x, x, eye, eye, return_logdet=1)
     with pytest.raises(TypeError, match="`return_statistic`"):
