@@ -1079,3 +1079,112 @@ def test_non_assignment_cost_logdet_bad_input():
     # with logdet=True a given covariance only shapes the result
     out = A.non_assignment_cost(**kw, innovation_cov=np.stack([np.eye(2)] * 3), logdet=True)
     assert out.shape == (3,) and np.all(out == out[0])
+
+
+# ============================================================ gated sparse association
+from scipy import sparse  # noqa: E402
+
+from radarfusion_ref import gating  # noqa: E402
+
+
+def _dense_twin(sp_cost):
+    """The same gated problem as a dense matrix: +inf where nothing is stored."""
+    coo = sparse.coo_array(sp_cost)
+    coo.sum_duplicates()
+    out = np.full(coo.shape, np.inf)
+    out[coo.row, coo.col] = coo.data
+    return out
+
+
+def _random_gated(rng, n1, n2, density, negative=False):
+    mask = rng.random((n1, n2)) < density
+    vals = rng.uniform(-3.0 if negative else 0.0, 10.0, size=(n1, n2))
+    i, j = np.nonzero(mask)
+    return sparse.csr_array((vals[i, j], (i, j)), shape=(n1, n2))
+
+
+@given(seed=st.integers(0, 2**32 - 1), n1=st.integers(1, 7), n2=st.integers(1, 7),
+       density=st.floats(0.0, 1.0), miss=st.one_of(st.none(), st.floats(-1.0, 8.0)),
+       th=st.one_of(st.none(), st.floats(0.5, 12.0)), negative=st.booleans())
+def test_sparse_joint_equals_dense_and_brute_force(seed, n1, n2, density, miss, th, negative):
+    rng = np.random.default_rng(seed)
+    sp_cost = _random_gated(rng, n1, n2, density, negative)
+    dense = _dense_twin(sp_cost)
+    got = A.associate_joint(sp_cost, threshold=th, miss_cost=miss)
+    ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
+    assert np.array_equal(got.row_to_col, ref.row_to_col)
+    assert np.array_equal(got.col_to_row, ref.col_to_row)
+    assert got.total_cost == pytest.approx(ref.total_cost, rel=1e-12, abs=1e-12)
+    brute = A.associate_bruteforce(dense, threshold=th, miss_cost=miss)
+    assert got.total_cost == pytest.approx(brute.total_cost, rel=1e-12, abs=1e-12)
+    assert np.array_equal(got.row_to_col, brute.row_to_col)
+
+
+@pytest.mark.parametrize("fmt", ["csr", "csc", "coo", "lil", "matrix"])
+def test_sparse_joint_formats_rectangular_and_explicit_zeros(fmt):
+    rng = np.random.default_rng(4)
+    base = _random_gated(rng, 30, 45, 0.15)
+    base = base + sparse.csr_array(([0.0, 0.0], ([0, 5], [0, 7])), shape=(30, 45))  # explicit 0s
+    assert base.nnz >= 2
+    conv = {"csr": sparse.csr_array, "csc": sparse.csc_array, "coo": sparse.coo_array,
+            "lil": sparse.lil_array, "matrix": sparse.csr_matrix}[fmt]
+    cost = conv(base)
+    dense = _dense_twin(base)
+    for th, miss in ((None, None), (6.0, None), (None, 2.5), (8.0, 3.0)):
+        got = A.associate_joint(cost, threshold=th, miss_cost=miss)
+        ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
+        assert np.array_equal(got.row_to_col, ref.row_to_col), (th, miss)
+        assert got.total_cost == pytest.approx(ref.total_cost, rel=1e-12)
+    # a stored 0 is an allowed pair of cost 0, taken here
+    got = A.associate_joint(sparse.csr_array(([0.0], ([1], [2])), shape=(3, 4)))
+    assert got.pairs.tolist() == [[1, 2]] and got.total_cost == 0.0
+    # nothing stored: no pair, every report unassigned
+    empty = A.associate_joint(sparse.csr_array((3, 4)), miss_cost=1.5)
+    assert empty.n_assigned == 0 and empty.total_cost == pytest.approx(1.5 * 7)
+    # duplicates are summed (scipy's meaning of a repeated entry)
+    dup = sparse.coo_array(([1.0, 2.0, 5.0], ([0, 0, 1], [0, 0, 1])), shape=(2, 2))
+    assert A.associate_joint(dup).total_cost == pytest.approx(8.0)
+
+
+def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
+    # one object per unit area, sigma = 0.3 per radar, gate at P_lo = 0.01
+    rng = np.random.default_rng(2000)
+    n = 2000
+    sc = scenes.two_radar_scene(n, spacing=1.0, sigma1=0.3, sigma2=0.3, dim=2, layout="uniform",
+                                rng=rng)
+    x1, x2 = sc.reports1[0], sc.reports2[0]
+    s = (0.3**2 + 0.3**2) * np.eye(2)
+    gated = gating.gate_sparse_2d(x1, x2, s, p_false_reject=0.01)
+    th = gating.gate_threshold(0.01, 2)
+    # the dense route: every pair's kappa, +inf outside the gate
+    kappa = A.proximity_matrix(x1, x2, 0.3, 0.3)
+    dense = np.where(kappa < th, kappa, np.inf)
+    assert np.array_equal(np.isfinite(dense), _dense_twin(gated) < np.inf)
+    for miss in (None, 0.5 * th, 2.0):
+        got = A.associate_joint(gated, threshold=th, miss_cost=miss)
+        ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
+        assert np.array_equal(got.row_to_col, ref.row_to_col), miss
+        assert got.total_cost == pytest.approx(ref.total_cost, rel=1e-9)
+
+
+@pytest.mark.parametrize(("bad", "exc", "msg"), [
+    (sparse.csr_array(([np.nan], ([0], [0])), shape=(2, 2)), ValueError, "must not store NaN"),
+    (sparse.csr_array(([np.inf], ([0], [1])), shape=(2, 2)), ValueError, "finite costs only"),
+    (sparse.csr_array(([-np.inf], ([1], [1])), shape=(2, 2)), ValueError, "finite costs only"),
+    (sparse.csr_array((0, 3)), ValueError, "at least one row and one column"),
+    (sparse.csr_array(([1 + 1j], ([0], [0])), shape=(2, 2)), TypeError, "real numbers"),
+    (sparse.csr_array(([True], ([0], [0])), shape=(2, 2)), TypeError, "real numbers"),
+])
+def test_sparse_joint_bad_input(bad, exc, msg):
+    with pytest.raises(exc, match=f"`cost`.*{msg}|{msg}"):
+        A.associate_joint(bad)
+
+
+def test_sparse_joint_other_arguments_validated():
+    cost = sparse.csr_array(([1.0], ([0], [0])), shape=(2, 2))
+    with pytest.raises(ValueError, match="`threshold`"):
+        A.associate_joint(cost, threshold=0.0)
+    with pytest.raises(ValueError, match="`miss_cost`"):
+        A.associate_joint(cost, miss_cost=np.nan)
+    with pytest.raises(ValueError, match="`miss_cost`"):
+        A.associate_joint(cost, miss_cost=[1.0, 2.0])

@@ -472,6 +472,7 @@ GATING_VALID = {
                                     cov1=np.stack([np.eye(2)] * 2), cov2=np.stack([np.eye(2)] * 2)),
     "gate_pairwise_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)),
                              cov1=np.stack([np.eye(2)] * 2), cov2=np.stack([np.eye(2)] * 2)),
+    "gate_sparse_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)), cov=np.eye(2)),
 }
 
 
@@ -730,3 +731,57 @@ def test_pairwise_gate_memory_bounded_by_chunking():
     # result (1 B/pair) + 19 buffers of 65536 doubles (~10 MiB) + slack; a per-pair
     # temporary of doubles alone would be 8 B/pair = 16 MB here
     assert peak < pairs + 19 * 8 * 65536 + 2**20, peak
+
+
+# ============================================================ sparse gating (k-d tree)
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n1=st.integers(0, 60), n2=st.integers(0, 60),
+       p=st.floats(1e-6, 0.5), rho=st.floats(-0.95, 0.95), log_scale=st.floats(-3, 3))
+def test_gate_sparse_equals_dense_kernel_on_all_pairs(seed, n1, n2, p, rho, log_scale):
+    rng = np.random.default_rng(seed)
+    side = np.sqrt(max(n1, n2, 1)) * 10.0**(log_scale / 2)
+    x1, x2 = rng.uniform(0, side, (n1, 2)), rng.uniform(0, side, (n2, 2))
+    s = 10.0**log_scale * np.array([[1.0, rho * 0.7], [rho * 0.7, 0.49]])
+    got = gating.gate_sparse_2d(x1, x2, s, p_false_reject=p)
+    assert got.shape == (n1, n2)
+    # brute force: the dense kernel on every pair (an n1 n2 loop of pairs)
+    ii, jj = np.meshgrid(np.arange(n1), np.arange(n2), indexing="ij")
+    acc, k = gating.gate_mahalanobis_2d(x1[ii.ravel()], x2[jj.ravel()], s, p_false_reject=p,
+                                        return_statistic=True)
+    dense = np.zeros((n1, n2), dtype=bool)
+    dense[ii.ravel()[acc], jj.ravel()[acc]] = True
+    got_coo = got.tocoo()
+    mask = np.zeros((n1, n2), dtype=bool)
+    mask[got_coo.row, got_coo.col] = True
+    assert np.array_equal(mask, dense)
+    assert got.nnz == np.count_nonzero(dense)              # explicit zeros included
+    vals = np.zeros((n1, n2))
+    vals[got_coo.row, got_coo.col] = got_coo.data
+    assert np.array_equal(vals[dense], k.reshape(n1, n2)[dense])
+    np.testing.assert_allclose(vals[dense], proximity.mahalanobis_sq(
+        x1[ii[dense]], x2[jj[dense]], s / 2, s / 2), rtol=1e-12)
+
+
+def test_gate_sparse_explicit_zero_limits_and_errors():
+    k = gating.gate_sparse_2d([[1.0, 2.0]], [[1.0, 2.0], [50.0, 0.0]], np.eye(2))
+    assert k.nnz == 1 and k.toarray().tolist() == [[0.0, 0.0]]    # coincident: stored 0
+    assert gating.gate_sparse_2d(np.zeros((0, 2)), np.zeros((3, 2)), np.eye(2)).shape == (0, 3)
+    # all pairs of 12 000 coincident reports are candidates (1.44e8 pairs): counted, refused
+    x = np.zeros((12_000, 2))
+    tracemalloc.start()
+    with pytest.raises(ValueError, match=r"refused: \d+ bytes for 144000000 candidate pairs"):
+        gating.gate_sparse_2d(x, x, np.eye(2))
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 64 * 2**20
+    with pytest.raises(ValueError, match="`cov` must be positive definite"):
+        gating.gate_sparse_2d(np.zeros((2, 2)), np.zeros((2, 2)), -np.eye(2))
+    with pytest.raises(ValueError, match="`cov` must have shape"):
+        gating.gate_sparse_2d(np.zeros((2, 2)), np.zeros((2, 2)), np.eye(3))
+    with pytest.raises(ValueError, match="`x1` and `x2` must have shapes"):
+        gating.gate_sparse_2d(np.zeros((2, 2, 2)), np.zeros((2, 2)), np.eye(2))
+    with pytest.raises(ValueError, match="overflow"):
+        gating.gate_sparse_2d([[1e300, 0.0]], [[0.0, 0.0]], 1e-300 * np.eye(2))
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        gating.gate_sparse_2d(np.zeros((2, 2)), np.zeros((2, 2)), np.eye(2), p_false_reject=0.0)
+
