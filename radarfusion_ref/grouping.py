@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import sparse, stats
-from scipy.optimize import Bounds, LinearConstraint, linprog, milp
+from scipy.optimize import Bounds, LinearConstraint, linear_sum_assignment, linprog, milp
 
 from ._validation import (
     MEMORY_LIMIT,
@@ -732,7 +732,9 @@ def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
 
 # ----------------------------------------------------------------------------- gated S-D
 _LAGRANGE_STALL = 6          # iterations without a better dual value before the step halves
+_LAGRANGE_PATIENCE = 20      # iterations without progress of either bound: branch and bound
 _EPS = np.finfo(float).eps
+_DENSE_ASSIGN = 1 << 20      # cells up to which a square assignment is solved densely
 
 
 def _detection_iv(m, p_detect, false_density, object_density):
@@ -1075,6 +1077,18 @@ def _assign(R, C, r, c, w, drow=None, dcol=None):
     if drow is None:
         if R != C:
             return None
+        if 0 < R * C <= _DENSE_ASSIGN:                # small enough: dense LAPJV is faster
+            M = np.full((R, C), np.inf)
+            M[r, c] = w
+            try:
+                pr, pc = linear_sum_assignment(M)
+            except ValueError:
+                return None
+            wr = M[pr, pc]
+            if not np.all(np.isfinite(wr)):
+                return None
+            empty = np.zeros(0, dtype=np.int64)
+            return (pr, pc), empty, empty, float(np.sum(wr)), float(np.sum(np.abs(wr)))
         rows, cols, wts, N = r, c, w, R
     else:
         fr, fc = np.flatnonzero(np.isfinite(drow)), np.flatnonzero(np.isfinite(dcol))
@@ -1125,7 +1139,7 @@ class _Lagrangian:
         self.lb, self.ub, self.best = -np.inf, np.inf, None
         self.history = []
         self.lam, self.stall, self.best_q, self.it = 1.0, 0, -np.inf, 0
-        self.optimal = False
+        self.optimal, self.stalled, self.last_progress = False, False, 0
         base = np.array([n + 1 for n in counts], dtype=np.int64)
         mult = np.concatenate([[1], np.cumprod(base)[:-1]])
         if float(np.prod(base.astype(float))) > 2.0**62:
@@ -1220,6 +1234,44 @@ class _Lagrangian:
             return None
         return self.full_order[pos]
 
+    def improve(self, sol, sweeps=2):
+        """Local search: reassign one source at a time, the others fixed (exact 2-D steps).
+
+        Every step keeps the current grouping available, so the cost never rises.
+        """
+        T, m = self.T, self.m
+        full = self.pref[m]
+        keys = full[sol]
+        for _ in range(sweeps):
+            before = float(self.c[sol].sum())
+            for k in range(m):
+                nk, mk = self.counts[k], self.mult[k]
+                excl = full - (T[:, k] + 1) * mk
+                G = np.unique(keys - ((keys // mk) % (self.counts[k] + 1)) * mk)
+                G = G[G != 0]
+                R = G.size
+                pos = np.minimum(np.searchsorted(G, excl), max(R - 1, 0))
+                ok = (G[pos] == excl) if R else np.zeros(excl.size, bool)
+                tk = T[:, k]
+                e = ok & (tk >= 0)
+                drow = dcol = None
+                if self.dummy:
+                    drow, dcol = np.full(R, np.inf), np.full(nk, np.inf)
+                    s_ = ok & (tk < 0)
+                    np.minimum.at(drow, pos[s_], self.c[s_])
+                    s_ = (excl == 0) & (tk >= 0)
+                    np.minimum.at(dcol, tk[s_], self.c[s_])
+                res = _assign(R, nk, pos[e], tk[e], self.c[e], drow, dcol)
+                if res is None:
+                    break
+                (pr, pc), rd, cd, _, _ = res
+                keys = np.sort(np.concatenate([G[pr] + (pc + 1) * mk, G[rd], (cd + 1) * mk]))
+                p = np.searchsorted(self.full_sorted, keys)
+                sol = self.full_order[p]
+            if not float(self.c[sol].sum()) < before:
+                break
+        return sol
+
     def step(self):
         """One iteration: relaxed problem, bound, recovery, multiplier update."""
         self.it += 1
@@ -1241,12 +1293,20 @@ class _Lagrangian:
             self.history.append((self.lb, self.ub))
             return
         self.lb = max(self.lb, q - slack)
+        lb_before, ub_before = self.lb, self.ub
         sol = self.recover(chosen)
         if sol is not None:
             total = float(self.c[sol].sum())
+            if total < self.ub or self.it % 5 == 0:
+                sol = self.improve(sol)
+                total = float(self.c[sol].sum())
             if total < self.ub:
                 self.ub, self.best = total, sol
         self.lb = min(self.lb, self.ub)
+        tiny = 1e-4 * max(1.0, abs(self.ub)) if np.isfinite(self.ub) else np.inf
+        if self.lb > lb_before + tiny or self.ub < ub_before - tiny or not np.isfinite(self.ub):
+            self.last_progress = self.it
+        self.stalled = self.it - self.last_progress >= _LAGRANGE_PATIENCE
         self.history.append((self.lb, self.ub))
         if q > self.best_q + 1e-12 * max(1.0, abs(q)):
             self.best_q, self.stall = q, 0
@@ -1313,7 +1373,8 @@ def _solve_candidates(T, c, counts, *, dummy, method, gap, max_iter, time_limit,
     def run(tol_of, budget):
         for s in solvers:
             try:
-                while not s.optimal and s.it < budget and not (s.ub - s.lb <= tol_of(s)):
+                while not (s.optimal or s.stalled) and s.it < budget and \
+                        not (s.ub - s.lb <= tol_of(s)):
                     s.step()
             except _Infeasible as exc:
                 raise ValueError(_infeasible_text(exc.args[0], counts, why)) from None
@@ -1324,7 +1385,7 @@ def _solve_candidates(T, c, counts, *, dummy, method, gap, max_iter, time_limit,
     run(lambda s: 0.5 * gap * max(abs(s.ub), 1.0) if np.isfinite(s.ub) else -1.0, max_iter)
     ub, lb = totals()
     if np.isfinite(ub) and (ub - lb) > gap * max(abs(ub), 1.0):
-        share = 0.5 * gap * max(abs(ub), 1.0) / len(solvers)
+        share = 0.999 * gap * max(abs(ub), 1.0) / len(solvers)
         run(lambda s: share, 2 * max_iter)
     ub, lb = totals()
     if not np.isfinite(ub) or (ub - lb) > gap * max(abs(ub), 1.0):
