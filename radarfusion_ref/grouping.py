@@ -1544,15 +1544,15 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
 
     *Lagrangian relaxation.* The candidate groups are split into independent
     clusters (connected reports). In each, the constraints of sources
-    :math:`3..m` get multipliers :math:`u`; for each pair :math:`(j_1, j_2)`
+    :math:`3..m` get multipliers :math:`\\mu`; for each pair :math:`(j_1, j_2)`
     the cheapest completion of reduced cost :math:`c_t - \\sum_{i\\ge 3}
-    u_i(t_i)` leaves a 2-D assignment over the gated pairs, solved exactly
+    \\mu_i(t_i)` leaves a 2-D assignment over the gated pairs, solved exactly
     (:func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`, with
     the dummy rows and columns kept sparse). Its value plus
-    :math:`\\sum u` is a valid lower bound :math:`q(u)` (reduced by a
+    :math:`\\sum \\mu` is a valid lower bound :math:`q(\\mu)` (reduced by a
     floating-point rounding allowance). A feasible grouping is recovered each
     iteration by fixing the relaxed pairs and assigning sources
-    :math:`3, \\dots, m` one at a time, and :math:`u` moves along the
+    :math:`3, \\dots, m` one at a time, and :math:`\\mu` moves along the
     subgradient with a Polyak step toward the best cost found. A relaxed
     solution that is itself feasible is optimal (gap 0).
 
