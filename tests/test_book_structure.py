@@ -136,6 +136,7 @@ def test_every_literalinclude_pattern_is_in_its_source():
                     obj = getattr(obj, part)
                 source = inspect.getsource(obj)
             for key in ("start-at", "start-after", "end-before", "end-at"):
-                if key in opts and opts[key] not in source:
+                if key in opts and (opts[key].startswith("#") or opts[key] not in source):
+                    # MyST reads an option value that starts with # as a comment
                     missing.append(f"{page.name}: {key} {opts[key]!r}")
     assert not missing, missing
