@@ -883,7 +883,11 @@ def simulate_polar(r, beta, sigma_r, sigma_beta, *, trials: int, rng=None):
     """
     trials = as_int(trials, "trials", minimum=1)
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, trials=trials)
-    rng = as_rng(rng)
+    return _draw_range_azimuth(r, beta, sigma_r, sigma_beta, trials, as_rng(rng))
+
+
+def _draw_range_azimuth(r, beta, sigma_r, sigma_beta, trials, rng):
+    """Noisy ranges, then azimuths, ``trials`` of each along a new last axis (validated input)."""
     if np.any(r < MIN_RANGE_OVER_SIGMA * sigma_r):
         raise ValueError(
             f"`r` must be at least {MIN_RANGE_OVER_SIGMA:g} `sigma_r` so that the Gaussian "
@@ -1538,19 +1542,8 @@ def simulate_spherical(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, *, 
     r, beta, eps, sigma_r, sigma_beta, sigma_epsilon = _spherical_iv(
         r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, trials=trials)
     rng = as_rng(rng)
-    if np.any(r < MIN_RANGE_OVER_SIGMA * sigma_r):
-        raise ValueError(
-            f"`r` must be at least {MIN_RANGE_OVER_SIGMA:g} `sigma_r` so that the Gaussian "
-            f"range error never produces a negative range; received smallest r/sigma_r "
-            f"{float(np.min(r / np.where(sigma_r > 0, sigma_r, np.inf))):.4g}")
-    shape = (*r.shape, trials)
-    with np.errstate(over="ignore"):
-        r_hat = r[..., None] + sigma_r[..., None] * rng.standard_normal(shape)
-    if not np.all(np.isfinite(r_hat)):
-        raise ValueError("`r` is too large: simulated ranges overflow float64; received "
-                         f"largest entry {float(np.max(r)):.6g}")
-    beta_hat = beta[..., None] + sigma_beta[..., None] * rng.standard_normal(shape)
-    eps_hat = eps[..., None] + sigma_epsilon[..., None] * rng.standard_normal(shape)
+    r_hat, beta_hat = _draw_range_azimuth(r, beta, sigma_r, sigma_beta, trials, rng)
+    eps_hat = eps[..., None] + sigma_epsilon[..., None] * rng.standard_normal(r_hat.shape)
     return r_hat, beta_hat, eps_hat
 
 
