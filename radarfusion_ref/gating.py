@@ -441,6 +441,17 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
     return unwrap(out)
 
 
+def _gate_options(return_statistic, p_false_reject) -> float:
+    """Validate the 2-D gate kernels' shared options; return the threshold for `p_false_reject`."""
+    if not isinstance(return_statistic, (bool, np.bool_)):
+        raise TypeError(f"`return_statistic` must be a bool; received "
+                        f"{_describe(return_statistic)}")
+    p = as_probability(p_false_reject, "p_false_reject")
+    if p.ndim != 0:
+        raise ValueError(f"`p_false_reject` must be a scalar; received {_describe(p)}")
+    return float(stats.chi2.isf(p, 2))
+
+
 def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
                         return_statistic=False):
     """Chunked squared-Mahalanobis distance and chi-square gate for 2-D pairs.
@@ -522,13 +533,7 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     chunk = as_int(chunk_size, "chunk_size", minimum=1)
     check_size(chunk, MAX_CHUNK, what="pairs per chunk (`chunk_size`)",
                alternative=f"chunk_size <= {MAX_CHUNK} (memory does not grow with N anyway)")
-    if not isinstance(return_statistic, (bool, np.bool_)):
-        raise TypeError(f"`return_statistic` must be a bool; received "
-                        f"{_describe(return_statistic)}")
-    p = as_probability(p_false_reject, "p_false_reject")
-    if p.ndim != 0:
-        raise ValueError(f"`p_false_reject` must be a scalar; received {_describe(p)}")
-    th = float(stats.chi2.isf(p, 2))
+    th = _gate_options(return_statistic, p_false_reject)
     L = np.linalg.cholesky(s)
     inv_l11, l21, inv_l22 = 1.0 / L[0, 0], L[1, 0], 1.0 / L[1, 1]
     n = a.shape[0]
@@ -984,13 +989,7 @@ def gate_pairwise_2d(x1, x2, cov1, cov2, *, p_false_reject=0.01, chunk_size=_PAI
     array([[ True],
            [False]])
     """
-    if not isinstance(return_statistic, (bool, np.bool_)):
-        raise TypeError(f"`return_statistic` must be a bool; received "
-                        f"{_describe(return_statistic)}")
-    p = as_probability(p_false_reject, "p_false_reject")
-    if p.ndim != 0:
-        raise ValueError(f"`p_false_reject` must be a scalar; received {_describe(p)}")
-    th = float(stats.chi2.isf(p, 2))
+    th = _gate_options(return_statistic, p_false_reject)
     a, b, c1, c2, lead, chunk = _pairwise_iv(x1, x2, cov1, cov2, chunk_size,
                                              9 if return_statistic else 1)
     kappa, _, accepted = _pairwise_run(a, b, c1, c2, lead, chunk, threshold=th,
