@@ -1052,6 +1052,19 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
     return along_m / along_c + cross_t / cross_c
 
 
+def _as_methods(methods, allowed) -> tuple[str, ...]:
+    """A method name or a non-empty sequence of them, each one of `allowed`."""
+    if isinstance(methods, str):
+        methods = (methods,)
+    if isinstance(methods, (bytes, np.ndarray)) or not hasattr(methods, "__iter__"):
+        raise TypeError(f"`methods` must be a sequence of method names; received "
+                        f"{_describe(methods)}")
+    methods = tuple(as_choice(m, "methods", allowed) for m in methods)
+    if not methods:
+        raise ValueError("`methods` must name at least one method; received an empty sequence")
+    return methods
+
+
 def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
                            methods=("linearized", "additive", "multiplicative"),
                            trials: int = 10_000, rng=None,
@@ -1113,14 +1126,7 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
     >>> out["multiplicative"].mean_nees().contains(2.0)
     True
     """
-    if isinstance(methods, str):
-        methods = (methods,)
-    if isinstance(methods, (bytes, np.ndarray)) or not hasattr(methods, "__iter__"):
-        raise TypeError(f"`methods` must be a sequence of method names; received "
-                        f"{_describe(methods)}")
-    methods = tuple(as_choice(m, "methods", ALL_METHODS) for m in methods)
-    if not methods:
-        raise ValueError("`methods` must name at least one method; received an empty sequence")
+    methods = _as_methods(methods, ALL_METHODS)
     trials = as_int(trials, "trials", minimum=1)
     if ("decorrelated" in methods) != (prior_std is not None):
         raise ValueError("`prior_std` is required with method 'decorrelated' and used by it "
@@ -1586,14 +1592,7 @@ def spherical_monte_carlo(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, 
     >>> out["multiplicative"].mean_nees().contains(3.0)
     True
     """
-    if isinstance(methods, str):
-        methods = (methods,)
-    if isinstance(methods, (bytes, np.ndarray)) or not hasattr(methods, "__iter__"):
-        raise TypeError(f"`methods` must be a sequence of method names; received "
-                        f"{_describe(methods)}")
-    methods = tuple(as_choice(m, "methods", METHODS_3D) for m in methods)
-    if not methods:
-        raise ValueError("`methods` must name at least one method; received an empty sequence")
+    methods = _as_methods(methods, METHODS_3D)
     trials = as_int(trials, "trials", minimum=1)
     r, beta, eps, sigma_r, sigma_beta, sigma_epsilon = _spherical_iv(
         r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, strict=True, trials=trials)
