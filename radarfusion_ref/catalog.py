@@ -76,6 +76,8 @@ CHAPTERS: tuple[Chapter, ...] = (
             "bias model; estimation and its CRLB", (1, 2, 3, 4, 6, 7)),
     Chapter("trackfusion", 10, "Track-to-track fusion", "B", "cross-covariance; time alignment",
             (1, 2, 3)),
+    Chapter("capstone", 11, "A fusion centre over real traffic", "B",
+            "ADS-B truth; the whole pipeline; GOSPA", (1, 3, 5, 6, 8, 9)),
 )
 
 
