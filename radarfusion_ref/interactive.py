@@ -16,7 +16,11 @@ The book's pattern for an interactive Monte-Carlo view ``view(**params)``
    with matplotlib's ``to_jshtml()``: a frame slider that works in the static
    HTML, with no kernel and no CDN. The player fixes the axis limits across
    frames and lays the figure out once, with room for every frame's labels
-   and legends.
+   and legends. In print (the PDF edition) the player degrades to its static
+   default frame: its display bundle also carries an ``image/png`` of the
+   first frame at :data:`PRINT_DPI`, which the LaTeX builder picks (myst-nb's
+   priority for ``latex`` has ``image/png`` and no ``text/html``) while the
+   HTML builder and JupyterLab keep the player.
 """
 
 from __future__ import annotations
@@ -32,7 +36,8 @@ import numpy as np
 from ._validation import _describe, as_float_array, as_int
 from .errors import RadarFusionWarning
 
-__all__ = ["controls", "sweep_player", "slider", "MIN_FRAMES", "PLAYER_DPI"]
+__all__ = ["controls", "sweep_player", "slider", "MIN_FRAMES", "PLAYER_DPI", "PRINT_DPI",
+           "Player"]
 
 #: Fewest frames a player should have: below this a sweep is too coarse to be
 #: explored by scrubbing, and :func:`sweep_player` warns (RadarFusionWarning).
@@ -40,6 +45,9 @@ MIN_FRAMES = 24
 
 #: Resolution of the player's frames (dots per inch; at least 110 for the book).
 PLAYER_DPI = 120
+
+#: Resolution of a player's static default frame, shown in print (dots per inch).
+PRINT_DPI = 200
 
 #: Largest embedded player, in MB of base64 frames (matplotlib drops the frames
 #: beyond its ``animation.embed_limit``; the player refuses instead).
@@ -60,6 +68,35 @@ def _offline_player(html: str) -> str:
     """Remove the player's CDN stylesheet and replace its icons by Unicode symbols."""
     html = _CDN_LINK.sub("", html)
     return _ICON.sub(lambda m: _ICONS.get(m.group(1), "?"), html)
+
+
+class Player:
+    """A sweep player's display: the HTML player, and its default frame for print.
+
+    Displayed in a notebook, its bundle holds ``text/html`` (the player, which
+    HTML pages and JupyterLab show) and ``image/png`` (the default frame, the
+    first value of the sweep, as the player shows it on load, at
+    :data:`PRINT_DPI`), which builders without HTML output (LaTeX) show.
+
+    Attributes
+    ----------
+    data : str
+        The player's HTML.
+    png : bytes
+        The default frame as a PNG image.
+    """
+
+    def __init__(self, data: str, png: bytes):
+        self.data, self.png = data, png
+
+    def _repr_html_(self) -> str:
+        return self.data
+
+    def _repr_png_(self) -> bytes:
+        return self.png
+
+    def __repr__(self) -> str:
+        return f"<sweep player: {self.data.count('data:image/png;base64')} frames>"
 
 
 def _as_number(value, name: str) -> float:
@@ -325,8 +362,10 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
 
     Returns
     -------
-    IPython.display.HTML
-        The ``to_jshtml()`` player; the figure is closed so it is not shown twice.
+    Player
+        The ``to_jshtml()`` player (``.data``, shown as ``text/html``) and its
+        default frame, the first value's, at :data:`PRINT_DPI` (``.png``, shown
+        as ``image/png`` in print); the figure is closed so it is not shown twice.
 
     Raises
     ------
@@ -345,7 +384,6 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
     resets a figure's margins). So a label or legend that is longer on one
     frame than on the first is not clipped, and nothing moves between frames.
     """
-    from IPython.display import HTML
     from matplotlib.figure import Figure
 
     if not callable(draw):
@@ -426,6 +464,16 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
         if clipped is None:
             break
         margins = _merge_margins(margins, wider)
+    # 4. the static default frame for print: the first value, as the player shows it
+    #    on load, with the same limits and layout, at print resolution
+    import io
+
+    draw(fig, values[0])
+    apply(margins)
+    buf = io.BytesIO()
+    with mpl.rc_context({"savefig.bbox": None, "figure.autolayout": False,
+                         "figure.constrained_layout.use": False}):
+        fig.savefig(buf, format="png", dpi=PRINT_DPI)
     if clipped:
         warnings.warn(f"sweep_player: texts cut off at the figure's edge even with the widest "
                       f"layout: {clipped[:4]}; shorten them or enlarge the figure",
@@ -436,5 +484,5 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
             f"sweep_player: {len(values)} frames at dpi = {dpi} exceed the embedding limit of "
             f"MAX_PLAYER_MB = {MAX_PLAYER_MB:g} MB; use a smaller figure, a lower `dpi` or "
             "fewer `values`")
-    return HTML(_offline_player(html))
+    return Player(_offline_player(html), buf.getvalue())
 

@@ -205,3 +205,65 @@ def test_fuzz_player_options_are_validated_before_drawing(interval, dpi, xlim, e
         assert isinstance(dpi, int) and 50 <= dpi <= 600 and isinstance(equal_aspect, bool)
     finally:
         plt.close("all")
+
+
+def _picked(builder: str, bundle: dict) -> str:
+    """The mime type myst-nb renders from `bundle` for `builder` (no overrides in _config.yml)."""
+    from myst_nb.core.render import get_mime_priority
+
+    return next(m for m in get_mime_priority(builder, []) if m in bundle)
+
+
+def test_player_degrades_to_its_default_frame_in_print():
+    """HTML pages keep the player; the LaTeX builder gets the first frame as a PNG."""
+    import io
+
+    from IPython.core.formatters import DisplayFormatter
+
+    colours = ["#ff0000", "#00ff00", "#0000ff"]
+
+    def draw(fig, value):
+        fig.clear()
+        ax = fig.add_subplot()
+        ax.set_facecolor(colours[int(value) % 3])
+        ax.set_title(f"value {value}")
+
+    values = [2, 0, 1] * 8                      # first frame blue, so not the first colour
+    player = sweep_player(draw, values, fig=plt.figure(figsize=(3.0, 2.0)), dpi=60)
+    bundle, _ = DisplayFormatter().format(player)
+    assert {"text/html", "image/png"} <= set(bundle)
+    assert bundle["text/html"] == player.data and "<script" in player.data
+    assert _picked("html", bundle) == "text/html"
+    assert _picked("latex", bundle) == "image/png"
+
+    png = player.png
+    assert png.startswith(b"\x89PNG")
+    width, height = struct.unpack(">II", png[16:24])
+    assert (width, height) == (3 * interactive.PRINT_DPI, 2 * interactive.PRINT_DPI)
+    image = plt.imread(io.BytesIO(png))
+    centre = image[height // 2, width // 2, :3]
+    np.testing.assert_allclose(centre, [0.0, 0.0, 1.0], atol=0.02)  # the first value's frame
+    # and the same frame as the player's first frame, drawn at the player's resolution
+    first = plt.imread(io.BytesIO(_frames(player.data)[0]))
+    h, w = first.shape[:2]
+    np.testing.assert_allclose(first[h // 2, w // 2, :3], [0.0, 0.0, 1.0], atol=0.02)
+
+
+def test_player_print_frame_has_the_players_layout():
+    """The static frame is laid out like the frames: the same axes box and limits, and
+    nothing on it clipped."""
+    draw = Recorder(legend_outside=True)
+    fig = plt.figure(figsize=(4, 3))
+    player = sweep_player(draw, np.linspace(0.5, 1.5, MIN_FRAMES), fig=fig, dpi=60)
+    rendered = draw.seen[-MIN_FRAMES:]     # the frames of the player, as drawn
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig).draw()            # the (closed) figure holds the print frame
+    ax = fig.axes[0]
+    assert tuple(ax.get_position().bounds) == pytest.approx(rendered[0]["position"])
+    assert (ax.get_xlim(), ax.get_ylim()) == (rendered[0]["xlim"], rendered[0]["ylim"])
+    assert ax.get_legend().get_texts()[0].get_text() == "value 0.500"
+    assert interactive._clipped_texts(fig) == []
+    assert struct.unpack(">II", player.png[16:24]) == (4 * interactive.PRINT_DPI,
+                                                       3 * interactive.PRINT_DPI)
+    assert repr(player) == f"<sweep player: {MIN_FRAMES} frames>"
