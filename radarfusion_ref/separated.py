@@ -1168,16 +1168,17 @@ def _pair_kernel(xy, cov, radar2):
 
     ``xy`` has shape (2, n, m, 2) and ``cov`` (2, n, m, 2, 2) (radar, target,
     trial); radar 2's positions are shifted by `radar2`. Returns arrays of
-    shape (n, n, m): radar-1 report, radar-2 report, trial.
+    shape (n, n, m): radar-1 report, radar-2 report, trial. The pairs go through
+    the shared per-report-covariance kernel
+    :func:`radarfusion_ref.gating.pairwise_mahalanobis_2d` (the operation
+    sequence of :func:`_chol_quadratic`, so the numbers are the same).
     """
-    x1, y1 = xy[0, ..., 0], xy[0, ..., 1]
-    x2, y2 = xy[1, ..., 0] + radar2[0], xy[1, ..., 1] + radar2[1]
-    d0 = x1[:, None] - x2[None]
-    d1 = y1[:, None] - y2[None]
-    a = cov[0, :, None, :, 0, 0] + cov[1, None, :, :, 0, 0]
-    b = cov[0, :, None, :, 0, 1] + cov[1, None, :, :, 0, 1]
-    c = cov[0, :, None, :, 1, 1] + cov[1, None, :, :, 1, 1]
-    return _chol_quadratic(d0, d1, a, b, c)
+    x1 = np.moveaxis(xy[0], 1, 0)                               # (m, n, 2)
+    x2 = np.moveaxis(xy[1], 1, 0) + np.asarray(radar2, float)
+    c1 = np.moveaxis(cov[0], 1, 0)                              # (m, n, 2, 2)
+    c2 = np.moveaxis(cov[1], 1, 0)
+    s, ld = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2, return_logdet=True)
+    return np.moveaxis(s, 0, -1), np.moveaxis(ld, 0, -1)       # (n, n, m)
 
 
 # --------------------------------------------------------------------------- approximation

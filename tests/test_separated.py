@@ -825,3 +825,34 @@ def test_pair_statistic_logdet_bad_input():
     for bad in (1, "yes", None):
         with pytest.raises(TypeError, match="`logdet`"):
             sep.pair_statistic([[0.0, 0.0]], eye, [[1.0, 0.0]], eye, logdet=bad)
+
+
+# ---------------------------------------------------------------- the experiment's pair kernel
+def test_pair_kernel_is_the_shared_kernel_and_equals_the_hand_formula_and_linalg():
+    """`_pair_kernel` (the experiment's gating of polar reports) goes through
+    `gating.pairwise_mahalanobis_2d`; it equals the former hand-written route
+    (`_chol_quadratic` on broadcast sums) bit for bit and `np.linalg` to rounding."""
+    g = np.random.default_rng(11)
+    n, m = 3, 7
+    xy = g.normal(size=(2, n, m, 2)) * 50.0
+    M = g.normal(size=(2, n, m, 2, 2))
+    cov = M @ np.swapaxes(M, -1, -2) + 0.2 * np.eye(2)
+    radar2 = np.array([40.0, -12.0])
+    s, ld = sep._pair_kernel(xy, cov, radar2)
+    assert s.shape == ld.shape == (n, n, m)
+    # the former formula, written out on broadcast sums
+    x1, y1 = xy[0, ..., 0], xy[0, ..., 1]
+    x2, y2 = xy[1, ..., 0] + radar2[0], xy[1, ..., 1] + radar2[1]
+    a = cov[0, :, None, :, 0, 0] + cov[1, None, :, :, 0, 0]
+    b = cov[0, :, None, :, 0, 1] + cov[1, None, :, :, 0, 1]
+    c = cov[0, :, None, :, 1, 1] + cov[1, None, :, :, 1, 1]
+    s_old, ld_old = sep._chol_quadratic(x1[:, None] - x2[None], y1[:, None] - y2[None], a, b, c)
+    assert np.array_equal(s, s_old) and np.array_equal(ld, ld_old)
+    # np.linalg, pair by pair
+    for i in range(n):
+        for j in range(n):
+            for t in range(m):
+                d = xy[0, i, t] - (xy[1, j, t] + radar2)
+                C = cov[0, i, t] + cov[1, j, t]
+                assert s[i, j, t] == pytest.approx(d @ np.linalg.solve(C, d), rel=1e-9)
+                assert ld[i, j, t] == pytest.approx(np.linalg.slogdet(C)[1], rel=1e-9, abs=1e-12)
