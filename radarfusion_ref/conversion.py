@@ -1245,7 +1245,7 @@ def _unit3(beta, eps):
 
 
 def _damping3(sb2, se2):
-    """Λ = diag(q_β q_ε, q_β q_ε, q_ε), q = E cos(angle error) = e^{−σ²/2}: E[a(β+w, ε+u)] = Λ a."""
+    """Z = diag(ζ_β ζ_ε, ζ_β ζ_ε, ζ_ε), ζ = E cos(angle error) = e^{−σ²/2}: E[a(β+w, ε+u)] = Z a."""
     qb, qe = np.exp(-sb2 / 2), np.exp(-se2 / 2)
     return np.stack([qb * qe, qb * qe, qe], axis=-1)
 
@@ -1296,7 +1296,7 @@ def _spherical_cov(method, r, beta, eps, sigma_r, sb2, se2):
         je = np.stack([-se * np.cos(beta), -se * np.sin(beta), ce], -1)
         return (sr2[..., None, None] * _outer(a, a) + r2 * sb2[..., None, None] * _outer(jb, jb)
                 + r2 * se2[..., None, None] * _outer(je, je))
-    # Cov[x | measurement] = (r̂² + σr²) E[aaᵀ] − r̂² Λaaᵀ Λ  (truth ~ N(measurement, σ²))
+    # Cov[x | measurement] = (r̂² + σr²) E[aaᵀ] − r̂² Zaaᵀ Z  (truth ~ N(measurement, σ²))
     la = lam * a
     cond = (r2 + sr2[..., None, None]) * _second3(beta, eps, sb2, se2) - r2 * _outer(la, la)
     if method == "measurement_conditioned":

@@ -2,19 +2,19 @@
 
 Each radar :math:`i` at a known site :math:`s_i` measures the range and azimuth
 of an object at :math:`x` with a **range offset** :math:`\\Delta r_i`, a **range
-scale** error :math:`\\varepsilon_i` and an **azimuth offset**
+scale** error :math:`g_i` and an **azimuth offset**
 :math:`\\Delta\\beta_i` added to the random errors of the conversion chapter:
 
 .. math::
 
-    \\hat r_i = (1 + \\varepsilon_i)\\, r_i + \\Delta r_i + v_i, \\qquad
+    \\hat r_i = (1 + g_i)\\, r_i + \\Delta r_i + v_i, \\qquad
     \\hat\\beta_i = \\beta_i + \\Delta\\beta_i + w_i,
 
 with :math:`r_i = \\lVert x - s_i\\rVert`, :math:`\\beta_i` the azimuth of
 :math:`x - s_i` (radians, counter-clockwise from the x axis, as in
 :mod:`radarfusion_ref.conversion`), :math:`v_i \\sim \\mathcal N(0, \\sigma_{r,i}^2)`
 and :math:`w_i \\sim \\mathcal N(0, \\sigma_{\\beta,i}^2)`. The bias vector of
-radar :math:`i` is :math:`b_i = (\\Delta r_i, \\varepsilon_i, \\Delta\\beta_i)`;
+radar :math:`i` is :math:`b_i = (\\Delta r_i, g_i, \\Delta\\beta_i)`;
 arrays of biases have a last axis of length 3 in that order
 (:data:`BIAS_NAMES`). Polar reports are arrays whose last axis holds
 :math:`(\\hat r, \\hat\\beta)`.
@@ -203,7 +203,7 @@ def apply_biases(r, beta, biases):
     beta : array_like
         True azimuths :math:`\\beta` in radians (counter-clockwise from x).
     biases : array_like, shape (..., 3)
-        :math:`(\\Delta r, \\varepsilon, \\Delta\\beta)`: range offset (unit of
+        :math:`(\\Delta r, g, \\Delta\\beta)`: range offset (unit of
         `r`), range scale error (dimensionless, > -1), azimuth offset (rad).
         Its leading axes broadcast against those of `r` and `beta`.
 
@@ -223,7 +223,7 @@ def apply_biases(r, beta, biases):
     -----
     .. math::
 
-        r^{b} = (1 + \\varepsilon)\\, r + \\Delta r, \\qquad \\beta^{b} = \\beta + \\Delta\\beta .
+        r^{b} = (1 + g)\\, r + \\Delta r, \\qquad \\beta^{b} = \\beta + \\Delta\\beta .
 
     Examples
     --------
@@ -249,7 +249,7 @@ def remove_biases(r_hat, beta_hat, biases):
     r_hat, beta_hat : array_like
         Measured range (> 0) and azimuth (rad).
     biases : array_like, shape (..., 3)
-        :math:`(\\Delta r, \\varepsilon, \\Delta\\beta)`, broadcasting as in
+        :math:`(\\Delta r, g, \\Delta\\beta)`, broadcasting as in
         :func:`apply_biases`.
 
     Returns
@@ -265,7 +265,7 @@ def remove_biases(r_hat, beta_hat, biases):
     -----
     .. math::
 
-        r = (\\hat r - \\Delta r)/(1 + \\varepsilon), \\qquad \\beta = \\hat\\beta - \\Delta\\beta .
+        r = (\\hat r - \\Delta r)/(1 + g), \\qquad \\beta = \\hat\\beta - \\Delta\\beta .
 
     Examples
     --------
@@ -332,7 +332,7 @@ def simulate_reports(sensors, targets, biases, sigma_r, sigma_beta, *, trials=No
     targets : array_like, shape (..., n, 2)
         Object positions.
     biases : array_like, shape (..., m, 3)
-        Each radar's :math:`(\\Delta r, \\varepsilon, \\Delta\\beta)`; leading axes
+        Each radar's :math:`(\\Delta r, g, \\Delta\\beta)`; leading axes
         broadcast against those of `targets`.
     sigma_r, sigma_beta : float or array_like, shape (m,)
         Standard deviations of the random range and azimuth errors (> 0).
@@ -452,7 +452,7 @@ def bias_displacement(sensors, targets, biases):
     Notes
     -----
     To first order in the biases,
-    :math:`\\mu \\approx (\\Delta r + \\varepsilon r)\\, u(\\beta) + r\\,\\Delta\\beta\\, u^\\perp(\\beta)`,
+    :math:`\\mu \\approx (\\Delta r + g r)\\, u(\\beta) + r\\,\\Delta\\beta\\, u^\\perp(\\beta)`,
     :math:`u^\\perp = (-\\sin\\beta, \\cos\\beta)`: range biases move a report
     along the line of sight, the azimuth bias across it, in proportion to the range.
 
@@ -598,10 +598,10 @@ def _blocks(s, x, b, sr, sb):
     pred = np.stack([scale * rho + b[..., :, None, 0], phi + b[..., :, None, 2]], axis=-1)
     w_r, w_b = 1.0 / sr[:, None], 1.0 / sb[:, None]
     zero, one = np.zeros_like(rho), np.ones_like(rho)
-    # d r^b / d(Δr, ε, Δβ) = (1, r, 0);  d β^b / d(Δr, ε, Δβ) = (0, 0, 1)
+    # d r^b / d(Δr, g, Δβ) = (1, r, 0);  d β^b / d(Δr, g, Δβ) = (0, 0, 1)
     B = np.stack([np.stack([one * w_r, rho * w_r, zero], -1),
                   np.stack([zero, zero, one * w_b], -1)], -2)
-    # d r^b / dx = (1 + ε) u^T;  d β / dx = u_perp^T / r
+    # d r^b / dx = (1 + g) u^T;  d β / dx = u_perp^T / r
     G = np.stack([(scale * w_r)[..., None] * u, (w_b / rho)[..., None] * uperp], -2)
     return pred, B, G
 
@@ -710,7 +710,7 @@ def bias_information(sensors, targets, sigma_r, sigma_beta, *, biases=None):
     -------
     numpy.ndarray, shape (..., 3m, 3m)
         :math:`\\mathcal J_b`, ordered radar by radar as
-        :math:`(\\Delta r_1, \\varepsilon_1, \\Delta\\beta_1, \\Delta r_2, \\dots)`.
+        :math:`(\\Delta r_1, g_1, \\Delta\\beta_1, \\Delta r_2, \\dots)`.
 
     Raises
     ------
@@ -721,7 +721,7 @@ def bias_information(sensors, targets, sigma_r, sigma_beta, *, biases=None):
     -----
     With :math:`R^{-1/2}`-whitened Jacobians :math:`B_{ik} = \\partial h_{ik}/\\partial b_i`
     and :math:`G_{ik} = \\partial h_{ik}/\\partial x_k` of the predicted report
-    :math:`h_{ik} = ((1+\\varepsilon_i) r_{ik} + \\Delta r_i,\\ \\beta_{ik} + \\Delta\\beta_i)`,
+    :math:`h_{ik} = ((1+g_i) r_{ik} + \\Delta r_i,\\ \\beta_{ik} + \\Delta\\beta_i)`,
     the full information :math:`H^{\\mathsf T} H` of :math:`(b, x_1, \\dots, x_n)` has
     a block-arrow form. Eliminating each object (Schur complement) gives
 
@@ -843,7 +843,7 @@ class BiasEstimate:
     Attributes
     ----------
     biases : numpy.ndarray, shape (..., m, 3)
-        Estimated :math:`(\\Delta r_i, \\varepsilon_i, \\Delta\\beta_i)`; fixed
+        Estimated :math:`(\\Delta r_i, g_i, \\Delta\\beta_i)`; fixed
         biases are exactly zero.
     targets : numpy.ndarray, shape (..., n, 2)
         Estimated object positions (the nuisance parameters).
@@ -947,7 +947,7 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
 
     .. math::
 
-        \\ell(b, x) = \\sum_{i,k} \\frac{(\\hat r_{ik} - (1+\\varepsilon_i) r_{ik}(x_k)
+        \\ell(b, x) = \\sum_{i,k} \\frac{(\\hat r_{ik} - (1+g_i) r_{ik}(x_k)
         - \\Delta r_i)^2}{\\sigma_{r,i}^2}
         + \\frac{(\\hat\\beta_{ik} - \\beta_{ik}(x_k) - \\Delta\\beta_i)^2}{\\sigma_{\\beta,i}^2},
 
@@ -1322,7 +1322,7 @@ def simulate_scene(sensors, targets, biases, sigma_r, sigma_beta, *, p_detect=1.
     targets : array_like, shape (n, 2)
         Object positions.
     biases : array_like, shape (2, 3)
-        Both radars' :math:`(\\Delta r, \\varepsilon, \\Delta\\beta)`.
+        Both radars' :math:`(\\Delta r, g, \\Delta\\beta)`.
     sigma_r, sigma_beta : float or array_like, shape (2,)
         Random error standard deviations.
     p_detect : float, optional
