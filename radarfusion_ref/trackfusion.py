@@ -605,7 +605,7 @@ def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
     Parameters
     ----------
     dt : float or array_like
-        Time interval(s) :math:`T \\ge 0`.
+        Time interval(s) :math:`\\Delta t \\ge 0`.
     q : float or array_like
         Process-noise intensity :math:`q \\ge 0`: the power spectral density of the
         white acceleration (``"continuous"``, units length²/time³) or the variance of
@@ -631,16 +631,16 @@ def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
 
     Notes
     -----
-    Per coordinate, with :math:`T` the interval,
+    Per coordinate, with :math:`\\Delta t` the interval,
 
     .. math::
 
-        F = \\begin{pmatrix}1 & T\\\\ 0 & 1\\end{pmatrix}, \\qquad
-        Q_{\\text{cont}} = q\\begin{pmatrix}T^3/3 & T^2/2\\\\ T^2/2 & T\\end{pmatrix}, \\qquad
-        Q_{\\text{disc}} = q\\begin{pmatrix}T^4/4 & T^3/2\\\\ T^3/2 & T^2\\end{pmatrix}.
+        F = \\begin{pmatrix}1 & \\Delta t\\\\ 0 & 1\\end{pmatrix}, \\qquad
+        Q_{\\text{cont}} = q\\begin{pmatrix}\\Delta t^3/3 & \\Delta t^2/2\\\\ \\Delta t^2/2 & \\Delta t\\end{pmatrix}, \\qquad
+        Q_{\\text{disc}} = q\\begin{pmatrix}\\Delta t^4/4 & \\Delta t^3/2\\\\ \\Delta t^3/2 & \\Delta t^2\\end{pmatrix}.
 
-    The continuous model composes exactly: predicting over :math:`T_1` then
-    :math:`T_2` equals predicting over :math:`T_1 + T_2`.
+    The continuous model composes exactly: predicting over :math:`\\Delta t_1` then
+    :math:`\\Delta t_2` equals predicting over :math:`\\Delta t_1 + \\Delta t_2`.
 
     References
     ----------
