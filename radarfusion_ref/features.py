@@ -57,7 +57,6 @@ from ._validation import (
     as_float_array,
     as_int,
     as_positive,
-    as_rng,
     broadcast,
     check_size,
     unwrap,
@@ -65,7 +64,12 @@ from ._validation import (
 from .fusion import fuse
 from .montecarlo import MeanEstimate, Proportion, mean, proportion
 from .proximity import mahalanobis_sq
-from .scenes import TwoRadarScene, two_radar_scene
+from .scenes import (  # the scene simulator lives in scenes; re-exported under its name here
+    FEATURE_MODELS,
+    TypedScene,
+    _types_iv,
+    typed_scene,
+)
 
 __all__ = [
     "FEATURE_MODELS",
@@ -86,9 +90,6 @@ __all__ = [
     "type_posterior",
     "typed_scene",
 ]
-
-#: The two feature observation models of the paper's closing discussion.
-FEATURE_MODELS = ("shared", "spread")
 
 _LOG_2PI = np.log(2.0 * np.pi)
 
@@ -120,32 +121,6 @@ def _as_flag(value, name):
 
 
 # ----------------------------------------------------------------------------- validation
-def _types_iv(type_means, type_vars, priors):
-    """Validate the type description; return means, variances and log priors, each (K,)."""
-    means = as_float_array(type_means, "type_means")
-    if means.ndim != 1 or means.size == 0:
-        raise ValueError("`type_means` must be a non-empty 1-D array (one mean per type); "
-                         f"received {_describe(means)}")
-    tvars = as_positive(type_vars, "type_vars")
-    if tvars.shape != means.shape:
-        raise ValueError(f"`type_vars` must have the same shape as `type_means`, {means.shape}; "
-                         f"received shape {tvars.shape}")
-    n_types = means.size
-    if priors is None:
-        return means, tvars, np.full(n_types, -np.log(n_types))
-    p = as_float_array(priors, "priors")
-    if p.shape != means.shape:
-        raise ValueError(f"`priors` must have the same shape as `type_means`, {means.shape}; "
-                         f"received shape {p.shape}")
-    if np.any(p < 0):
-        raise ValueError(f"`priors` must be >= 0; received {_describe(p)}")
-    if abs(p.sum() - 1.0) > 1e-8:
-        raise ValueError(f"`priors` must sum to 1 (within 1e-8); received {_describe(p)} "
-                         f"(sum {p.sum():.10g})")
-    with np.errstate(divide="ignore"):
-        return means, tvars, np.log(p)
-
-
 def _log_normal(x, mean_, var):
     """log N(x; mean, var), elementwise (moderate arguments only; see `_log_quadratic`)."""
     return -0.5 * (_LOG_2PI + np.log(var) + (x - mean_) ** 2 / var)
@@ -780,128 +755,6 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
                          "`feature2`) are too far apart for their variances; such a pair is "
                          "outside any gate, so drop it before computing the measure")
     return CombinedProximity(total, kx, kf, dof, model, kind)
-
-
-# ----------------------------------------------------------------------------- scenes
-@dataclass(frozen=True)
-class TypedScene:
-    """Two-radar scenes of typed objects with coordinate and feature reports.
-
-    Attributes
-    ----------
-    coords : TwoRadarScene
-        The coordinate part (truth, reports, ``owner2``), from
-        :func:`radarfusion_ref.scenes.two_radar_scene`.
-    types : numpy.ndarray of int, shape (trials, n)
-        True type index of each object.
-    feature_truth : numpy.ndarray, shape (trials, n)
-        The feature value of each object as radar 1 sees it (under
-        ``"shared"`` also radar 2's; under ``"spread"`` radar 2 sees an
-        independent draw from the same type density).
-    features1 : numpy.ndarray, shape (trials, n)
-        Radar 1's feature reports, in object order (like ``coords.reports1``).
-    features2 : numpy.ndarray, shape (trials, n)
-        Radar 2's feature reports, in radar 2's shuffled order (like
-        ``coords.reports2``).
-    feature_sigma1, feature_sigma2 : float
-        Feature error standard deviations of the two radars.
-    type_means, type_vars, priors : numpy.ndarray, shape (K,)
-        The type description the scene was drawn from.
-    model : str
-        ``"shared"`` or ``"spread"``.
-    """
-
-    coords: TwoRadarScene
-    types: np.ndarray
-    feature_truth: np.ndarray
-    features1: np.ndarray
-    features2: np.ndarray
-    feature_sigma1: float
-    feature_sigma2: float
-    type_means: np.ndarray
-    type_vars: np.ndarray
-    priors: np.ndarray
-    model: str
-
-    @property
-    def true_match(self) -> np.ndarray:
-        """``true_match[t, j]``: index in radar 2's list of object ``j``'s report."""
-        return self.coords.true_match
-
-    @property
-    def n_types(self) -> int:
-        """Number of types K."""
-        return int(self.type_means.size)
-
-
-def typed_scene(n_objects: int, *, type_means, type_vars, priors=None, spacing: float,
-                sigma1: float, sigma2: float, feature_sigma1: float, feature_sigma2: float,
-                model: str = "shared", trials: int = 1, dim: int = 1, layout: str = "line",
-                rng=None) -> TypedScene:
-    """Draw `trials` scenes of `n_objects` typed objects seen by two radars.
-
-    Positions and coordinate reports come from
-    :func:`radarfusion_ref.scenes.two_radar_scene` (same arguments); then each
-    object gets a type :math:`k \\sim p`, a feature value
-    :math:`\\Pi \\sim \\mathcal N(\\Pi_k, \\sigma_{\\Pi k}^2)` and a feature report from
-    each radar.
-
-    Parameters
-    ----------
-    n_objects : int
-        Number of objects.
-    type_means, type_vars : array_like, shape (K,)
-        Type densities (8): means :math:`\\Pi_k` and variances :math:`\\sigma_{\\Pi k}^2`.
-    priors : array_like, shape (K,), optional
-        Type probabilities (default uniform).
-    spacing, sigma1, sigma2, trials, dim, layout :
-        As in :func:`radarfusion_ref.scenes.two_radar_scene`.
-    feature_sigma1, feature_sigma2 : float
-        Feature error standard deviations :math:`\\sigma_{\\Pi1}, \\sigma_{\\Pi2}`.
-    model : {"shared", "spread"}, optional
-        Model 1: both radars measure the same value; model 2: each radar
-        measures its own draw from the type density.
-    rng : None, int or numpy.random.Generator, optional
-        Source of randomness (SPEC 7).
-
-    Returns
-    -------
-    TypedScene
-
-    Raises
-    ------
-    ValueError
-        Bad type description or scene parameters.
-
-    Examples
-    --------
-    >>> s = typed_scene(3, type_means=[0.0, 5.0], type_vars=[1.0, 1.0], spacing=1.0,
-    ...                 sigma1=0.1, sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1,
-    ...                 trials=4, rng=1)
-    >>> s.features2.shape, s.types.shape, s.n_types
-    ((4, 3), (4, 3), 2)
-    """
-    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
-    fs1 = float(as_positive(feature_sigma1, "feature_sigma1"))
-    fs2 = float(as_positive(feature_sigma2, "feature_sigma2"))
-    model = as_choice(model, "model", FEATURE_MODELS)
-    rng = as_rng(rng)
-    coords = two_radar_scene(n_objects, spacing=spacing, sigma1=sigma1, sigma2=sigma2,
-                             trials=trials, dim=dim, layout=layout, rng=rng)
-    trials, n = coords.owner2.shape
-    p = np.exp(log_priors)
-    types = rng.choice(means.size, size=(trials, n), p=p / p.sum())
-    sd = np.sqrt(tvars[types])
-    truth = means[types] + sd * rng.standard_normal((trials, n))
-    types2 = np.take_along_axis(types, coords.owner2, axis=1)
-    if model == "shared":
-        seen2 = np.take_along_axis(truth, coords.owner2, axis=1)
-    else:
-        seen2 = means[types2] + np.sqrt(tvars[types2]) * rng.standard_normal((trials, n))
-    features1 = truth + fs1 * rng.standard_normal((trials, n))
-    features2 = seen2 + fs2 * rng.standard_normal((trials, n))
-    return TypedScene(coords, types, truth, features1, features2, fs1, fs2, means, tvars,
-                      np.exp(log_priors), model)
 
 
 def association_costs(scene: TypedScene, *, features: str = "shared",
