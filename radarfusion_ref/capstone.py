@@ -1,0 +1,1309 @@
+"""A fusion centre over real air traffic: three radars, the whole pipeline, GOSPA.
+
+The truth is one hour of ADS-B records over Switzerland (``data/``, 2018-08-01
+11:00–12:00 UTC, 142 aircraft, en-route traffic at 30 000–47 000 ft) from the
+``traffic`` package's samples. This module
+
+* loads the committed subset (:func:`load_traffic`) and projects WGS-84
+  coordinates to a local east-north-up plane (:func:`geodetic_to_enu`) about
+  :data:`ORIGIN`;
+* interpolates the aircraft at the scan times (:func:`truth_scans`);
+* simulates three radars at stated sites (:data:`RADAR_SITES`,
+  :func:`default_radars`) reporting range, azimuth, elevation and a speed
+  feature, with noise, systematic biases, missed detections, clutter and
+  coverage limits (:func:`simulate_reports`);
+* runs the fusion centre scan by scan (:func:`run_pipeline`), each step calling
+  the function its chapter teaches: the debiased 3-D conversion
+  (:func:`radarfusion_ref.conversion.spherical_to_cartesian`), registration
+  over a warm-up window (:func:`radarfusion_ref.registration.estimate_biases`),
+  the per-report-covariance gate (:func:`radarfusion_ref.gating.gate_pairwise_2d`),
+  S-D grouping with dummies for misses and false reports
+  (:func:`radarfusion_ref.grouping.group_sd`), ML fusion
+  (:func:`radarfusion_ref.fusion.fuse_gaussian`, :func:`radarfusion_ref.fusion.fuse`)
+  and type recognition (:func:`radarfusion_ref.features.type_posterior`);
+* scores the result against the truth (:func:`evaluate`): GOSPA
+  (:func:`gospa`) with its localisation, missed and false parts, association
+  accuracy, NEES and recognition accuracy.
+
+Frames. All geometry lives in the common ENU frame about :data:`ORIGIN`; each
+radar measures range, azimuth (counter-clockwise from east, as in
+:mod:`radarfusion_ref.conversion`) and elevation of the aircraft's common-frame
+position relative to its own common-frame position. A real radar measures in
+its own local frame, which is rotated against the common one (by the meridian
+convergence, about 0.7° per degree of longitude here); a fusion centre undoes
+that known rotation before fusing, and the simulation leaves it out.
+
+.. rubric:: References
+
+.. [1] A. S. Rahmathullah, Á. F. García-Fernández, L. Svensson, "Generalized
+   optimal sub-pattern assignment metric", FUSION 2017 (GOSPA, eqs. 1–2 and
+   the decomposition for α = 2).
+.. [2] X. Olive, "traffic, a toolbox for processing and analysing air traffic
+   data", JOSS 4(39) 1518 (2019) — the source of the ADS-B samples.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import math
+import time
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+from scipy.optimize import linear_sum_assignment
+
+from . import conversion, features, fusion, gating, grouping, registration
+from ._validation import (
+    _describe,
+    as_bool,
+    as_choice,
+    as_float_array,
+    as_int,
+    as_probability,
+    as_rng,
+)
+from .montecarlo import Proportion, proportion
+
+__all__ = [
+    "DATA_FILE",
+    "ORIGIN",
+    "RADAR_SITES",
+    "SPEED_CLASSES",
+    "SPEED_BOUNDS",
+    "SPEED_TYPE_MEANS",
+    "SPEED_TYPE_VARS",
+    "STAGES",
+    "Evaluation",
+    "GospaResult",
+    "PipelineResult",
+    "Radar",
+    "Reports",
+    "Traffic",
+    "TruthScans",
+    "default_radars",
+    "evaluate",
+    "geodetic_to_enu",
+    "gospa",
+    "load_traffic",
+    "run_pipeline",
+    "simulate_reports",
+    "truth_scans",
+]
+
+#: The committed subset (see ``data/README.md``).
+DATA_FILE = Path(__file__).resolve().parents[1] / "data" / "switzerland_busiest_hour.csv.gz"
+
+_HEADER = ("t_s", "icao24", "callsign", "lat_e5", "lon_e5", "alt_ft", "gs_kt", "track_deg")
+
+#: Origin of the common east-north-up frame: latitude, longitude (degrees, WGS-84) and
+#: ellipsoidal height (m) — the middle of the data's box (45.8–47.8 N, 6.0–10.5 E).
+ORIGIN = (46.8, 8.2, 0.0)
+
+#: Radar sites: name -> (latitude deg, longitude deg, height m). Mountain-top sites of
+#: MeteoSwiss's weather-radar network (coordinates rounded), standing in for air-traffic
+#: radars: La Dôle (west), Albis (north), Monte Lema (south).
+RADAR_SITES = {
+    "La Dole": (46.4256, 6.0994, 1682.0),
+    "Albis": (47.2844, 8.5122, 938.0),
+    "Monte Lema": (46.0408, 8.8332, 1626.0),
+}
+
+#: Speed classes of the recognition step, by ground speed: slow < 440 kt <= medium
+#: < 465 kt <= fast (about the tertiles of the committed hour).
+SPEED_CLASSES = ("slow", "medium", "fast")
+SPEED_BOUNDS = (440.0, 465.0)
+#: Gaussian type model of the speed feature (kt, kt^2) used by the recognition step
+#: (:func:`radarfusion_ref.features.type_posterior`): the class means and variances of
+#: the ground speed over the committed hour, rounded.
+SPEED_TYPE_MEANS = (422.0, 452.0, 481.0)
+SPEED_TYPE_VARS = (15.0**2, 7.0**2, 13.0**2)
+#: Span (kt) over which false reports draw their speed feature, uniformly.
+_FEATURE_SPAN = (300.0, 600.0)
+#: Altitudes (m, common frame) between which false reports are placed, uniformly.
+_CLUTTER_ALT = (8000.0, 15000.0)
+
+#: Stages timed by :func:`run_pipeline` (in order); :func:`evaluate` adds "metrics".
+STAGES = ("conversion", "registration", "gating", "grouping", "fusion", "recognition")
+
+_A = 6378137.0                      # WGS-84 semi-major axis (m)
+_F = 1.0 / 298.257223563            # WGS-84 flattening
+_E2 = _F * (2.0 - _F)               # first eccentricity squared
+_FT = 0.3048                        # metres per foot
+
+
+# ----------------------------------------------------------------------------- data
+@dataclass(frozen=True)
+class Traffic:
+    """ADS-B records of one window, sorted by aircraft then time.
+
+    Attributes
+    ----------
+    t : numpy.ndarray of float, shape (N,)
+        Seconds from the window start.
+    aircraft : numpy.ndarray of int, shape (N,)
+        Aircraft index into `icao24` (0..A-1).
+    icao24, callsign : tuple of str, length A
+        Transponder address and the first callsign seen of each aircraft.
+    lat, lon : numpy.ndarray, shape (N,)
+        WGS-84 latitude and longitude (degrees).
+    alt : numpy.ndarray, shape (N,)
+        Barometric altitude (m; the records' feet times 0.3048), used as height.
+    speed : numpy.ndarray, shape (N,)
+        Ground speed (kt).
+    track : numpy.ndarray, shape (N,)
+        Track (degrees clockwise from north).
+    """
+
+    t: np.ndarray
+    aircraft: np.ndarray
+    icao24: tuple
+    callsign: tuple
+    lat: np.ndarray
+    lon: np.ndarray
+    alt: np.ndarray
+    speed: np.ndarray
+    track: np.ndarray
+
+
+def _bad_file(path, what):
+    return ValueError(f"`path` {str(path)!r}: {what}")
+
+
+def load_traffic(path=None) -> Traffic:
+    """Load the committed ADS-B subset (or a file of the same format).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path, optional
+        A gzip CSV with header ``t_s,icao24,callsign,lat_e5,lon_e5,alt_ft,gs_kt,track_deg``
+        (integers, except the two names). Default :data:`DATA_FILE`, the hour of
+        ``data/README.md``; no network access, no extra package.
+
+    Returns
+    -------
+    Traffic
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, not gzip, truncated, has another header, a row of another
+        column count, a non-integer or non-finite entry, latitude outside [-90, 90] or
+        longitude outside [-180, 180] degrees, a negative time or ground speed, or no rows.
+        The message names `path` and what is wrong.
+    TypeError
+        If `path` is not a string or path.
+
+    Examples
+    --------
+    >>> tr = load_traffic()
+    >>> len(tr.icao24), tr.t.size
+    (142, 12902)
+    """
+    if path is None:
+        path = DATA_FILE
+    if isinstance(path, bool) or not isinstance(path, (str, Path)):
+        raise TypeError(f"`path` must be a file path (str or pathlib.Path); received "
+                        f"{_describe(path)}")
+    p = Path(path)
+    if not p.is_file():
+        raise _bad_file(p, "no such file; the committed subset is data/"
+                           "switzerland_busiest_hour.csv.gz (regenerate it with "
+                           "`python data/make_traffic_subset.py`)")
+    try:
+        text = gzip.decompress(p.read_bytes()).decode("ascii")
+    except (OSError, EOFError, zlib.error) as exc:
+        raise _bad_file(p, f"not a complete gzip file ({exc})") from None
+    except UnicodeDecodeError:
+        raise _bad_file(p, "the decompressed data is not ASCII text") from None
+    rows = list(csv.reader(io.StringIO(text)))
+    if not rows or tuple(rows[0]) != _HEADER:
+        raise _bad_file(p, f"the header must be {','.join(_HEADER)}; received "
+                           f"{','.join(rows[0]) if rows else '(empty file)'!r}")
+    body = rows[1:]
+    if not body:
+        raise _bad_file(p, "the file holds no records")
+    bad = [k for k, r in enumerate(body) if len(r) != len(_HEADER)]
+    if bad:
+        raise _bad_file(p, f"row {bad[0] + 2} has {len(body[bad[0]])} columns, not "
+                           f"{len(_HEADER)}")
+    cols = list(zip(*body, strict=True))
+    num = {}
+    for k, name in enumerate(_HEADER):
+        if name in ("icao24", "callsign"):
+            continue
+        try:
+            num[name] = np.array(cols[k], dtype=np.int64)
+        except (ValueError, OverflowError):
+            j = next(i for i, v in enumerate(cols[k]) if not v.strip().lstrip("-").isdigit())
+            raise _bad_file(p, f"column {name!r}, row {j + 2}: {cols[k][j]!r} is not an "
+                               "integer") from None
+    lat, lon = num["lat_e5"] * 1e-5, num["lon_e5"] * 1e-5
+    for name, arr, lo, hi in (("lat_e5", lat, -90, 90), ("lon_e5", lon, -180, 180),
+                              ("t_s", num["t_s"], 0, np.inf), ("gs_kt", num["gs_kt"], 0, np.inf)):
+        out = np.flatnonzero((arr < lo) | (arr > hi))
+        if out.size:
+            raise _bad_file(p, f"column {name!r}, row {out[0] + 2}: {arr[out[0]]} is outside "
+                               f"[{lo}, {hi}]")
+    names, aircraft = np.unique(np.array(cols[1]), return_inverse=True)
+    order = np.lexsort((num["t_s"], aircraft))
+    first = {}
+    for a, c in zip(aircraft[order], np.array(cols[2])[order], strict=True):
+        first.setdefault(int(a), c)
+    return Traffic(
+        t=num["t_s"][order].astype(float), aircraft=aircraft[order].astype(np.int64),
+        icao24=tuple(str(n) for n in names), callsign=tuple(first[a] for a in range(names.size)),
+        lat=lat[order], lon=lon[order], alt=num["alt_ft"][order] * _FT,
+        speed=num["gs_kt"][order].astype(float), track=num["track_deg"][order].astype(float))
+
+
+# ----------------------------------------------------------------------------- geometry
+def _ecef(lat, lon, h):
+    phi, lam = np.radians(lat), np.radians(lon)
+    n = _A / np.sqrt(1.0 - _E2 * np.sin(phi) ** 2)
+    return np.stack([(n + h) * np.cos(phi) * np.cos(lam), (n + h) * np.cos(phi) * np.sin(lam),
+                     (n * (1.0 - _E2) + h) * np.sin(phi)], axis=-1)
+
+
+def geodetic_to_enu(lat, lon, h, *, origin=ORIGIN) -> np.ndarray:
+    """WGS-84 geodetic coordinates to east-north-up about an origin (closed form).
+
+    Parameters
+    ----------
+    lat, lon : array_like
+        Latitude in [-90, 90] and longitude in [-180, 180] (degrees).
+    h : array_like
+        Ellipsoidal height (m). The three broadcast together.
+    origin : sequence of 3 floats, optional
+        ``(lat0, lon0, h0)`` of the frame's origin (default :data:`ORIGIN`).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        East, north, up (m).
+
+    Raises
+    ------
+    ValueError
+        Non-finite input, latitudes or longitudes out of range, shapes that do not
+        broadcast, or an `origin` that is not three finite numbers.
+    TypeError
+        Non-numeric input.
+
+    Notes
+    -----
+    With :math:`a = 6378137` m, :math:`f = 1/298.257223563`, :math:`e^2 = f(2-f)` and
+    :math:`N = a/\\sqrt{1 - e^2\\sin^2\\varphi}`, the Earth-centred position is
+    :math:`((N+h)\\cos\\varphi\\cos\\lambda, (N+h)\\cos\\varphi\\sin\\lambda,
+    (N(1-e^2)+h)\\sin\\varphi)`; ENU is its difference from the origin's, rotated by
+    the origin's east, north and up unit vectors.
+
+    Examples
+    --------
+    >>> np.round(geodetic_to_enu(0.0, 90.0, 0.0, origin=(0.0, 0.0, 0.0)), 3)
+    array([ 6378137.,        0., -6378137.])
+    """
+    lat = as_float_array(lat, "lat")
+    lon = as_float_array(lon, "lon")
+    h = as_float_array(h, "h")
+    o = as_float_array(origin, "origin")
+    if o.shape != (3,):
+        raise ValueError(f"`origin` must be (lat, lon, h); received {_describe(origin)}")
+    for name, arr, lim in (("lat", lat, 90.0), ("lon", lon, 180.0)):
+        if np.any(np.abs(arr) > lim):
+            raise ValueError(f"`{name}` must lie in [-{lim:g}, {lim:g}] degrees; received "
+                             f"{_describe(arr)}")
+    if abs(o[0]) > 90 or abs(o[1]) > 180:
+        raise ValueError(f"`origin` latitude must lie in [-90, 90] and longitude in "
+                         f"[-180, 180]; received {_describe(origin)}")
+    try:
+        lat, lon, h = np.broadcast_arrays(lat, lon, h)
+    except ValueError:
+        raise ValueError(f"`lat`, `lon` and `h` must broadcast; received shapes {lat.shape}, "
+                         f"{lon.shape}, {h.shape}") from None
+    d = _ecef(lat, lon, h) - _ecef(o[0], o[1], o[2])
+    p0, l0 = np.radians(o[0]), np.radians(o[1])
+    rot = np.array([[-np.sin(l0), np.cos(l0), 0.0],
+                    [-np.sin(p0) * np.cos(l0), -np.sin(p0) * np.sin(l0), np.cos(p0)],
+                    [np.cos(p0) * np.cos(l0), np.cos(p0) * np.sin(l0), np.sin(p0)]])
+    return d @ rot.T
+
+
+# ----------------------------------------------------------------------------- truth
+@dataclass(frozen=True)
+class TruthScans:
+    """Aircraft positions at the scan times (one row per aircraft and scan).
+
+    Attributes
+    ----------
+    times : numpy.ndarray, shape (S,)
+        Scan times (s from the window start).
+    scan, aircraft : numpy.ndarray of int, shape (K,)
+        Scan index and aircraft index (into `icao24`) of each row.
+    position : numpy.ndarray, shape (K, 3)
+        Interpolated ENU position (m).
+    speed : numpy.ndarray, shape (K,)
+        Interpolated ground speed (kt).
+    speed_class : numpy.ndarray of int, shape (K,)
+        Index into :data:`SPEED_CLASSES` (by :data:`SPEED_BOUNDS`).
+    icao24 : tuple of str
+        Aircraft addresses.
+    period : float
+        Scan period (s).
+    """
+
+    times: np.ndarray
+    scan: np.ndarray
+    aircraft: np.ndarray
+    position: np.ndarray
+    speed: np.ndarray
+    speed_class: np.ndarray
+    icao24: tuple
+    period: float
+
+    @property
+    def n_scans(self) -> int:
+        """Number of scans."""
+        return int(self.times.size)
+
+
+def _scalar(value, name, *, positive=True):
+    v = as_float_array(value, name)
+    if v.ndim:
+        raise ValueError(f"`{name}` must be a number; received {_describe(value)}")
+    if (v <= 0) if positive else (v < 0):
+        raise ValueError(f"`{name}` must be {'> 0' if positive else '>= 0'}; received "
+                         f"{_describe(value)}")
+    return float(v)
+
+
+def truth_scans(traffic, *, period=10.0, start=0.0, duration=600.0,
+                max_gap=30.0) -> TruthScans:
+    """Aircraft positions at scan times ``start, start + period, ...`` (linear interpolation).
+
+    Parameters
+    ----------
+    traffic : Traffic
+        From :func:`load_traffic`.
+    period : float, optional
+        Scan period T (s; default 10, the records' own spacing).
+    start : float, optional
+        Time of the first scan (s from the window start, >= 0; default 0).
+    duration : float, optional
+        Length of the scanned interval (s, > 0; default 600): scans at
+        ``start + k * period < start + duration``.
+    max_gap : float, optional
+        An aircraft is placed at a scan time only if two of its records bracket the time
+        and lie at most `max_gap` seconds apart (default 30); never extrapolated.
+
+    Returns
+    -------
+    TruthScans
+
+    Raises
+    ------
+    TypeError
+        If `traffic` is not a :class:`Traffic`.
+    ValueError
+        Non-positive `period`, `duration` or `max_gap`, negative `start`, or a window
+        holding no aircraft at any scan.
+
+    Examples
+    --------
+    >>> tr = truth_scans(load_traffic(), period=10.0, duration=60.0)
+    >>> tr.n_scans, tr.position.shape[1]
+    (6, 3)
+    """
+    if not isinstance(traffic, Traffic):
+        raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
+                        f"{_describe(traffic)}")
+    period = _scalar(period, "period")
+    start = _scalar(start, "start", positive=False)
+    duration = _scalar(duration, "duration")
+    max_gap = _scalar(max_gap, "max_gap")
+    times = start + period * np.arange(math.ceil(duration / period - 1e-9))
+    enu = geodetic_to_enu(traffic.lat, traffic.lon, traffic.alt)
+    bounds = np.flatnonzero(np.diff(traffic.aircraft)) + 1
+    starts = np.concatenate([[0], bounds])
+    stops = np.concatenate([bounds, [traffic.t.size]])
+    parts = []
+    for a0, a1 in zip(starts, stops, strict=True):
+        t = traffic.t[a0:a1]
+        k = np.searchsorted(t, times, side="right") - 1             # record at or before
+        ok = (k >= 0) & (k < t.size - 1)
+        exact = (k == t.size - 1) & (k >= 0) & (t[-1] == times)
+        kk = np.clip(k, 0, max(t.size - 2, 0))
+        if t.size >= 2:
+            ok &= (t[kk + 1] - t[kk]) <= max_gap
+        ok |= exact
+        if not ok.any():
+            continue
+        s = np.flatnonzero(ok)
+        cols = [np.interp(times[s], t, v[a0:a1]) for v in
+                (enu[:, 0], enu[:, 1], enu[:, 2], traffic.speed)]
+        parts.append((s, np.full(s.size, traffic.aircraft[a0]), np.stack(cols[:3], -1),
+                      cols[3]))
+    if not parts:
+        raise ValueError(f"`traffic`: no aircraft has records bracketing any scan time in "
+                         f"[{start:g}, {start + duration:g}) s")
+    scan, aircraft, pos, speed = (np.concatenate(p) for p in zip(*parts, strict=True))
+    order = np.lexsort((aircraft, scan))
+    speed = speed[order]
+    return TruthScans(times=times, scan=scan[order], aircraft=aircraft[order],
+                      position=pos[order], speed=speed,
+                      speed_class=np.searchsorted(SPEED_BOUNDS, speed, side="right"),
+                      icao24=traffic.icao24, period=period)
+
+
+# ----------------------------------------------------------------------------- radars
+@dataclass(frozen=True)
+class Radar:
+    """One radar: site, accuracy, biases, detection and clutter.
+
+    Attributes
+    ----------
+    name : str
+    lat, lon, height : float
+        Site (degrees, degrees, m).
+    sigma_r : float
+        Range noise standard deviation (m).
+    sigma_beta, sigma_epsilon : float
+        Azimuth and elevation noise standard deviations (rad).
+    bias_range : float
+        Systematic range offset :math:`\\Delta r` (m).
+    bias_azimuth : float
+        Systematic azimuth offset :math:`\\Delta\\beta` (rad); the bias model is
+        :func:`radarfusion_ref.registration.apply_biases` with zero scale error.
+    p_detect : float
+        Detection probability of an aircraft in coverage.
+    clutter_rate : float
+        Mean number of false reports per scan (Poisson), uniform over the coverage
+        disk and the altitudes 8–15 km, with a speed feature uniform on 300–600 kt.
+    max_range : float
+        Coverage: slant range at most this (m) ...
+    min_elevation : float
+        ... and elevation at least this (rad).
+    sigma_feature : float
+        Noise standard deviation of the speed feature (kt).
+    """
+
+    name: str
+    lat: float
+    lon: float
+    height: float
+    sigma_r: float = 50.0
+    sigma_beta: float = math.radians(0.08)
+    sigma_epsilon: float = math.radians(0.12)
+    bias_range: float = 0.0
+    bias_azimuth: float = 0.0
+    p_detect: float = 0.9
+    clutter_rate: float = 10.0
+    max_range: float = 220_000.0
+    min_elevation: float = 0.0
+    sigma_feature: float = 10.0
+
+    @property
+    def enu(self) -> np.ndarray:
+        """Site in the common ENU frame (m)."""
+        return geodetic_to_enu(self.lat, self.lon, self.height)
+
+    @property
+    def coverage_volume(self) -> float:
+        """Volume (m^3) of the clutter region: the coverage disk times 8–15 km."""
+        return math.pi * self.max_range**2 * (_CLUTTER_ALT[1] - _CLUTTER_ALT[0])
+
+
+def default_radars() -> tuple[Radar, ...]:
+    """The three radars of the capstone, at the :data:`RADAR_SITES`.
+
+    Every radar: range noise 50 m, azimuth 0.08°, elevation 0.12°, speed feature
+    10 kt, coverage 220 km slant range above 0° elevation, 10 false reports per scan.
+    Biases (range offset, azimuth offset) and detection probabilities:
+    La Dôle (+120 m, +0.12°, 0.90), Albis (−80 m, −0.10°, 0.85),
+    Monte Lema (+60 m, +0.15°, 0.92).
+
+    Returns
+    -------
+    tuple of Radar
+
+    Examples
+    --------
+    >>> [r.name for r in default_radars()]
+    ['La Dole', 'Albis', 'Monte Lema']
+    """
+    extra = {"La Dole": (120.0, 0.12, 0.90), "Albis": (-80.0, -0.10, 0.85),
+             "Monte Lema": (60.0, 0.15, 0.92)}
+    return tuple(Radar(name, *site, bias_range=extra[name][0],
+                       bias_azimuth=math.radians(extra[name][1]), p_detect=extra[name][2])
+                 for name, site in RADAR_SITES.items())
+
+
+def _radars_iv(radars):
+    if isinstance(radars, Radar) or not isinstance(radars, (list, tuple)) or not all(
+            isinstance(r, Radar) for r in radars):
+        raise TypeError(f"`radars` must be a list or tuple of Radar (see default_radars()); "
+                        f"received {_describe(radars)}")
+    if len(radars) < 2:
+        raise ValueError(f"`radars` must hold at least two radars; received {len(radars)}")
+    for r in radars:
+        vals = np.array([r.lat, r.lon, r.height, r.sigma_r, r.sigma_beta, r.sigma_epsilon,
+                         r.bias_range, r.bias_azimuth, r.p_detect, r.clutter_rate,
+                         r.max_range, r.min_elevation, r.sigma_feature], dtype=float)
+        if not np.all(np.isfinite(vals)) or min(r.sigma_r, r.sigma_beta, r.sigma_epsilon,
+                                                 r.sigma_feature, r.max_range) <= 0 \
+                or not 0 < r.p_detect <= 1 or r.clutter_rate < 0 \
+                or abs(r.bias_azimuth) >= math.pi or abs(r.lat) > 90 or abs(r.lon) > 180:
+            raise ValueError(f"`radars`: radar {r.name!r} needs finite values, positive "
+                             "deviations and range, p_detect in (0, 1], clutter_rate >= 0, "
+                             f"|bias_azimuth| < pi and a valid site; received {r!r}")
+    return tuple(radars)
+
+
+@dataclass(frozen=True)
+class Reports:
+    """All reports of all radars over all scans (one row per report).
+
+    Attributes
+    ----------
+    scan, radar : numpy.ndarray of int, shape (N,)
+        Scan index and radar index (into the `radars` given to :func:`simulate_reports`).
+    r, beta, epsilon : numpy.ndarray, shape (N,)
+        Measured range (m), azimuth and elevation (rad).
+    feature : numpy.ndarray, shape (N,)
+        Measured speed feature (kt).
+    source : numpy.ndarray of int, shape (N,)
+        Truth: the aircraft index, or -1 for a false report.
+    n_scans : int
+        Number of scans (reports may be absent from some).
+    """
+
+    scan: np.ndarray
+    radar: np.ndarray
+    r: np.ndarray
+    beta: np.ndarray
+    epsilon: np.ndarray
+    feature: np.ndarray
+    source: np.ndarray
+    n_scans: int
+
+
+def _polar(rel):
+    ground = np.hypot(rel[:, 0], rel[:, 1])
+    return (np.linalg.norm(rel, axis=1), np.arctan2(rel[:, 1], rel[:, 0]),
+            np.arctan2(rel[:, 2], ground))
+
+
+def _coverage_count(position, radars):
+    """Number of radars whose coverage holds each position."""
+    n = np.zeros(position.shape[0], dtype=np.int64)
+    for rad in radars:
+        r, _, eps = _polar(position - rad.enu)
+        n += (r <= rad.max_range) & (eps >= rad.min_elevation)
+    return n
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def simulate_reports(truth, radars, *, rng=None) -> Reports:
+    """Reports of the radars at every scan: detections with noise and biases, and clutter.
+
+    Parameters
+    ----------
+    truth : TruthScans
+        From :func:`truth_scans`.
+    radars : sequence of Radar
+        E.g. :func:`default_radars`.
+    rng : None, int or numpy.random.Generator, optional
+        Randomness (SPEC 7).
+
+    Returns
+    -------
+    Reports
+        Sorted by scan, then radar; within them detections precede false reports.
+
+    Raises
+    ------
+    TypeError
+        If `truth` is not a :class:`TruthScans`, `radars` not a sequence of :class:`Radar`
+        or `rng` not a seed or generator.
+    ValueError
+        Invalid radar parameters (named).
+
+    Notes
+    -----
+    An aircraft at slant range :math:`r \\le r_{\\max}` and elevation
+    :math:`\\varepsilon \\ge \\varepsilon_{\\min}` from a radar is detected with
+    probability :math:`P_D`; its report is
+    :math:`(r + \\Delta r + v_r,\\ \\beta + \\Delta\\beta + v_\\beta,\\ \\varepsilon + v_\\varepsilon)`
+    (:func:`radarfusion_ref.registration.apply_biases`) with independent Gaussian
+    noises, and speed feature :math:`s + v_s`, :math:`s` the ground speed. False reports:
+    Poisson(`clutter_rate`) per scan, uniform over the coverage disk and altitudes
+    8–15 km, measured with the same noise (no bias), speed uniform on 300–600 kt.
+
+    Examples
+    --------
+    >>> tr = truth_scans(load_traffic(), duration=30.0)
+    >>> rep = simulate_reports(tr, default_radars(), rng=1)
+    >>> int(rep.n_scans)
+    3
+    """
+    if not isinstance(truth, TruthScans):
+        raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
+                        f"{_describe(truth)}")
+    radars = _radars_iv(radars)
+    gen = as_rng(rng)
+    S = truth.n_scans
+    cols = {k: [] for k in ("scan", "radar", "r", "beta", "epsilon", "feature", "source")}
+    for i, rad in enumerate(radars):
+        site = rad.enu
+        r, beta, eps = _polar(truth.position - site)
+        cover = (r <= rad.max_range) & (eps >= rad.min_elevation)
+        det = cover & (gen.random(r.size) < rad.p_detect)
+        rb, bb = registration.apply_biases(r[det], beta[det],
+                                           [rad.bias_range, 0.0, rad.bias_azimuth])
+        n_false = gen.poisson(rad.clutter_rate, size=S)
+        nf = int(n_false.sum())
+        rho = rad.max_range * np.sqrt(gen.random(nf))
+        phi = gen.uniform(-np.pi, np.pi, nf)
+        z = gen.uniform(*_CLUTTER_ALT, nf) - site[2]
+        fr, fb, fe = _polar(np.stack([rho * np.cos(phi), rho * np.sin(phi), z], -1))
+        n = int(det.sum())
+        r_all = np.concatenate([rb, fr])
+        b_all = np.concatenate([bb, fb])
+        e_all = np.concatenate([eps[det], fe])
+        noise = gen.standard_normal((n + nf, 4))
+        cols["r"].append(np.abs(r_all + rad.sigma_r * noise[:, 0]))
+        cols["beta"].append(_wrap(b_all + rad.sigma_beta * noise[:, 1]))
+        cols["epsilon"].append(e_all + rad.sigma_epsilon * noise[:, 2])
+        feat = np.concatenate([truth.speed[det], gen.uniform(*_FEATURE_SPAN, nf)])
+        cols["feature"].append(feat + rad.sigma_feature * noise[:, 3])
+        cols["scan"].append(np.concatenate([truth.scan[det], np.repeat(np.arange(S), n_false)]))
+        cols["radar"].append(np.full(n + nf, i))
+        cols["source"].append(np.concatenate([truth.aircraft[det], np.full(nf, -1)]))
+    out = {k: np.concatenate(v) for k, v in cols.items()}
+    order = np.lexsort((out["source"] < 0, out["radar"], out["scan"]))
+    return Reports(**{k: v[order] for k, v in out.items()}, n_scans=S)
+
+
+# ----------------------------------------------------------------------------- pipeline
+@dataclass(frozen=True)
+class PipelineResult:
+    """Output of :func:`run_pipeline`: the fused objects of every scan.
+
+    Attributes
+    ----------
+    scan : numpy.ndarray of int, shape (G,)
+        Scan of each declared object (a group of at least `min_reports` reports).
+    members : numpy.ndarray of int, shape (G, m)
+        Row indices into `reports` of the group's report from each radar (-1: none).
+    position : numpy.ndarray, shape (G, 3)
+        ML fused ENU position (m).
+    covariance : numpy.ndarray, shape (G, 3, 3)
+        Its covariance.
+    speed, speed_var : numpy.ndarray, shape (G,)
+        Fused speed feature (kt) and its variance.
+    class_prob : numpy.ndarray, shape (G, K)
+        Posterior probability of each of :data:`SPEED_CLASSES`.
+    group_of : numpy.ndarray of int, shape (N,)
+        For every report, the index of its group in the scan's grouping, numbered over the
+        whole run (singletons included) — the full partition of the reports.
+    biases : numpy.ndarray, shape (m, 3)
+        Registration estimate :math:`(\\Delta r, g, \\Delta\\beta)` per radar (zeros with
+        ``register=False``).
+    timings : dict
+        Seconds spent in each of :data:`STAGES`.
+    settings : dict
+        The switches and parameters used.
+    reports : Reports
+        The input.
+    radars : tuple of Radar
+        The radars used.
+    """
+
+    scan: np.ndarray
+    members: np.ndarray
+    position: np.ndarray
+    covariance: np.ndarray
+    speed: np.ndarray
+    speed_var: np.ndarray
+    class_prob: np.ndarray
+    group_of: np.ndarray
+    biases: np.ndarray
+    timings: dict = field(hash=False)
+    settings: dict = field(hash=False)
+    reports: Reports = field(hash=False, repr=False)
+    radars: tuple = field(hash=False, repr=False, default=())
+
+    @property
+    def speed_class(self) -> np.ndarray:
+        """Recognised class (index into :data:`SPEED_CLASSES`) of each object."""
+        return np.argmax(self.class_prob, axis=-1)
+
+
+def _convert(reports, radars, sites, biases, debias):
+    """Bias-corrected, converted reports in the common frame: (N, 3) and (N, 3, 3)."""
+    r, b = reports.r, reports.beta
+    if biases is not None:
+        bi = biases[reports.radar]
+        r, b = registration.remove_biases(r, b, bi)
+        r = np.abs(r)
+    sr = np.array([x.sigma_r for x in radars])[reports.radar]
+    sb = np.array([x.sigma_beta for x in radars])[reports.radar]
+    se = np.array([x.sigma_epsilon for x in radars])[reports.radar]
+    out = conversion.spherical_to_cartesian(
+        r, b, reports.epsilon, sr, sb, se,
+        method="measurement_conditioned" if debias else "linearized")
+    return out.xyz + sites[reports.radar], out.cov
+
+
+def _register(reports, radars, sites, scans, debias, opts):
+    """Estimate the biases from the three-radar groups of the warm-up scans (two passes)."""
+    m = len(radars)
+    sel = np.isin(reports.scan, scans)
+    sub = Reports(**{k: getattr(reports, k)[sel] for k in
+                     ("scan", "radar", "r", "beta", "epsilon", "feature", "source")},
+                  n_scans=reports.n_scans)
+    biases = np.zeros((m, 3))
+    est = None
+    for _ in range(2):
+        x, cov = _convert(sub, radars, sites, biases, debias)
+        _, full = _group_all(sub, x, cov, radars, opts, timings=None)
+        full = full[np.all(full >= 0, axis=1)]
+        if full.shape[0] < 3:
+            raise ValueError(f"`warmup`: only {full.shape[0]} groups of all {m} radars in the "
+                             "warm-up scans; registration needs more (a longer `warmup`)")
+        # in km: the estimator's rank test compares the information of range offsets
+        # (1/sigma_r^2) with that of azimuth offsets (r^2/sigma_beta^2) on one scale
+        ground = sub.r * np.cos(sub.epsilon) / 1000.0
+        z = np.stack([ground[full.T], sub.beta[full.T]], axis=-1)     # (m, n, 2)
+        est = registration.estimate_biases(
+            sites[:, :2] / 1000.0, z, np.array([x.sigma_r for x in radars]) / 1000.0,
+            np.array([x.sigma_beta for x in radars]),
+            fixed=np.tile([False, True, False], (m, 1)))
+        biases = est.biases * [1000.0, 1.0, 1.0]
+    return biases
+
+
+def _group_all(reports, x, cov, radars, opts, timings):
+    """Gate and group every scan; returns (group index per report, members (G, m))."""
+    m = len(radars)
+    n = reports.scan.size
+    use_f = opts["use_features"]
+    if use_f:
+        d = 4
+        xf = np.concatenate([x, reports.feature[:, None]], axis=1)
+        cf = np.zeros((n, 4, 4))
+        cf[:, :3, :3] = cov
+        cf[:, 3, 3] = np.array([r.sigma_feature for r in radars])[reports.radar] ** 2
+    else:
+        d, xf, cf = 3, x, cov
+    span = _FEATURE_SPAN[1] - _FEATURE_SPAN[0]
+    vol = np.array([r.coverage_volume for r in radars]) * (span if use_f else 1.0)
+    pd_ = np.array([r.p_detect for r in radars])
+    false_density = np.array([r.clutter_rate for r in radars]) / vol
+    counts = np.bincount(reports.radar, minlength=m) / max(reports.n_scans, 1)
+    n_obj = max(float(np.mean(np.maximum(counts - [r.clutter_rate for r in radars], 1.0)
+                              / pd_)), 1.0)
+    object_density = n_obj / float(np.mean(vol))
+    p_lo = opts["p_false_reject"]
+    gamma = float(stats.chi2.isf(p_lo, d))
+    p2 = float(stats.chi2.sf(gamma, 2))          # 2-D gate no tighter than the d-D one
+    det = grouping._detection_iv(m, pd_, false_density, object_density)
+    bounds = np.searchsorted(reports.scan, np.arange(reports.n_scans + 1))
+    group_of = np.full(n, -1, dtype=np.int64)
+    members = []
+    next_id = 0
+    t_gate = t_group = 0.0
+    for s in range(reports.n_scans):
+        lo, hi = bounds[s], bounds[s + 1]
+        if hi == lo:
+            continue
+        t0 = time.perf_counter()
+        rad = reports.radar[lo:hi]
+        idx = [lo + np.flatnonzero(rad == i) for i in range(m)]
+        linked = np.zeros(hi - lo, dtype=bool)
+        for i in range(m):
+            for k in range(i + 1, m):
+                if idx[i].size and idx[k].size:
+                    g = gating.gate_pairwise_2d(x[idx[i], :2], x[idx[k], :2],
+                                                cov[idx[i], :2, :2], cov[idx[k], :2, :2],
+                                                p_false_reject=p2)
+                    linked[idx[i] - lo] |= g.any(axis=1)
+                    linked[idx[k] - lo] |= g.any(axis=0)
+        t1 = time.perf_counter()
+        t_gate += t1 - t0
+        sel = [ix[linked[ix - lo]] for ix in idx]
+        tuples = np.empty((0, m), dtype=np.int64)
+        active = [i for i in range(m) if sel[i].size]
+        if len(active) >= 2:
+            xs = [xf[sel[i]] for i in active]
+            cs = [cf[sel[i]] for i in active]
+            if opts["logdet"]:
+                res = grouping.group_sd(
+                    xs, cs, method=opts["method"], p_false_reject=p_lo, p_detect=pd_[active],
+                    false_density=false_density[active], object_density=object_density)
+                g = res.groups
+            else:
+                g = _group_without_logdet(xs, cs, gamma, det, active, opts)
+            tg = np.full((g.shape[0], m), -1, dtype=np.int64)
+            for c, i in enumerate(active):
+                ok = g[:, c] >= 0
+                tg[ok, i] = sel[i][g[ok, c]]
+            tuples = tg
+        used = np.zeros(hi - lo, dtype=bool)
+        for c in range(m):
+            v = tuples[:, c]
+            used[v[v >= 0] - lo] = True
+        lone = lo + np.flatnonzero(~used)
+        single = np.full((lone.size, m), -1, dtype=np.int64)
+        single[np.arange(lone.size), reports.radar[lone]] = lone
+        allg = np.vstack([tuples, single])
+        ids = next_id + np.arange(allg.shape[0])
+        for c in range(m):
+            v = allg[:, c]
+            group_of[v[v >= 0]] = ids[v >= 0]
+        next_id += allg.shape[0]
+        members.append(allg)
+        t_group += time.perf_counter() - t1
+    if timings is not None:
+        timings["gating"] += t_gate
+        timings["grouping"] += t_group
+    allm = np.vstack(members) if members else np.empty((0, m), dtype=np.int64)
+    return group_of, allm
+
+
+def _group_without_logdet(xs, cs, gamma, det, active, opts):
+    """S-D grouping whose ML cost has ln|2 pi S| replaced by its median (the ablation)."""
+    counts = [xi.shape[0] for xi in xs]
+    ma = len(xs)
+    d = xs[0].shape[1]
+    gates = {}
+    for i in range(ma):
+        for k in range(i + 1, ma):
+            gates[i, k] = grouping._pair_statistics(xs[i], cs[i], xs[k], cs[k]) <= gamma
+    T = grouping._gated_tuples(gates, counts, True)
+    c_ml, cnt = grouping._tuple_ml_costs(xs, cs, T, 0.0)
+    ld = np.zeros(T.shape[0])
+    info = np.zeros((T.shape[0], d, d))
+    for i in range(ma):
+        p = T[:, i] >= 0
+        ld[p] += np.linalg.slogdet(cs[i][T[p, i]])[1]
+        info[p] += np.linalg.inv(cs[i][T[p, i]])
+    ld += np.linalg.slogdet(info)[1]
+    for k in np.unique(cnt[cnt >= 2]):
+        sel = cnt == k
+        ld[sel] -= np.median(ld[sel])
+    c_ml = np.where(cnt >= 2, c_ml - ld, c_ml)
+    sub = {k: (v[active] if k != "object_density" else v) for k, v in det.items()}
+    c, keep = grouping._detection_costs(c_ml, cnt, T, sub, d)
+    T, c = T[keep], c[keep]
+    chosen, *_ = grouping._solve_candidates(
+        T, c, counts, dummy=True, method=opts["method"], gap=0.01, max_iter=100,
+        time_limit=None, why="pair gate, no ln|S| term")
+    return T[chosen]
+
+
+def run_pipeline(reports, radars, *, debias=True, register=True, logdet=True,
+                 use_features=True, warmup=30, p_false_reject=1e-3, method="milp",
+                 min_reports=2) -> PipelineResult:
+    """The fusion centre, scan by scan: convert, register, gate, group, fuse, recognise.
+
+    Parameters
+    ----------
+    reports : Reports
+        From :func:`simulate_reports`.
+    radars : sequence of Radar
+        The radars that produced them (sites, noise levels, P_D, clutter rates).
+    debias : bool, optional
+        Convert with the measurement-conditioned (debiased) 3-D conversion and its
+        covariance (default) or the linearized one.
+    register : bool, optional
+        Estimate the range and azimuth offsets (:func:`radarfusion_ref.registration.
+        estimate_biases`, scale errors fixed at 0) from the groups of all radars in the
+        first `warmup` scans (grouped without correction, then again with the first
+        estimate), and remove them from every report (default). ``False``: no correction.
+    logdet : bool, optional
+        Keep the :math:`\\ln|2\\pi S|` term of the ML grouping cost (default). ``False``
+        replaces it by its median over the scan's candidate groups of each size, so only
+        its variation between groups is removed.
+    use_features : bool, optional
+        Group on position and speed feature (4-D reports; default) or on position only.
+    warmup : int, optional
+        Scans used by the registration (default 30, i.e. 5 minutes at 10 s).
+    p_false_reject : float, optional
+        Gate :math:`P_{\\text{lo}}` of the grouping (default 1e-3): report pairs whose
+        statistic exceeds the :math:`\\chi^2_d` quantile are never grouped. The 2-D gate
+        (:func:`radarfusion_ref.gating.gate_pairwise_2d` on east-north) runs first with
+        the same threshold, so it removes only reports that could not pass it.
+    method : {"milp", "lagrangian"}, optional
+        Solver of :func:`radarfusion_ref.grouping.group_sd`: the exact integer program over
+        the gated candidate groups (default; one HiGHS call per scan) or the Lagrangian
+        relaxation to a proved 1 % gap (slower here: the scans split into many small
+        clusters, each iterated on its own).
+    min_reports : int, optional
+        A group of at least this many reports is declared an object (default 2); lone
+        reports are left as false reports.
+
+    Returns
+    -------
+    PipelineResult
+
+    Raises
+    ------
+    TypeError
+        If `reports` is not a :class:`Reports`, `radars` not a sequence of :class:`Radar`,
+        or a switch not a boolean.
+    ValueError
+        Bad numbers (named), reports of a radar index outside `radars`, or a warm-up
+        without enough three-radar groups to register.
+
+    Examples
+    --------
+    >>> tr = truth_scans(load_traffic(), duration=60.0)
+    >>> res = run_pipeline(simulate_reports(tr, default_radars(), rng=0), default_radars(),
+    ...                    warmup=6)
+    >>> sorted(res.timings) == sorted(STAGES)
+    True
+    """
+    if not isinstance(reports, Reports):
+        raise TypeError(f"`reports` must be a Reports (from simulate_reports); received "
+                        f"{_describe(reports)}")
+    radars = _radars_iv(radars)
+    opts = {"debias": as_bool(debias, "debias"), "register": as_bool(register, "register"),
+            "logdet": as_bool(logdet, "logdet"),
+            "use_features": as_bool(use_features, "use_features"),
+            "warmup": as_int(warmup, "warmup", minimum=1),
+            "method": as_choice(method, "method", ("milp", "lagrangian")),
+            "min_reports": as_int(min_reports, "min_reports", minimum=1,
+                                  maximum=len(radars))}
+    p = as_probability(p_false_reject, "p_false_reject")
+    if p.ndim:
+        raise ValueError(f"`p_false_reject` must be a number in (0, 1); received "
+                         f"{_describe(p_false_reject)}")
+    opts["p_false_reject"] = float(p)
+    m = len(radars)
+    if reports.radar.size and (reports.radar.max() >= m):
+        raise ValueError(f"`reports` name radar {int(reports.radar.max())} but `radars` holds "
+                         f"{m}")
+    sites = np.stack([r.enu for r in radars])
+    timings = dict.fromkeys(STAGES, 0.0)
+    t0 = time.perf_counter()
+    biases = np.zeros((m, 3))
+    if opts["register"]:
+        biases = _register(reports, radars, sites, np.arange(min(opts["warmup"],
+                                                                 reports.n_scans)),
+                           opts["debias"], opts)
+    t1 = time.perf_counter()
+    timings["registration"] = t1 - t0
+    x, cov = _convert(reports, radars, sites, biases if opts["register"] else None,
+                      opts["debias"])
+    timings["conversion"] = time.perf_counter() - t1
+    group_of, allm = _group_all(reports, x, cov, radars, opts, timings)
+    t2 = time.perf_counter()
+    size = np.sum(allm >= 0, axis=1)
+    keep = size >= opts["min_reports"]
+    mem = allm[keep]
+    size = size[keep]
+    G = mem.shape[0]
+    pos = np.empty((G, 3))
+    pcov = np.empty((G, 3, 3))
+    spd = np.empty(G)
+    svar = np.empty(G)
+    fvar = np.array([r.sigma_feature for r in radars]) ** 2
+    for k in np.unique(size):
+        rows = np.flatnonzero(size == k)
+        sub = mem[rows]
+        cols = np.argsort(sub < 0, axis=1, kind="stable")[:, :k]
+        ridx = np.take_along_axis(sub, cols, axis=1)                  # (g, k) report rows
+        if k == 1:
+            pos[rows], pcov[rows] = x[ridx[:, 0]], cov[ridx[:, 0]]
+            spd[rows], svar[rows] = reports.feature[ridx[:, 0]], fvar[cols[:, 0]]
+            continue
+        fg = fusion.fuse_gaussian(x[ridx], cov[ridx])
+        pos[rows], pcov[rows] = fg.estimate, fg.covariance
+        fs = fusion.fuse(reports.feature[ridx], fvar[cols])
+        spd[rows], svar[rows] = fs.estimate, fs.variance
+    t3 = time.perf_counter()
+    timings["fusion"] = t3 - t2
+    prob = (features.type_posterior(spd, svar, np.array(SPEED_TYPE_MEANS),
+                                    np.array(SPEED_TYPE_VARS)) if G else np.empty((0, 3)))
+    timings["recognition"] = time.perf_counter() - t3
+    scan = reports.scan[np.max(mem, axis=1)] if G else np.empty(0, dtype=np.int64)
+    settings = {k: v for k, v in opts.items()}
+    return PipelineResult(scan=scan, members=mem, position=pos, covariance=pcov, speed=spd,
+                          speed_var=svar, class_prob=prob, group_of=group_of, biases=biases,
+                          timings=timings, settings=settings, reports=reports,
+                          radars=radars)
+
+
+# ----------------------------------------------------------------------------- metrics
+@dataclass(frozen=True)
+class GospaResult:
+    """GOSPA between a truth set and an estimate set (α = 2).
+
+    Attributes
+    ----------
+    total : float
+        :math:`d_p^{(c,2)}`, in the unit of the points.
+    localisation, missed, false : float
+        The three parts of :math:`d^p` (they sum to ``total**p``): the sum of
+        :math:`d(x, y)^p` over assigned pairs closer than `c`, :math:`c^p/2` per missed
+        truth, :math:`c^p/2` per false estimate.
+    n_assigned, n_missed, n_false : int
+    """
+
+    total: float
+    localisation: float
+    missed: float
+    false: float
+    n_assigned: int
+    n_missed: int
+    n_false: int
+
+
+def _points(value, name):
+    a = as_float_array(value, name)
+    if a.ndim == 1 and a.size == 0:
+        a = a.reshape(0, 1)
+    if a.ndim != 2:
+        raise ValueError(f"`{name}` must be points of shape (n, d); received shape {a.shape}")
+    return a
+
+
+def gospa(x, y, *, c, p=2.0, alpha=2.0) -> GospaResult:
+    """Generalized OSPA metric with α = 2 and its localisation, missed and false parts.
+
+    Parameters
+    ----------
+    x, y : array_like, shape (n, d) and (k, d)
+        Truth and estimated points (either may be empty).
+    c : float
+        Cut-off distance :math:`c > 0`.
+    p : float, optional
+        Order :math:`1 \\le p < \\infty` (default 2).
+    alpha : float, optional
+        Must be 2 (the value for which GOSPA splits into the three parts).
+
+    Returns
+    -------
+    GospaResult
+
+    Raises
+    ------
+    ValueError
+        Non-finite points, a dimension mismatch, `c` not positive, `p` < 1 or not finite,
+        `alpha` other than 2.
+    TypeError
+        Non-numeric input.
+
+    Notes
+    -----
+    .. math::
+
+        d_p^{(c,2)}(X, Y) = \\Big(\\min_{\\gamma} \\sum_{(i,j)\\in\\gamma} d(x_i, y_j)^p
+        + \\frac{c^p}{2}\\big(|X| + |Y| - 2|\\gamma|\\big)\\Big)^{1/p},
+
+    the minimum over partial assignments :math:`\\gamma` of pairs closer than :math:`c`
+    (Rahmathullah et al. 2017). It is found as a rectangular linear assignment
+    (:func:`scipy.optimize.linear_sum_assignment`) on :math:`\\min(d, c)^p`: a pair at
+    distance :math:`\\ge c` costs :math:`c^p`, exactly one miss plus one false estimate.
+
+    Examples
+    --------
+    >>> g = gospa([[0.0, 0.0], [10.0, 0.0]], [[1.0, 0.0]], c=5.0)
+    >>> g.total ** 2, g.localisation, g.missed, g.false
+    (13.5, 1.0, 12.5, 0.0)
+    """
+    x = _points(x, "x")
+    y = _points(y, "y")
+    if x.size and y.size and x.shape[1] != y.shape[1]:
+        raise ValueError(f"`x` and `y` must have the same dimension; received shapes "
+                         f"{x.shape} and {y.shape}")
+    c = _scalar(c, "c")
+    p = _scalar(p, "p")
+    if p < 1 or not math.isfinite(p):
+        raise ValueError(f"`p` must be a finite number >= 1; received {p!r}")
+    a = _scalar(alpha, "alpha")
+    if a != 2.0:
+        raise ValueError(f"`alpha` must be 2 (the decomposable GOSPA); received {alpha!r}")
+    n, k = x.shape[0], y.shape[0]
+    loc, assigned = 0.0, 0
+    if n and k:
+        dist = np.linalg.norm(x[:, None, :] - y[None, :, :], axis=-1)
+        cost = np.minimum(dist, c) ** p
+        ri, ci = linear_sum_assignment(cost)
+        close = dist[ri, ci] < c
+        assigned = int(close.sum())
+        loc = float(np.sum(dist[ri, ci][close] ** p))
+    missed = (n - assigned) * c**p / 2.0
+    false = (k - assigned) * c**p / 2.0
+    return GospaResult(total=float((loc + missed + false) ** (1.0 / p)), localisation=loc,
+                       missed=float(missed), false=float(false), n_assigned=assigned,
+                       n_missed=n - assigned, n_false=k - assigned)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Scores of a :class:`PipelineResult` against the truth.
+
+    Attributes
+    ----------
+    times : numpy.ndarray, shape (S,)
+        Scan times (s).
+    gospa, localisation, missed, false : numpy.ndarray, shape (S,)
+        Per scan: GOSPA (m) and its three parts (m^p; they sum to ``gospa**p``).
+    c, p : float
+        GOSPA cut-off (m) and order (α = 2).
+    purity : Proportion or None
+        Fraction of declared objects whose reports all come from one aircraft (None
+        without declared objects; likewise below when there is nothing to count).
+    completeness : Proportion
+        Fraction of (aircraft, scan) pairs with at least one report whose reports form
+        exactly one group of the grouping (all of them together, nothing else; a lone
+        report counts when it is left alone).
+    nees : tuple or None
+        ``(mean, low, high, count)``: mean 3-D NEES of the pure objects and the
+        two-sided 95 % interval of that mean under :math:`\\chi^2_3` errors,
+        :math:`[\\chi^2_{3N}(0.025), \\chi^2_{3N}(0.975)]/N`.
+    recognition : Proportion or None
+        Fraction of pure objects whose most probable class is the aircraft's.
+    timings : dict
+        The pipeline's stage times plus "metrics".
+    """
+
+    times: np.ndarray
+    gospa: np.ndarray
+    localisation: np.ndarray
+    missed: np.ndarray
+    false: np.ndarray
+    c: float
+    p: float
+    purity: Proportion
+    completeness: Proportion
+    nees: tuple
+    recognition: Proportion
+    timings: dict = field(hash=False)
+
+    @property
+    def mean_gospa(self) -> float:
+        """Mean over scans of the per-scan GOSPA (m)."""
+        return float(np.mean(self.gospa))
+
+    def parts_rms(self) -> dict:
+        """Root of the mean (over scans) of each part and of the total, in metres."""
+        return {k: float(np.sqrt(np.mean(getattr(self, k)) ** (2.0 / self.p) if self.p != 2
+                                 else np.mean(getattr(self, k))))
+                for k in ("localisation", "missed", "false")} | {
+            "total": float(np.mean(self.gospa ** self.p) ** (1.0 / self.p))}
+
+
+def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
+    """Score a pipeline run against the truth: GOSPA per scan, association, NEES, recognition.
+
+    Parameters
+    ----------
+    result : PipelineResult
+    truth : TruthScans
+        The truth the reports were simulated from.
+    c : float, optional
+        GOSPA cut-off (m, default 2000: an estimate further than 2 km from every aircraft
+        is false).
+    p : float, optional
+        GOSPA order (default 2); α = 2.
+    scope : {"covered", "all"}, optional
+        Truth set of GOSPA: the aircraft inside the coverage (range and elevation limits)
+        of at least ``min_reports`` radars — those the fusion centre can declare
+        (default) — or every aircraft of the window.
+
+    Returns
+    -------
+    Evaluation
+
+    Raises
+    ------
+    TypeError
+        If `result` or `truth` has the wrong type.
+    ValueError
+        Bad `c` or `p`, or a truth whose scan count differs from the reports'.
+
+    Notes
+    -----
+    GOSPA compares the truth positions of each scan (every aircraft in the window, also
+    those no radar covers) with the declared objects. NEES uses the pure objects:
+    :math:`(\\hat x - x)^T P^{-1} (\\hat x - x)`, 3 degrees of freedom.
+    """
+    if not isinstance(result, PipelineResult):
+        raise TypeError(f"`result` must be a PipelineResult (from run_pipeline); received "
+                        f"{_describe(result)}")
+    if not isinstance(truth, TruthScans):
+        raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
+                        f"{_describe(truth)}")
+    c = _scalar(c, "c")
+    p = _scalar(p, "p")
+    if p < 1:
+        raise ValueError(f"`p` must be >= 1; received {p!r}")
+    scope = as_choice(scope, "scope", ("covered", "all"))
+    rep = result.reports
+    if truth.n_scans != rep.n_scans:
+        raise ValueError(f"`truth` has {truth.n_scans} scans but the result's reports "
+                         f"{rep.n_scans}")
+    t0 = time.perf_counter()
+    S = truth.n_scans
+    tb = np.searchsorted(truth.scan, np.arange(S + 1))
+    order = np.argsort(result.scan, kind="stable")
+    rb = np.searchsorted(result.scan[order], np.arange(S + 1))
+    keep = np.ones(truth.scan.size, dtype=bool)
+    if scope == "covered":
+        keep = _coverage_count(truth.position, result.radars) >= result.settings["min_reports"]
+    parts = np.zeros((S, 4))
+    for s in range(S):
+        g = gospa(truth.position[tb[s]:tb[s + 1]][keep[tb[s]:tb[s + 1]]],
+                  result.position[order[rb[s]:rb[s + 1]]], c=c, p=p)
+        parts[s] = g.total, g.localisation, g.missed, g.false
+    # association
+    mem = result.members
+    src = np.where(mem >= 0, rep.source[np.maximum(mem, 0)], -2)
+    first = src[np.arange(mem.shape[0]), np.argmax(mem >= 0, axis=1)]
+    pure = (first >= 0) & np.all((src == first[:, None]) | (mem < 0), axis=1)
+    purity = proportion(int(pure.sum()), mem.shape[0]) if mem.shape[0] else None
+    real = rep.source >= 0
+    key = rep.scan[real].astype(np.int64) * (len(truth.icao24) + 1) + rep.source[real]
+    grp = result.group_of[real]
+    uk, inv = np.unique(key, return_inverse=True)
+    gmin = np.full(uk.size, np.iinfo(np.int64).max)
+    gmax = np.full(uk.size, -1)
+    np.minimum.at(gmin, inv, grp)
+    np.maximum.at(gmax, inv, grp)
+    one_group = gmin == gmax
+    gsize = np.bincount(result.group_of[result.group_of >= 0])
+    nrep = np.bincount(inv)
+    ok = one_group & (gsize[gmin.clip(0, gsize.size - 1)] == nrep)
+    completeness = proportion(int(ok.sum()), uk.size) if uk.size else None
+    # NEES and recognition on pure objects
+    if pure.any():
+        tkey = truth.scan.astype(np.int64) * (len(truth.icao24) + 1) + truth.aircraft
+        okey = result.scan[pure].astype(np.int64) * (len(truth.icao24) + 1) + first[pure]
+        ti = np.searchsorted(tkey, okey)
+        err = result.position[pure] - truth.position[ti]
+        nees = np.einsum("ka,ka->k", err,
+                         np.linalg.solve(result.covariance[pure], err[..., None])[..., 0])
+        N = nees.size
+        nees_t = (float(nees.mean()), float(stats.chi2.ppf(0.025, 3 * N) / N),
+                  float(stats.chi2.ppf(0.975, 3 * N) / N), N)
+        correct = result.speed_class[pure] == truth.speed_class[ti]
+        recognition = proportion(int(correct.sum()), N)
+    else:
+        nees_t = None
+        recognition = None
+    timings = dict(result.timings)
+    timings["metrics"] = time.perf_counter() - t0
+    return Evaluation(times=truth.times, gospa=parts[:, 0], localisation=parts[:, 1],
+                      missed=parts[:, 2], false=parts[:, 3], c=c, p=p, purity=purity,
+                      completeness=completeness, nees=nees_t, recognition=recognition,
+                      timings=timings)
