@@ -15,7 +15,7 @@ reports into ``n`` groups holding one report of each source. This module
 * scores the ``(n!)**m`` binding hypotheses — the paper's hypotheses I–IV for
   two sources and two tracks — by the paper's product of independent
   densities or by the exact likelihood (:func:`binding_costs`);
-* simulates scenes (:func:`grouping_scene`).
+* simulates scenes (:func:`grouping_scene`, from :mod:`radarfusion_ref.scenes`).
 
 Arrays follow one convention: ``x[..., i, j, :]`` is report ``j`` of source
 ``i`` (shape ``(..., m, n, d)``) and ``cov[..., i, j, :, :]`` its error
@@ -37,14 +37,12 @@ array unique.
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse, stats
-from scipy.optimize import Bounds, LinearConstraint, linear_sum_assignment, linprog, milp
+from scipy import stats
 
 from ._validation import (
     MEMORY_LIMIT,
@@ -55,9 +53,18 @@ from ._validation import (
     as_int,
     as_positive,
     as_probability,
-    as_rng,
     check_size,
 )
+from .assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
+    _HIGHS_COST_SCALE,
+    _condition_costs,
+    _gap_of,
+    _sd_constraints,
+    _sd_enumerate,
+    _sd_solve,
+    _solve_candidates,
+)
+from .scenes import GroupingScene, _grouping_scene  # the simulator's home is scenes
 
 __all__ = [
     "PAPER_HYPOTHESES",
@@ -93,11 +100,6 @@ MAX_GROUPINGS = 10**8
 #: scene that :func:`group_sd` hands to HiGHS (e.g. ``n = 100`` targets of
 #: ``m = 3`` sources, or ``n = 31`` of ``m = 4``).
 MAX_CANDIDATE_GROUPS = 10**6
-
-#: Costs up to this size are handed to HiGHS as they are; larger ones are capped
-#: (never changing the optimum) and rescaled, since HiGHS treats costs from
-#: 1e20 on as infinite.
-_HIGHS_COST_SCALE = 1e9
 
 #: The paper's four hypotheses for two sources and two fused tracks, as
 #: ``hyp[i, p]`` = index of the report of source ``i`` bound to track ``p``
@@ -146,6 +148,11 @@ class GroupingResult:
         For ``"lagrangian"`` on one scene: the best lower bound and the best
         cost after each iteration (summed over the independent clusters).
         ``None`` otherwise.
+    assignment, exact
+        (properties) with `cost`, `lower_bound`, `gap` and `history`, the
+        :class:`radarfusion_ref.assignment.AssignmentResult` vocabulary shared
+        with the 2-D results: ``assignment`` is `groups`; ``exact`` is whether
+        the gap is 0 (every batch entry).
 
     With missed detections and false reports (:func:`group_sd` with
     `p_detect`), `groups` has one row per group, ``-1`` marking a source
@@ -165,63 +172,15 @@ class GroupingResult:
         if self.lower_bound is None:            # exact methods: the cost is its own bound
             object.__setattr__(self, "lower_bound", self.cost)
 
-
-@dataclass(frozen=True)
-class GroupingScene:
-    """Reports of m sources about n targets, for many independent trials.
-
-    Attributes
-    ----------
-    truth : numpy.ndarray, shape (trials, n, d)
-        True target states.
-    reports : numpy.ndarray, shape (trials, m, n, d)
-        ``reports[t, i, j]``: report ``j`` of source ``i``, in shuffled order.
-    owner : numpy.ndarray of int, shape (trials, m, n)
-        ``owner[t, i, j]``: the target that produced ``reports[t, i, j]``.
-    cov : numpy.ndarray, shape (m, n, d, d)
-        Error covariance of each report (the same in every trial, indexed by
-        the report's position in the list).
-    tracks : numpy.ndarray or None, shape (trials, n, d)
-        Fused-track estimates, ``tracks[t, p]`` of target ``p`` (or ``None``).
-    track_cov : numpy.ndarray or None, shape (n, d, d)
-        Error covariance of the fused tracks (or ``None``).
-    """
-
-    truth: np.ndarray
-    reports: np.ndarray
-    owner: np.ndarray
-    cov: np.ndarray
-    tracks: np.ndarray | None
-    track_cov: np.ndarray | None
+    @property
+    def assignment(self) -> np.ndarray:
+        """The chosen groups, `groups`."""
+        return self.groups
 
     @property
-    def true_binding(self) -> np.ndarray:
-        """``true_binding[t, i, p]``: index of source ``i``'s report of target ``p``."""
-        return np.argsort(self.owner, axis=-1)
-
-    @property
-    def true_groups(self) -> np.ndarray:
-        """The true grouping, shape (trials, n, m), rows sorted by source 0."""
-        bind = self.true_binding                      # (T, m, n)
-        target_of_row = self.owner[:, 0, :]           # (T, n): target of source-0 report k
-        idx = np.broadcast_to(target_of_row[:, None, :], bind.shape)
-        return np.swapaxes(np.take_along_axis(bind, idx, axis=-1), -1, -2)
-
-    def is_correct(self, groups) -> np.ndarray:
-        """Per trial: is `groups` (shape (trials, n, m)) the true grouping?"""
-        g = np.asarray(groups)
-        if g.shape != self.true_groups.shape:
-            raise ValueError(
-                f"`groups` must have shape {self.true_groups.shape}; received shape {g.shape}"
-            )
-        return np.all(g == self.true_groups, axis=(-2, -1))
-
-    def true_hypothesis(self) -> np.ndarray:
-        """Per trial, the index of the true binding in :func:`binding_hypotheses` order."""
-        m, n = self.owner.shape[-2:]
-        hyp = binding_hypotheses(n, m)                # (H, m, n)
-        match = np.all(hyp[None] == self.true_binding[:, None], axis=(-2, -1))
-        return np.argmax(match, axis=-1)
+    def exact(self) -> bool:
+        """True when the proved gap is 0 (for every scene of a batch)."""
+        return bool(np.all(np.asarray(self.gap) == 0.0))
 
 
 # ----------------------------------------------------------------------------- validation
@@ -524,7 +483,7 @@ def group_costs(x, cov, *, cost: str = "ml") -> np.ndarray:
     return _tensor(xb, cb, cost).reshape(*batch, *(n,) * m)
 
 
-# ----------------------------------------------------------------------------- solvers
+# ----------------------------------------------------------------------------- solvers (assignment)
 def _perms(n):
     dtype = np.int8 if n < 127 else np.int32
     return np.array(list(itertools.permutations(range(n))), dtype=dtype).reshape(-1, n)
@@ -595,148 +554,18 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
     check_size(G, MAX_GROUPINGS, what=f"groupings (n!)**(m-1) (`x` with n = {n}, m = {m})",
                alternative="group_sd (the exact S-D assignment integer program)")
     tensor = _tensor(xb, cb, cost).reshape(B, -1)
-    perms = _perms(n).astype(np.int64)                        # (n!, n)
-    nf = perms.shape[0]
-    weights = [n ** (m - 1 - i) for i in range(m)]
-    base = np.arange(n) * weights[0]
-    pflat = [perms * weights[i] for i in range(1, m)]
-    best = np.full(B, np.inf)
-    best_g = np.zeros(B, dtype=np.int64)
-    chunk = max(1, 2**22 // max(1, B * n))
-    for start in range(0, G, chunk):
-        g = np.arange(start, min(G, start + chunk))
-        flat = np.broadcast_to(base, (len(g), n)).copy()
-        rem = g
-        for i in range(m - 1, 0, -1):
-            digit = rem % nf
-            rem = rem // nf
-            flat += pflat[i - 1][digit]
-        totals = tensor[:, flat].sum(axis=-1)                 # (B, chunk)
-        arg = np.argmin(totals, axis=-1)
-        val = totals[np.arange(B), arg]
-        better = val < best
-        best = np.where(better, val, best)
-        best_g = np.where(better, g[arg], best_g)
+    best, groups = _sd_enumerate(tensor, m, n)                 # assignment's enumeration
     if not np.all(np.isfinite(best)):
         raise ValueError(
             "`x` and `cov`: the total cost of every grouping overflows the floating-point "
             "range; split the scene or gate the candidate groups first"
         )
-    groups = np.empty((B, n, m), dtype=np.int64)
-    groups[:, :, 0] = np.arange(n)
-    rem = best_g
-    for i in range(m - 1, 0, -1):
-        groups[:, :, i] = perms[rem % nf]
-        rem = rem // nf
     groups = groups.reshape(*batch, n, m)
     cost_out = best.reshape(batch)
     return GroupingResult(groups, float(cost_out) if not batch else cost_out, cost, "bruteforce")
 
 
-def _greedy_total(c, m, n):
-    """Cost of the greedy grouping (cheapest free candidate group first): an upper bound."""
-    work = c.reshape((n,) * m).copy()
-    total = 0.0
-    for _ in range(n):
-        t = np.unravel_index(np.argmin(work), work.shape)
-        total += work[t]
-        for i, j in enumerate(t):
-            index = [slice(None)] * m
-            index[i] = j
-            work[tuple(index)] = np.inf
-    return total
-
-
-def _condition_costs(c_raw, m, n, bound=None):
-    """Costs HiGHS can take without changing the optimum.
-
-    Shift to a minimum of 0 (every grouping has n groups: a constant). If the
-    largest cost exceeds ``_HIGHS_COST_SCALE``, cap every cost at ``K = 2 U + 1``,
-    ``U`` the total of some grouping (`bound`; the greedy one by default): a grouping holding a capped
-    group costs at least ``K > U >= optimum``, so the optimum is unchanged; then,
-    if ``K`` itself is that large, scale all costs by ``_HIGHS_COST_SCALE / K``
-    (a positive factor, the same optimum; HiGHS treats costs from 1e20 on as
-    infinite).
-    """
-    c = c_raw - c_raw.min()
-    if c.max() <= _HIGHS_COST_SCALE:
-        return c
-    if bound is None:
-        bound = _greedy_total(c, m, n)
-    cap = 2.0 * bound + 1.0
-    c = np.minimum(c, cap)
-    if cap > _HIGHS_COST_SCALE:
-        c = c * (_HIGHS_COST_SCALE / cap)
-    return c
-
-
-@functools.lru_cache(maxsize=16)
-def _sd_constraints(m, n):
-    """Equality constraints of the S-D assignment: each report in exactly one tuple."""
-    N = n**m
-    idx = np.indices((n,) * m).reshape(m, -1)
-    rows = (np.arange(m)[:, None] * n + idx).ravel()
-    cols = np.tile(np.arange(N), m)
-    A = sparse.csc_array((np.ones(m * N), (rows, cols)), shape=(m * n, N))
-    return A, idx
-
-
-def _sd_solve_once(c, m, n, *, relaxation=True, time_limit=None):
-    """One HiGHS solve of the S-D assignment with conditioned costs `c`."""
-    A, _ = _sd_constraints(m, n)
-    z, integral = None, False
-    if relaxation:
-        lp = linprog(c, A_eq=A, b_eq=np.ones(m * n), bounds=(0, 1), method="highs")
-        if lp.status == 0 and np.all(np.minimum(lp.x, 1 - lp.x) < 1e-6):
-            z, integral = lp.x, True
-    if z is None:
-        options = {"mip_rel_gap": 0.0, "presolve": False}
-        if time_limit is not None:
-            options["time_limit"] = time_limit
-        res = milp(c, constraints=LinearConstraint(A, 1, 1), integrality=np.ones(n**m),
-                   bounds=Bounds(0, 1), options=options)
-        if res.status != 0 or res.x is None:
-            raise RuntimeError(
-                f"HiGHS did not return a proven optimum (status {res.status}: {res.message})"
-            )
-        z = res.x
-    chosen = np.flatnonzero(z > 0.5)
-    tuples = np.array(np.unravel_index(chosen, (n,) * m))          # (m, n)
-    if chosen.size != n or np.any(np.sort(tuples, axis=1) != np.arange(n)):
-        raise RuntimeError("HiGHS returned an infeasible grouping")
-    return chosen, integral
-
-
-def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
-    """Solve the S-D assignment for a flat cost vector over the n**m tuples.
-
-    Returns the flat indices of the n chosen tuples and whether the LP
-    relaxation's solution was already integral. With costs above
-    ``_HIGHS_COST_SCALE`` the cap of :func:`_condition_costs` is tightened to
-    each solution's own total until it no longer improves, so the rescaled
-    costs resolve the optimum to the precision of a double.
-    """
-    c0 = c_raw - c_raw.min()
-    if c0.max() <= _HIGHS_COST_SCALE:
-        return _sd_solve_once(c0, m, n, relaxation=relaxation, time_limit=time_limit)
-    bound = _greedy_total(c0, m, n)
-    for _ in range(64):
-        chosen, integral = _sd_solve_once(_condition_costs(c0, m, n, bound), m, n,
-                                          relaxation=relaxation, time_limit=time_limit)
-        total = c0[chosen].sum()
-        if not total < bound * (1 - 1e-12):
-            break
-        bound = total
-    return chosen, integral
-
-
 # ----------------------------------------------------------------------------- gated S-D
-_LAGRANGE_STALL = 6          # iterations without a better dual value before the step halves
-_LAGRANGE_PATIENCE = 20      # iterations without progress of either bound: branch and bound
-_EPS = np.finfo(float).eps
-_DENSE_ASSIGN = 1 << 20      # cells up to which a square assignment is solved densely
-
-
 def _detection_iv(m, p_detect, false_density, object_density):
     """Validate the detection model; ``None`` when no argument is given."""
     given = [a is not None for a in (p_detect, false_density, object_density)]
@@ -969,452 +798,6 @@ def _detection_costs(c_ml, cnt, T, det, d):
         alone = np.where(present, lone, 0.0).sum(axis=1)
         keep &= (cnt == 1) | (cost < alone)
     return cost, keep
-
-
-def _report_nodes(T, counts):
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    return np.where(T >= 0, T + offsets[:-1], -1), offsets
-
-
-def _check_cover(T, counts, dummy, why):
-    """Every report must be in some candidate group (and, without the dummy index, the
-    candidate graph's components must hold as many reports of every source)."""
-    from scipy.sparse.csgraph import connected_components
-
-    m = len(counts)
-    nodes, offsets = _report_nodes(T, counts)
-    N = int(offsets[-1])
-    covered = np.zeros(N, dtype=bool)
-    covered[nodes[nodes >= 0]] = True
-    if not covered.all():
-        lost = np.flatnonzero(~covered)
-        i = int(np.searchsorted(offsets, lost[0], side="right") - 1)
-        mine = lost[(lost >= offsets[i]) & (lost < offsets[i + 1])] - offsets[i]
-        raise ValueError(
-            f"`x`: report(s) {mine[:10].tolist()} of source {i} cannot be grouped: no candidate "
-            f"group holds them ({why}); never a partial grouping -- widen the gate or allow "
-            "missed detections and false reports (`p_detect` < 1, `false_density` > 0)"
-        )
-    first = nodes[np.arange(T.shape[0]), np.argmax(T >= 0, axis=1)]
-    rows = np.concatenate([first[nodes[:, i] >= 0] for i in range(m)])
-    cols = np.concatenate([nodes[nodes[:, i] >= 0, i] for i in range(m)])
-    graph = sparse.coo_array((np.ones(rows.size), (rows, cols)), shape=(N, N))
-    ncomp, label = connected_components(graph, directed=False)
-    if not dummy:
-        per = np.stack([np.bincount(label[offsets[i]:offsets[i + 1]], minlength=ncomp)
-                        for i in range(m)])                          # (m, ncomp)
-        bad = np.flatnonzero(np.any(per != per[0], axis=0))
-        if bad.size:
-            comp = per[:, bad[0]]
-            i = int(np.argmax(comp != np.median(comp))) if np.any(comp != np.median(comp)) \
-                else int(np.argmax(comp))
-            mine = np.flatnonzero(label[offsets[i]:offsets[i + 1]] == bad[0])
-            raise ValueError(
-                f"`x`: the reports {mine[:10].tolist()} of source {i} cannot be grouped: their "
-                f"cluster of candidate groups holds {comp.tolist()} reports of the m = {m} "
-                f"sources, not one of each per group ({why}); widen the gate or allow missed "
-                "detections and false reports (`p_detect` < 1, `false_density` > 0)"
-            )
-    return ncomp, label, first, offsets
-
-
-def _milp_tuples(T, c, counts, *, time_limit=None, upper=None):
-    """Exact S-D on explicit candidate groups (HiGHS); (chosen, lower bound) or None."""
-    m = len(counts)
-    nodes, offsets = _report_nodes(T, counts)
-    K = T.shape[0]
-    rows = nodes.T.ravel()
-    cols = np.tile(np.arange(K), m)
-    ok = rows >= 0
-    A = sparse.csc_array((np.ones(ok.sum()), (rows[ok], cols[ok])), shape=(int(offsets[-1]), K))
-    cc = c
-    if not np.any(T < 0):             # every grouping has counts[0] groups: shift to min 0
-        shift = float(c.min())
-        cc = c - shift
-        if cc.max() > _HIGHS_COST_SCALE and upper is not None and np.isfinite(upper):
-            cc = np.minimum(cc, 2.0 * (upper - shift * counts[0]) + 1.0)   # as _condition_costs
-    top = float(np.max(np.abs(cc))) if cc.size else 0.0
-    scale = _HIGHS_COST_SCALE / top if top > _HIGHS_COST_SCALE else 1.0
-    options = {"mip_rel_gap": 0.0}
-    if time_limit is not None:
-        options["time_limit"] = time_limit
-    res = milp(cc * scale, constraints=LinearConstraint(A, 1, 1), integrality=np.ones(K),
-               bounds=Bounds(0, 1), options=options)
-    if res.status == 2:                                              # infeasible
-        return None
-    if res.status != 0 or res.x is None:
-        raise RuntimeError(
-            f"HiGHS did not return a proven optimum (status {res.status}: {res.message})"
-        )
-    chosen = np.flatnonzero(res.x > 0.5)
-    cover = np.bincount(nodes[chosen][nodes[chosen] >= 0], minlength=int(offsets[-1]))
-    if np.any(cover != 1):
-        raise RuntimeError("HiGHS returned an infeasible grouping")
-    return chosen
-
-
-def _assign(R, C, r, c, w, drow=None, dcol=None):
-    """Minimum-cost assignment on a sparse bipartite graph, optionally with a dummy.
-
-    Edges ``(r, c)`` of weight ``w`` join rows ``0..R-1`` and columns ``0..C-1``
-    (duplicates: the cheapest counts). Without a dummy every row and column is
-    matched (``R == C``); with one, row ``r`` may stay unmatched at cost
-    ``drow[r]`` and column ``c`` at ``dcol[c]`` (``inf``: must be matched).
-    The augmented square graph has the diagonal dummy blocks and, in the
-    dummy-dummy block, the transpose of the real edges (all that any optimal
-    matching needs), so it stays sparse; it is solved exactly by
-    :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching` (LAPJVsp).
-    Returns ``((rows, cols) of matched real pairs, unmatched rows, unmatched
-    columns, total cost, sum of |terms|)`` or None when no assignment exists.
-    """
-    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
-
-    key = r.astype(np.int64) * max(C, 1) + c
-    o = np.lexsort((w, key))
-    key, r, c, w = key[o], r[o], c[o], w[o]
-    first = np.r_[True, np.diff(key) != 0] if key.size else np.zeros(0, bool)
-    key, r, c, w = key[first], r[first], c[first], w[first]
-    if drow is None:
-        if R != C:
-            return None
-        if 0 < R * C <= _DENSE_ASSIGN:                # small enough: dense LAPJV is faster
-            M = np.full((R, C), np.inf)
-            M[r, c] = w
-            try:
-                pr, pc = linear_sum_assignment(M)
-            except ValueError:
-                return None
-            wr = M[pr, pc]
-            if not np.all(np.isfinite(wr)):
-                return None
-            empty = np.zeros(0, dtype=np.int64)
-            return (pr, pc), empty, empty, float(np.sum(wr)), float(np.sum(np.abs(wr)))
-        rows, cols, wts, N = r, c, w, R
-    else:
-        fr, fc = np.flatnonzero(np.isfinite(drow)), np.flatnonzero(np.isfinite(dcol))
-        rows = np.concatenate([r, fr, R + fc, R + c])
-        cols = np.concatenate([c, C + fr, fc, C + r])
-        wts = np.concatenate([w, drow[fr], dcol[fc], np.zeros(r.size)])
-        N = R + C
-    empty = np.zeros(0, dtype=np.int64)
-    if N == 0:
-        return (empty, empty), empty, empty, 0.0, 0.0
-    if wts.size == 0 or not np.all(np.isfinite(wts)):
-        return None
-    lo = float(wts.min())
-    graph = sparse.csr_array((wts - lo + 1.0, (rows, cols)), shape=(N, N))
-    try:
-        ri, ci = min_weight_full_bipartite_matching(graph)
-    except ValueError:
-        return None
-    real = (ri < R) & (ci < C)
-    pr, pc = ri[real], ci[real]
-    wr = w[np.searchsorted(key, pr.astype(np.int64) * max(C, 1) + pc)]
-    if drow is None:
-        rd = cd = empty
-        parts = [wr]
-    else:
-        rd = ri[(ri < R) & (ci >= C)]
-        cd = ci[(ri >= R) & (ci < C)]
-        parts = [wr, drow[rd], dcol[cd]]
-    total = float(sum(np.sum(p) for p in parts))
-    mag = float(sum(np.sum(np.abs(p)) for p in parts))
-    return (pr, pc), rd, cd, total, mag
-
-
-class _Lagrangian:
-    """Lagrangian relaxation of one S-D problem on explicit candidate groups.
-
-    Sources 2..m-1's constraints are relaxed with multipliers ``u``; what remains
-    (sources 0 and 1) is a 2-D assignment over the pairs (j0, j1), each carrying its
-    cheapest completion, solved exactly by linear assignment: its value is a lower
-    bound. A feasible grouping is recovered each iteration by fixing the relaxed
-    solution's pairs and assigning the other sources one at a time (Deb et al. 1997).
-    """
-
-    def __init__(self, T, c, counts, dummy):
-        self.T, self.c, self.counts, self.dummy = T, c, list(counts), dummy
-        m = self.m = T.shape[1]
-        self.u = [np.zeros(counts[i] + 1) for i in range(m)]    # u[i][-1] = 0: the dummy
-        self.lb, self.ub, self.best = -np.inf, np.inf, None
-        self.history = []
-        self.lam, self.stall, self.best_q, self.it = 1.0, 0, -np.inf, 0
-        self.optimal, self.stalled, self.last_progress = False, False, 0
-        base = np.array([n + 1 for n in counts], dtype=np.int64)
-        mult = np.concatenate([[1], np.cumprod(base)[:-1]])
-        if float(np.prod(base.astype(float))) > 2.0**62:
-            raise ValueError("`x`: too many reports for the Lagrangian's tuple keys")
-        self.mult = mult
-        # prefix keys: pref[k] over positions < k (k = 0..m)
-        contrib = (T + 1) * mult
-        self.pref = [np.zeros(T.shape[0], dtype=np.int64)]
-        for k in range(m):
-            self.pref.append(self.pref[-1] + contrib[:, k])
-        self.full_order = np.argsort(self.pref[m], kind="stable")
-        self.full_sorted = self.pref[m][self.full_order]
-        key = self.pref[2]
-        free = key == 0
-        self.free = np.flatnonzero(free)
-        idx = np.flatnonzero(~free)
-        order = idx[np.argsort(key[idx], kind="stable")]
-        ks = key[order]
-        starts = np.flatnonzero(np.r_[True, np.diff(ks) != 0]) if ks.size else np.zeros(0, int)
-        self.order, self.starts = order, starts
-        self.sizes = np.diff(np.r_[starts, ks.size])
-        self.ukeys = ks[starts]
-        self.base0 = int(base[0])
-        self.ka, self.kb = self.ukeys % base[0] - 1, self.ukeys // base[0] - 1
-
-    def _reduced(self, first):
-        rc = self.c.copy()
-        for i in range(first, self.m):
-            rc -= self.u[i][self.T[:, i]]
-        return rc
-
-    def relaxed(self):
-        rc = self._reduced(2)
-        rs = rc[self.order]
-        mins = np.minimum.reduceat(rs, self.starts) if rs.size else rs
-        pos = np.flatnonzero(rs == np.repeat(mins, self.sizes))
-        best = self.order[pos[np.searchsorted(pos, self.starts)]]
-        n0, n1 = self.counts[0], self.counts[1]
-        a, b = self.ka, self.kb
-        real = (a >= 0) & (b >= 0)
-        drow = dcol = None
-        if self.dummy:
-            drow, dcol = np.full(n0, np.inf), np.full(n1, np.inf)
-            lone_a, lone_b = (a >= 0) & (b < 0), (a < 0) & (b >= 0)
-            drow[a[lone_a]], dcol[b[lone_b]] = mins[lone_a], mins[lone_b]
-        sol = _assign(n0, n1, a[real], b[real], mins[real], drow, dcol)
-        if sol is None:
-            return None
-        (pr, pc), rd, cd, value, mag = sol
-        keys = np.concatenate([(pr + 1) + (pc + 1) * self.base0, rd + 1, (cd + 1) * self.base0])
-        chosen = best[np.searchsorted(self.ukeys, keys)]
-        fr = rc[self.free]
-        neg = self.free[fr < 0]
-        us = [self.u[i][:-1] for i in range(2, self.m)]
-        q = value + float(np.sum(fr[fr < 0])) + float(sum(np.sum(ui) for ui in us))
-        # rounding allowance of the sums behind q (never claim an unproved bound)
-        mag = mag + np.sum(np.abs(fr)) + np.sum(np.abs(self.c[chosen])) + \
-            2 * sum(np.sum(np.abs(ui)) for ui in us)
-        slack = 8.0 * _EPS * (self.T.shape[0] + sum(self.counts) + 8) * mag
-        return q, slack, np.concatenate([chosen, neg])
-
-    def recover(self, chosen):
-        """A feasible grouping from the relaxed solution (None if recovery fails)."""
-        m, T, counts = self.m, self.T, self.counts
-        keys = np.unique(self.pref[2][chosen])
-        keys = keys[keys != 0]
-        for k in range(2, m):
-            R, nk = keys.size, counts[k]
-            pk = self.pref[k]
-            pos = np.minimum(np.searchsorted(keys, pk), max(R - 1, 0))
-            ok = (keys[pos] == pk) if R else np.zeros(pk.size, bool)
-            tk = T[:, k]
-            rc = self.c.copy()
-            for i in range(k + 1, m):
-                rc -= self.u[i][T[:, i]]
-            e = ok & (tk >= 0)
-            drow = dcol = None
-            if self.dummy:
-                drow, dcol = np.full(R, np.inf), np.full(nk, np.inf)
-                s = ok & (tk < 0)
-                np.minimum.at(drow, pos[s], rc[s])
-                s = (pk == 0) & (tk >= 0)
-                np.minimum.at(dcol, tk[s], rc[s])
-            sol = _assign(R, nk, pos[e], tk[e], rc[e], drow, dcol)
-            if sol is None:
-                return None
-            (pr, pc), rd, cd, _, _ = sol
-            keys = np.sort(np.concatenate([keys[pr] + (pc + 1) * self.mult[k], keys[rd],
-                                           (cd + 1) * self.mult[k]]))
-        pos = np.searchsorted(self.full_sorted, keys)
-        if np.any(pos >= self.full_sorted.size) or np.any(self.full_sorted[pos] != keys):
-            return None
-        return self.full_order[pos]
-
-    def improve(self, sol, sweeps=2):
-        """Local search: reassign one source at a time, the others fixed (exact 2-D steps).
-
-        Every step keeps the current grouping available, so the cost never rises.
-        """
-        T, m = self.T, self.m
-        full = self.pref[m]
-        keys = full[sol]
-        for _ in range(sweeps):
-            before = float(self.c[sol].sum())
-            for k in range(m):
-                nk, mk = self.counts[k], self.mult[k]
-                excl = full - (T[:, k] + 1) * mk
-                G = np.unique(keys - ((keys // mk) % (self.counts[k] + 1)) * mk)
-                G = G[G != 0]
-                R = G.size
-                pos = np.minimum(np.searchsorted(G, excl), max(R - 1, 0))
-                ok = (G[pos] == excl) if R else np.zeros(excl.size, bool)
-                tk = T[:, k]
-                e = ok & (tk >= 0)
-                drow = dcol = None
-                if self.dummy:
-                    drow, dcol = np.full(R, np.inf), np.full(nk, np.inf)
-                    s_ = ok & (tk < 0)
-                    np.minimum.at(drow, pos[s_], self.c[s_])
-                    s_ = (excl == 0) & (tk >= 0)
-                    np.minimum.at(dcol, tk[s_], self.c[s_])
-                res = _assign(R, nk, pos[e], tk[e], self.c[e], drow, dcol)
-                if res is None:
-                    break
-                (pr, pc), rd, cd, _, _ = res
-                keys = np.sort(np.concatenate([G[pr] + (pc + 1) * mk, G[rd], (cd + 1) * mk]))
-                p = np.searchsorted(self.full_sorted, keys)
-                sol = self.full_order[p]
-            if not float(self.c[sol].sum()) < before:
-                break
-        return sol
-
-    def step(self):
-        """One iteration: relaxed problem, bound, recovery, multiplier update."""
-        self.it += 1
-        out = self.relaxed()
-        if out is None:
-            raise _Infeasible(0 if self.dummy else 1)
-        q, slack, chosen = out
-        m = self.m
-        g = [np.zeros(0)] * 2 + [
-            1.0 - np.bincount(self.T[chosen, i][self.T[chosen, i] >= 0],
-                              minlength=self.counts[i]) for i in range(2, m)]
-        norm2 = float(sum(np.sum(gi * gi) for gi in g))
-        if norm2 == 0.0:                      # relaxed optimum is feasible: it is optimal
-            total = float(self.c[chosen].sum())
-            if total < self.ub:
-                self.ub, self.best = total, chosen
-            self.lb = self.ub
-            self.optimal = True
-            self.history.append((self.lb, self.ub))
-            return
-        self.lb = max(self.lb, q - slack)
-        lb_before, ub_before = self.lb, self.ub
-        sol = self.recover(chosen)
-        if sol is not None:
-            total = float(self.c[sol].sum())
-            if total < self.ub or self.it % 5 == 0:
-                sol = self.improve(sol)
-                total = float(self.c[sol].sum())
-            if total < self.ub:
-                self.ub, self.best = total, sol
-        self.lb = min(self.lb, self.ub)
-        tiny = 1e-4 * max(1.0, abs(self.ub)) if np.isfinite(self.ub) else np.inf
-        if self.lb > lb_before + tiny or self.ub < ub_before - tiny or not np.isfinite(self.ub):
-            self.last_progress = self.it
-        self.stalled = self.it - self.last_progress >= _LAGRANGE_PATIENCE
-        self.history.append((self.lb, self.ub))
-        if q > self.best_q + 1e-12 * max(1.0, abs(q)):
-            self.best_q, self.stall = q, 0
-        else:
-            self.stall += 1
-            if self.stall >= _LAGRANGE_STALL:
-                self.lam, self.stall = self.lam / 2, 0
-        target = self.ub if np.isfinite(self.ub) else q + 0.05 * max(1.0, abs(q))
-        t = self.lam * max(target - q, 1e-9 * max(1.0, abs(q))) / norm2
-        for i in range(2, m):
-            self.u[i][:-1] += t * g[i]
-
-    def close(self, time_limit=None):
-        """Branch and bound (HiGHS) on this problem's candidates: an exact optimum."""
-        chosen = _milp_tuples(self.T, self.c, self.counts, time_limit=time_limit,
-                              upper=self.ub)
-        if chosen is None:
-            raise _Infeasible(None)
-        self.best, self.ub = chosen, float(self.c[chosen].sum())
-        self.lb, self.optimal = self.ub, True
-        self.history.append((self.lb, self.ub))
-
-
-class _Infeasible(Exception):
-    """The candidate groups admit no grouping."""
-
-
-def _solve_candidates(T, c, counts, *, dummy, method, gap, max_iter, time_limit, why):
-    """Solve one scene's S-D problem over explicit candidates, cluster by cluster.
-
-    Returns (chosen tuple indices, cost, lower bound, history (iterations, 2) or None).
-    """
-    ncomp, label, first, offsets = _check_cover(T, counts, dummy, why)
-    m = len(counts)
-    tlabel = label[first]
-    order = np.argsort(tlabel, kind="stable")
-    bounds = np.searchsorted(tlabel[order], np.arange(ncomp + 1))
-    if method == "milp":
-        chosen = _milp_tuples(T, c, counts, time_limit=time_limit)
-        if chosen is None:
-            raise ValueError(_infeasible_text(None, counts, why))
-        total = float(c[chosen].sum())
-        return chosen, total, total, None
-    # local report indices inside each cluster
-    local = []
-    for i in range(m):
-        lab = label[offsets[i]:offsets[i + 1]]
-        srt = np.argsort(lab, kind="stable")
-        loc = np.empty_like(srt)
-        starts = np.searchsorted(lab[srt], lab[srt])
-        loc[srt] = np.arange(srt.size) - starts
-        local.append((loc, np.bincount(lab, minlength=ncomp)))
-    comps = []
-    for q in range(ncomp):
-        sel = order[bounds[q]:bounds[q + 1]]
-        if sel.size == 0:
-            continue
-        Tq = np.stack([np.where(T[sel, i] >= 0, local[i][0][np.maximum(T[sel, i], 0)], -1)
-                       for i in range(m)], axis=1)
-        cnt = [int(local[i][1][q]) for i in range(m)]
-        comps.append((sel, _Lagrangian(Tq, c[sel], cnt, dummy)))
-    solvers = [s for _, s in comps]
-
-    def run(tol_of, budget):
-        for s in solvers:
-            try:
-                while not (s.optimal or s.stalled) and s.it < budget and \
-                        not (s.ub - s.lb <= tol_of(s)):
-                    s.step()
-            except _Infeasible as exc:
-                raise ValueError(_infeasible_text(exc.args[0], counts, why)) from None
-
-    def totals():
-        return sum(s.ub for s in solvers), sum(s.lb for s in solvers)
-
-    run(lambda s: 0.5 * gap * max(abs(s.ub), 1.0) if np.isfinite(s.ub) else -1.0, max_iter)
-    ub, lb = totals()
-    if np.isfinite(ub) and (ub - lb) > gap * max(abs(ub), 1.0):
-        share = 0.999 * gap * max(abs(ub), 1.0) / len(solvers)
-        run(lambda s: share, 2 * max_iter)
-    ub, lb = totals()
-    if not np.isfinite(ub) or (ub - lb) > gap * max(abs(ub), 1.0):
-        # stalled clusters (a duality gap): branch and bound on their candidates only
-        worst = sorted(solvers, key=lambda s: -(s.ub - s.lb) if np.isfinite(s.ub) else -np.inf)
-        for s in worst:
-            ub, lb = totals()
-            if np.isfinite(ub) and (ub - lb) <= gap * max(abs(ub), 1.0):
-                break
-            try:
-                s.close(time_limit)
-            except _Infeasible:
-                raise ValueError(_infeasible_text(None, counts, why)) from None
-    ub, lb = totals()
-    chosen = np.concatenate([sel[s.best] for sel, s in comps])
-    length = max(len(s.history) for s in solvers)
-    hist = np.zeros((length, 2))
-    for s in solvers:
-        h = np.array(s.history)
-        hist += np.vstack([h, np.repeat(h[-1:], length - len(h), axis=0)])
-    return chosen, float(c[chosen].sum()), min(lb, float(c[chosen].sum())), hist
-
-
-def _infeasible_text(source, counts, why):
-    srcs = "sources 0 and 1" if source in (0, 1) else "the sources"
-    return (f"`x`: the gated problem has no grouping: the reports of {srcs} (report counts "
-            f"{list(counts)}) cannot all be put into groups of one report per source ({why}); "
-            "never a partial grouping -- widen the gate or allow missed detections and false "
-            "reports (`p_detect` < 1, `false_density` > 0)")
 
 
 def _groups_from_tuples(T):
@@ -1659,11 +1042,6 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
                           lbs.reshape(batch), gaps.reshape(batch))
 
 
-def _gap_of(total, lower):
-    """Proved relative gap (cost - lower bound) / max(|cost|, 1), never negative."""
-    return max(0.0, (float(total) - float(lower)) / max(abs(float(total)), 1.0))
-
-
 # ----------------------------------------------------------------------------- binding
 def binding_hypotheses(n_targets: int, n_sources: int) -> np.ndarray:
     """All ways to bind every source's reports one-to-one to `n_targets` fused tracks.
@@ -1825,97 +1203,35 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
 
 
 # ----------------------------------------------------------------------------- scenes
-def grouping_scene(n_targets: int, n_sources: int, *, cov, spacing: float = 1.0,
-                   layout: str = "line", track_cov=None, trials: int = 1,
+def grouping_scene(n_targets: int, n_sources: int, *, spacing: float = 1.0,
+                   layout: str = "line", cov, track_cov=None, trials: int = 1,
                    rng=None) -> GroupingScene:
     """Draw `trials` scenes of `n_targets` targets reported by `n_sources` sources.
+
+    :func:`radarfusion_ref.scenes.grouping_scene` under this chapter's name for
+    its first argument (the same draws for the same seed).
 
     Parameters
     ----------
     n_targets : int
         Number of targets ``n`` (every source reports every target once).
-    n_sources : int
-        Number of sources ``m >= 1``.
-    cov : array_like, shape (m, n, d, d)
-        Error covariance of each report (broadcastable, e.g. ``(m, 1, d, d)``);
-        ``d`` is taken from it.
-    spacing : float or array_like of shape (d,), optional
-        ``"line"``: targets ``spacing`` (its first entry) apart on the first
-        coordinate, all other coordinates zero; ``"uniform"``: coordinate ``c``
-        of each target uniform on ``[0, spacing[c] * n ** (1 / d)]`` (one target
-        per ``prod(spacing)`` of state space) — a vector lets positions and
-        velocities have their own scales.
-    layout : {"line", "uniform"}, optional
-        Target placement.
-    track_cov : array_like, shape (n, d, d), optional
-        If given, also draw fused-track estimates ``tracks[t, p] = truth[t, p] + e``,
-        ``e ~ N(0, track_cov[p])``.
-    trials : int, optional
-        Number of independent scenes.
-    rng : None, int or numpy.random.Generator, optional
-        Source of randomness (SPEC 7).
+    n_sources, spacing, layout, cov, track_cov, trials, rng
+        As in :func:`radarfusion_ref.scenes.grouping_scene`.
 
     Returns
     -------
     GroupingScene
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`radarfusion_ref.scenes.grouping_scene`, naming `n_targets`.
 
     Examples
     --------
     >>> s = grouping_scene(3, 2, cov=np.eye(2)[None, None] * 0.01, trials=4, rng=1)
     >>> s.reports.shape, s.true_groups.shape
     ((4, 2, 3, 2), (4, 3, 2))
-    >>> bool(np.all(s.true_groups[..., 0] == np.arange(3)))
-    True
     """
-    n = as_int(n_targets, "n_targets", minimum=1)
-    m = as_int(n_sources, "n_sources", minimum=1)
-    trials = as_int(trials, "trials", minimum=1)
-    spacing = as_positive(spacing, "spacing")
-    layout = as_choice(layout, "layout", ("line", "uniform"))
-    c = as_float_array(cov, "cov", ndim_min=4)
-    try:
-        c = np.broadcast_to(c, (m, n, *c.shape[-2:]))
-    except ValueError:
-        raise ValueError(
-            f"`cov` must broadcast to shape (m, n, d, d) = ({m}, {n}, d, d); "
-            f"received shape {np.shape(cov)}"
-        ) from None
-    c = as_covariance(c, "cov")
-    d = c.shape[-1]
-    if spacing.ndim > 1 or spacing.size not in (1, d):
-        raise ValueError(
-            f"`spacing` must be a number or have shape ({d},) (one scale per coordinate); "
-            f"received shape {spacing.shape}"
-        )
-    spacing = np.broadcast_to(spacing.reshape(-1), (d,))
-    tcov = None
-    if track_cov is not None:
-        tcov = as_float_array(track_cov, "track_cov", ndim_min=2)
-        try:
-            tcov = np.broadcast_to(tcov, (n, d, d))
-        except ValueError:
-            raise ValueError(
-                f"`track_cov` must broadcast to shape ({n}, {d}, {d}); received shape "
-                f"{np.shape(track_cov)}"
-            ) from None
-        tcov = as_covariance(tcov, "track_cov")
-    check_size(8 * trials * (4 * m * n * d + 3 * n * d + m * n), MEMORY_LIMIT,
-               what=f"bytes of scenes (`trials` = {trials} x {m} sources x {n} targets x d = {d})",
-               alternative="several calls with generators spawned from one SeedSequence")
-    rng = as_rng(rng)
-    if layout == "line":
-        truth = np.zeros((trials, n, d))
-        truth[..., 0] = spacing[0] * np.arange(n)
-    else:
-        truth = rng.uniform(0.0, 1.0, size=(trials, n, d)) * (spacing * n ** (1.0 / d))
-    owner = rng.permuted(np.broadcast_to(np.arange(n), (trials, m, n)), axis=-1)
-    chol = np.linalg.cholesky(c)                                    # (m, n, d, d)
-    z = rng.standard_normal((trials, m, n, d))
-    src = np.take_along_axis(truth[:, None], owner[..., None], axis=2)   # (T, m, n, d)
-    reports = src + np.einsum("ijkl,tijl->tijk", chol, z)
-    tracks = None
-    if tcov is not None:
-        zt = rng.standard_normal((trials, n, d))
-        tracks = truth + np.einsum("pkl,tpl->tpk", np.linalg.cholesky(tcov), zt)
-    return GroupingScene(truth, reports, owner, np.array(c), tracks,
-                         None if tcov is None else np.array(tcov))
+    return _grouping_scene(n_targets, n_sources, spacing=spacing, layout=layout, cov=cov,
+                           track_cov=track_cov, trials=trials, rng=rng, count_name="n_targets")

@@ -198,6 +198,7 @@ def test_the_old_names_are_the_scenes_functions():
     assert features.FEATURE_MODELS is scenes.FEATURE_MODELS
     assert separated.simulate_polar is scenes.simulate_polar
     assert separated.PolarReports is scenes.PolarReports
+    assert grouping.GroupingScene is scenes.GroupingScene
 
 
 # ================================================================ statistics
