@@ -10,6 +10,11 @@ always carries its trial count and an interval:
 Both return frozen dataclasses whose ``str`` is the form used in the prose,
 e.g. ``0.9512 [0.9469, 0.9552] (n=10000, 95% Wilson)``.
 
+:func:`sweep` runs a vectorized experiment over a parameter grid in blocks of
+trials, in this process or on a Dask cluster, with results that depend only on
+the seed and the grid (never on the cluster, the block size or the order in
+which tasks finish).
+
 .. rubric:: References
 
 .. [1] E. B. Wilson, "Probable inference, the law of succession, and
@@ -20,16 +25,35 @@ e.g. ``0.9512 [0.9469, 0.9552] (n=10000, 95% Wilson)``.
 
 from __future__ import annotations
 
+import itertools
+import math
+import numbers
+import os
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 from scipy import stats
 
-from ._validation import _describe, as_choice, as_float_array, as_int, as_probability, unwrap
+from ._validation import (
+    MEMORY_LIMIT,
+    _describe,
+    as_bool,
+    as_choice,
+    as_float_array,
+    as_int,
+    as_probability,
+    check_size,
+    unwrap,
+)
 from .checks import CheckError, _record
 
 __all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance",
-           "require", "MonteCarloCheckError"]
+           "require", "MonteCarloCheckError", "sweep", "SweepResult", "SweepError",
+           "SEED_BLOCK", "DEFAULT_BLOCK", "MAX_POINTS", "PROGRESS_ENV"]
 
 
 class MonteCarloCheckError(CheckError):
@@ -371,3 +395,589 @@ def require(estimate: Proportion | MeanEstimate, exact, what: str, *,
             f"{np.round(exact, 6)} ({sigmas:g} standard errors)"
         )
     _record("monte-carlo", what)
+
+
+# ----------------------------------------------------------------------------
+# Sweeps over a parameter grid, locally or on a Dask cluster
+# ----------------------------------------------------------------------------
+
+#: Trials seeded together: the unit of randomness of :func:`sweep`. Trials
+#: ``[j * SEED_BLOCK, (j + 1) * SEED_BLOCK)`` of grid point ``i`` are drawn from
+#: their own generator, whatever task runs them (the last unit may be shorter).
+SEED_BLOCK = 1024
+
+#: Default trials per task of :func:`sweep` (16 seed units).
+DEFAULT_BLOCK = 16 * SEED_BLOCK
+
+#: Most grid points one :func:`sweep` call accepts (each point is a dict held
+#: in the result; split larger grids into several sweeps).
+MAX_POINTS = 100_000
+
+#: Environment variable that forces the progress bar of :func:`sweep` on
+#: (``"1"``) or off (``"0"``) when ``progress=None``.
+PROGRESS_ENV = "RADARFUSION_PROGRESS"
+
+_NUMERIC_KINDS = "biufc"
+
+
+class SweepError(RuntimeError):
+    """The experiment of a :func:`sweep` failed, or returned something unusable, at one
+    grid point and block of trials; no partial result is returned."""
+
+
+@dataclass(frozen=True, eq=False)
+class SweepResult:
+    """The per-trial results of :func:`sweep`, in grid order and trial order.
+
+    Attributes
+    ----------
+    points : tuple of dict
+        The grid points, in the order of the first axis of every output.
+    names : tuple of str
+        The grid's parameter names.
+    grid_shape : tuple of int or None
+        Shape of the Cartesian grid (one length per name) when the grid was a
+        mapping; ``None`` for a list of points.
+    outputs : Mapping of str to numpy.ndarray
+        Read-only arrays of shape ``(points, trials, ...)``: the experiment's
+        per-trial results concatenated in trial order. An experiment that
+        returns a bare array has the single output ``"value"``.
+    trials : int
+        Trials per grid point.
+    block : int
+        Trials per task (a multiple of :data:`SEED_BLOCK`).
+    seed_block : int
+        Trials per seed unit (:data:`SEED_BLOCK` when the sweep ran).
+    entropy : int or tuple of int
+        Entropy of the root :class:`numpy.random.SeedSequence`; with
+        `spawn_key` it reproduces the sweep exactly (pass
+        ``SeedSequence(entropy, spawn_key=spawn_key)`` as `rng`).
+    spawn_key : tuple of int
+        Spawn key of the root sequence (empty unless a spawned SeedSequence was passed).
+    tasks : int
+        Number of tasks (grid points × blocks).
+    wall_time : float
+        Seconds the sweep took, from validation to the last result.
+    backend : str
+        ``"local"`` or ``"dask (<n> workers)"``: where it ran (the outputs do not
+        depend on it).
+    """
+
+    points: tuple
+    names: tuple
+    grid_shape: tuple | None
+    outputs: Mapping
+    trials: int
+    block: int
+    seed_block: int
+    entropy: int | tuple
+    spawn_key: tuple
+    tasks: int
+    wall_time: float
+    backend: str
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """The output `name`, shape ``(points, trials, ...)``."""
+        if name not in self.outputs:
+            raise KeyError(f"no output {name!r}; the experiment returned "
+                           f"{', '.join(map(repr, self.outputs))}")
+        return self.outputs[name]
+
+    def _only(self, name):
+        if name is None:
+            if len(self.outputs) != 1:
+                raise ValueError(f"`name` is required: the experiment returned several "
+                                 f"outputs ({', '.join(map(repr, self.outputs))})")
+            name = next(iter(self.outputs))
+        return self[name]
+
+    @property
+    def value(self) -> np.ndarray:
+        """The single output, shape ``(points, trials, ...)`` (an error if there are several)."""
+        return self._only(None)
+
+    def param(self, name: str) -> np.ndarray:
+        """The value of grid parameter `name` at every point, in point order."""
+        if name not in self.names:
+            raise KeyError(f"no grid parameter {name!r}; the grid has {self.names}")
+        return np.array([p[name] for p in self.points])
+
+    def on_grid(self, name: str | None = None) -> np.ndarray:
+        """An output reshaped to ``grid_shape + (trials, ...)`` (Cartesian grids only)."""
+        arr = self._only(name)
+        if self.grid_shape is None:
+            raise ValueError("`on_grid` needs a Cartesian grid (a mapping of axes); this sweep "
+                             "ran over a list of points: use the `(points, trials, ...)` arrays")
+        return arr.reshape(self.grid_shape + arr.shape[1:])
+
+    def map(self, fn: Callable, name: str | None = None) -> np.ndarray:
+        """``fn`` applied to each point's results (shape ``(trials, ...)``), stacked.
+
+        Examples
+        --------
+        >>> res = sweep(lambda p, n, rng: rng.normal(p["mu"], 1.0, n), {"mu": [0.0, 5.0]},
+        ...             trials=2048, rng=1)
+        >>> res.map(np.mean).round(1)
+        array([0., 5.])
+        """
+        if not callable(fn):
+            raise TypeError(f"`fn` must be callable; received {_describe(fn)}")
+        arr = self._only(name)
+        return np.asarray([fn(a) for a in arr])
+
+    def identical(self, other: SweepResult) -> bool:
+        """Bit-for-bit equality with another sweep: same points, outputs, dtypes and trials."""
+        if not isinstance(other, SweepResult):
+            raise TypeError(f"`other` must be a SweepResult; received {_describe(other)}")
+        if (self.points != other.points or self.trials != other.trials
+                or set(self.outputs) != set(other.outputs)):
+            return False
+        return all(a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+                   for a, b in ((self.outputs[k], other.outputs[k]) for k in self.outputs))
+
+    def __repr__(self) -> str:
+        outs = ", ".join(f"{k}: {v.dtype}{list(v.shape)}" for k, v in self.outputs.items())
+        return (f"SweepResult({len(self.points)} points x {self.trials} trials, {outs}; "
+                f"{self.tasks} tasks of {self.block} trials, {self.backend}, "
+                f"{self.wall_time:.2f} s)")
+
+
+def _grid_value(v, where: str):
+    """One parameter value: a finite number, a bool or a string (as a Python scalar)."""
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, (str, bool)):
+        return v
+    if isinstance(v, numbers.Real):
+        if not math.isfinite(float(v)):
+            raise ValueError(f"`grid` {where} must be finite; received {v!r}")
+        return v
+    raise TypeError(f"`grid` {where} must be a number, a bool or a string; "
+                    f"received {_describe(v)}")
+
+
+def _is_1d(values) -> bool:
+    if isinstance(values, np.ndarray):
+        return values.ndim == 1
+    return not any(isinstance(v, (list, tuple, np.ndarray, Mapping, set)) for v in values)
+
+
+def _as_grid(grid):
+    """``(points, names, grid_shape)`` from a mapping of 1-D axes or a sequence of dicts."""
+    if isinstance(grid, Mapping):
+        if not grid:
+            raise ValueError("`grid` must have at least one axis; received an empty mapping")
+        names, axes = [], []
+        for key, values in grid.items():
+            if not isinstance(key, str) or not key:
+                raise TypeError(f"`grid` keys must be non-empty parameter names (str); "
+                                f"received {key!r}")
+            if isinstance(values, (str, bytes, Mapping)) or not hasattr(values, "__len__"):
+                raise TypeError(f"`grid` axis {key!r} must be a 1-D sequence of values; "
+                                f"received {_describe(values)}")
+            if not _is_1d(values):
+                raise ValueError(f"`grid` axis {key!r} must be 1-D; received {_describe(values)}")
+            if len(values) == 0:
+                raise ValueError(f"`grid` axis {key!r} is empty; every axis needs at least one "
+                                 "value")
+            axes.append([_grid_value(v, f"axis {key!r}") for v in values])
+            names.append(key)
+        shape = tuple(len(a) for a in axes)
+        check_size(math.prod(shape), MAX_POINTS, what="grid points",
+                   alternative="several sweeps over slices of the grid")
+        points = tuple(dict(zip(names, combo, strict=True)) for combo in itertools.product(*axes))
+        return points, tuple(names), shape
+    if isinstance(grid, Sequence) and not isinstance(grid, (str, bytes)):
+        if len(grid) == 0:
+            raise ValueError("`grid` must hold at least one point; received an empty sequence")
+        check_size(len(grid), MAX_POINTS, what="grid points",
+                   alternative="several sweeps over slices of the grid")
+        points, names = [], None
+        for k, point in enumerate(grid):
+            if not isinstance(point, Mapping) or not point:
+                raise TypeError(f"`grid` point {k} must be a non-empty dict of parameters; "
+                                f"received {_describe(point)}")
+            keys = tuple(point)
+            if any(not isinstance(n, str) or not n for n in keys):
+                raise TypeError(f"`grid` point {k} must have str parameter names; "
+                                f"received {keys!r}")
+            if names is None:
+                names = keys
+            elif set(keys) != set(names):
+                raise ValueError(f"`grid` point {k} has parameters {keys}, point 0 has {names}; "
+                                 "every point needs the same names")
+            points.append({n: _grid_value(point[n], f"point {k}, {n!r},") for n in names})
+        return tuple(points), names, None
+    raise TypeError("`grid` must be a mapping of parameter names to 1-D sequences of values, "
+                    f"or a sequence of dicts; received {_describe(grid)}")
+
+
+def _seed_root(rng) -> np.random.SeedSequence:
+    """The root SeedSequence of a sweep (SPEC 7 input, no global state).
+
+    A Generator is not reused: 256 bits drawn from it become the root entropy
+    (this advances that Generator, as any draw would).
+    """
+    if isinstance(rng, np.random.SeedSequence):
+        return rng
+    if isinstance(rng, np.random.Generator):
+        words = rng.integers(0, np.iinfo(np.uint64).max, size=4, dtype=np.uint64,
+                             endpoint=True)
+        return np.random.SeedSequence(sum(int(w) << (64 * k) for k, w in enumerate(words)))
+    if rng is None:
+        return np.random.SeedSequence()
+    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool) and int(rng) >= 0:
+        return np.random.SeedSequence(int(rng))
+    raise TypeError("`rng` must be None, a non-negative int seed, a numpy.random.SeedSequence "
+                    f"or a numpy.random.Generator; received {_describe(rng)}")
+
+
+def _unit_rng(entropy, spawn_key, pool_size, point: int, unit: int) -> np.random.Generator:
+    """The generator of seed unit `unit` of grid point `point`: a PCG64 (pinned, not
+    ``default_rng``'s choice) on the SeedSequence with spawn key ``(point, unit)``."""
+    seq = np.random.SeedSequence(entropy, spawn_key=(*spawn_key, point, unit),
+                                 pool_size=pool_size)
+    return np.random.Generator(np.random.PCG64(seq))
+
+
+def _as_outputs(out, n: int) -> dict:
+    """Validate one call's result: an array, or a dict of arrays, first axis ``n``."""
+    if isinstance(out, Mapping):
+        if not out:
+            raise TypeError("`experiment` returned an empty dict")
+        items = list(out.items())
+    else:
+        items = [("value", out)]
+    result = {}
+    for key, value in items:
+        if not isinstance(key, str):
+            raise TypeError(f"`experiment` output names must be str; received {key!r}")
+        if not isinstance(value, (np.ndarray, np.generic, list, tuple)):
+            raise TypeError(f"`experiment` must return an array (or a dict of arrays) whose "
+                            f"first axis holds the trials; output {key!r} is {_describe(value)}")
+        arr = np.asarray(value)
+        if arr.dtype.kind not in _NUMERIC_KINDS:
+            raise TypeError(f"`experiment` output {key!r} must be numeric or bool; received "
+                            f"dtype {arr.dtype}")
+        if arr.ndim == 0 or arr.shape[0] != n:
+            raise ValueError(f"`experiment` output {key!r} must have the trials on its first "
+                             f"axis ({n} of them); received shape {arr.shape}")
+        if arr.dtype.kind in "fc" and not np.all(np.isfinite(arr)):
+            raise ValueError(f"`experiment` output {key!r} holds NaN or inf")
+        result[key] = arr
+    return result
+
+
+def _run_task(params, point, units, *, experiment, trials, entropy, spawn_key, pool_size):
+    """One task: seed units `units` of grid point `point`, concatenated in trial order.
+
+    Module-level (picklable), so a Dask worker runs exactly what the local path runs.
+    """
+    parts = []
+    for unit in units:
+        start = unit * SEED_BLOCK
+        n = min(SEED_BLOCK, trials - start)
+        rng = _unit_rng(entropy, spawn_key, pool_size, point, unit)
+        parts.append(_as_outputs(experiment(dict(params), n, rng), n))
+    first = parts[0]
+    for part in parts[1:]:
+        _same_layout(first, part)
+    return {k: (np.concatenate([p[k] for p in parts]) if len(parts) > 1 else first[k])
+            for k in first}
+
+
+def _same_layout(ref: dict, got: dict) -> None:
+    """Every call of the experiment returns the same outputs, dtypes and trailing shapes."""
+    if list(got) != list(ref):
+        raise TypeError(f"`experiment` returned outputs {list(got)}, earlier calls {list(ref)}")
+    for k in ref:
+        a, b = ref[k], got[k]
+        if a.dtype != b.dtype or a.shape[1:] != b.shape[1:]:
+            raise TypeError(f"`experiment` output {k!r} is {b.dtype} {b.shape[1:]} per trial "
+                            f"here and {a.dtype} {a.shape[1:]} in earlier calls")
+
+
+def _schedule(tasks: list) -> list:
+    """Order in which the local path runs the tasks (a hook the tests permute)."""
+    return tasks
+
+
+def _live_notebook() -> bool:
+    """A kernel started by a Jupyter server for an open notebook (not nbclient/a build).
+
+    Jupyter Server sets ``JPY_SESSION_NAME`` in the environment of the kernels it
+    starts for a notebook session; nbclient (``jupyter-book build``, the tests)
+    does not.
+    """
+    if "JPY_SESSION_NAME" not in os.environ:
+        return False
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None else None
+    return type(shell).__name__ == "ZMQInteractiveShell"
+
+
+def _want_progress(progress) -> bool:
+    if progress is None:
+        env = os.environ.get(PROGRESS_ENV, "").strip()
+        if env in ("0", "1"):
+            return env == "1"
+        return _live_notebook()
+    return as_bool(progress, "progress")
+
+
+class _NoBar:
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+
+def _bar(show: bool, total: int, backend: str):
+    if not show:
+        return _NoBar()
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=f"sweep ({backend})", unit="task")
+
+
+def _as_client(client):
+    """A running ``distributed.Client`` with at least one worker, and its worker count."""
+    try:
+        from distributed import Client
+    except ImportError:  # pragma: no cover - dask is a declared dependency
+        raise TypeError("`client` needs dask.distributed (pip install 'dask[distributed]'); "
+                        f"received {_describe(client)}") from None
+    if not isinstance(client, Client):
+        raise TypeError("`client` must be None (run here) or a distributed.Client; received "
+                        f"{_describe(client)}")
+    if client.status != "running":
+        raise ValueError(f"`client` must be a running distributed.Client; its status is "
+                         f"{client.status!r} (closed or not connected to its scheduler: "
+                         "create a new Client with the scheduler address)")
+    try:
+        workers = len(client.nthreads())
+    except (OSError, TimeoutError) as exc:
+        raise ValueError(f"`client` cannot reach its scheduler ({type(exc).__name__}: {exc}); "
+                         "check the scheduler address") from None
+    if workers == 0:
+        raise ValueError("`client` has no workers: start some (dask worker <scheduler address>) "
+                         "or wait for them with client.wait_for_workers(n)")
+    return client, workers
+
+
+def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_BLOCK,
+          client=None, progress: bool | None = None) -> SweepResult:
+    """Run a vectorized experiment over a parameter grid, here or on a Dask cluster.
+
+    The trials of each grid point are cut into seed units of :data:`SEED_BLOCK`
+    trials, each with its own generator spawned from one root
+    :class:`numpy.random.SeedSequence`; a task runs ``block`` trials (a whole
+    number of units). The results therefore depend only on the seed, the grid
+    and `trials`: not on `block`, on `client`, on the number of workers, nor
+    on the order in which tasks finish.
+
+    Parameters
+    ----------
+    experiment : callable
+        ``experiment(params, n, rng)``: `params` is a dict (one grid point), `n`
+        the number of trials to run, `rng` a :class:`numpy.random.Generator` to
+        draw them from. It returns the per-trial results, vectorized over the
+        trials: an array whose first axis has length `n`, or a dict of such
+        arrays (numeric or bool; NaN and inf refused). Each call gets at most
+        :data:`SEED_BLOCK` trials. On a cluster it must be picklable (functions
+        defined in a notebook are sent by value).
+    grid : mapping or sequence of dict
+        Either a mapping from parameter names to 1-D sequences of values — the
+        grid is their Cartesian product, the last axis varying fastest — or a
+        sequence of dicts, one per point, all with the same names. Values are
+        finite numbers, bools or strings. At most :data:`MAX_POINTS` points.
+    trials : int
+        Trials per grid point (≥ 1).
+    rng : None, int, numpy.random.SeedSequence or numpy.random.Generator
+        The seed (SPEC 7). An int or a SeedSequence is used as is (a
+        SeedSequence is not advanced: the same one gives the same sweep). A
+        Generator is not shared with the tasks: 256 bits drawn from it become
+        the root entropy (this advances it, like any draw). ``None`` draws fresh
+        entropy from the operating system; it is kept in the result
+        (``entropy``), so the sweep can be repeated.
+    block : int, optional
+        Trials per task, a positive multiple of :data:`SEED_BLOCK` (default
+        :data:`DEFAULT_BLOCK`). Larger blocks mean fewer, longer tasks; the
+        results do not depend on it.
+    client : distributed.Client, optional
+        ``None`` runs every task here, one after the other. A running
+        ``distributed.Client`` runs one task per (grid point, block) on its
+        cluster and gathers the results in grid and trial order.
+    progress : bool or None, optional
+        Show a tqdm progress bar (``tqdm.auto``: a notebook bar in a kernel).
+        ``None`` (default): on only in a live notebook — a kernel started by a
+        Jupyter server for an open notebook (``JPY_SESSION_NAME`` is set) —
+        never in a book build, nbclient run or test; the environment variable
+        :data:`PROGRESS_ENV` set to ``"1"`` or ``"0"`` overrides this.
+
+    Returns
+    -------
+    SweepResult
+        Per-trial outputs shaped ``(points, trials, ...)``, the grid, the seed and
+        the wall time.
+
+    Raises
+    ------
+    TypeError
+        If `experiment` is not callable, `grid` is not a mapping or a sequence of
+        dicts (or holds values that are not numbers, bools or strings), `trials`
+        or `block` is not an integer, `rng` is not a seed, `client` is not a
+        ``distributed.Client`` or `progress` is not a bool.
+    ValueError
+        If a `grid` axis is empty, not 1-D or holds NaN/inf, the grid is empty or
+        exceeds :data:`MAX_POINTS`; `trials` < 1; `block` is not a positive
+        multiple of :data:`SEED_BLOCK`; `client` is closed, cannot reach its
+        scheduler or has no workers; or the outputs (points × trials × bytes
+        per trial, known after the first task) would exceed
+        :data:`~radarfusion_ref._validation.MEMORY_LIMIT` — refused before they
+        are allocated.
+    SweepError
+        If the experiment raises, or returns something other than the per-trial
+        arrays described above, at some grid point and block: the message names
+        both, the original exception is chained, and nothing is returned.
+
+    Notes
+    -----
+    Seed unit :math:`j` (trials :math:`jB, \\dots, (j+1)B-1`, :math:`B` =
+    :data:`SEED_BLOCK`) of grid point :math:`i` draws from
+    ``Generator(PCG64(SeedSequence(entropy, spawn_key=spawn_key + (i, j))))``:
+    the sequence ``root.spawn(points)[i].spawn(units)[j]`` would give, built
+    directly so no state is shared between tasks. (Do not also use the
+    children a passed SeedSequence spawns elsewhere.) A task is a pure function
+    of ``(experiment, params, i, its units)``, so where and when it runs
+    cannot change its bits; the results are written into place by
+    ``(i, j)``, so the order tasks finish in cannot either.
+
+    The first task runs alone; its output size per trial fixes the total
+    size, which is checked against the memory limit before the output
+    arrays are allocated and the other tasks are started.
+
+    Examples
+    --------
+    >>> def coin(params, n, rng):
+    ...     return rng.random(n) < params["p"]
+    >>> res = sweep(coin, {"p": [0.25, 0.5]}, trials=4096, rng=7)
+    >>> res.value.shape, res.value.dtype
+    ((2, 4096), dtype('bool'))
+    >>> res.identical(sweep(coin, {"p": [0.25, 0.5]}, trials=4096, rng=7, block=1024))
+    True
+    """
+    start_time = time.perf_counter()
+    if not callable(experiment):
+        raise TypeError(f"`experiment` must be a callable experiment(params, n, rng); "
+                        f"received {_describe(experiment)}")
+    points, names, grid_shape = _as_grid(grid)
+    trials = as_int(trials, "trials", minimum=1)
+    block = as_int(block, "block", minimum=1)
+    if block % SEED_BLOCK:
+        raise ValueError(f"`block` must be a positive multiple of SEED_BLOCK = {SEED_BLOCK} "
+                         f"trials (the seed unit); received {block} (use "
+                         f"{max(1, round(block / SEED_BLOCK)) * SEED_BLOCK})")
+    root = _seed_root(rng)
+    show = _want_progress(progress)
+    if client is not None:
+        client, workers = _as_client(client)
+        backend = f"dask ({workers} workers)"
+    else:
+        backend = "local"
+
+    n_units = -(-trials // SEED_BLOCK)
+    per_task = block // SEED_BLOCK
+    seed = (root.entropy, tuple(root.spawn_key), root.pool_size)
+    tasks = [(i, b, tuple(range(b * per_task, min((b + 1) * per_task, n_units))))
+             for i in range(len(points)) for b in range(-(-n_units // per_task))]
+
+    def failed(task, exc):
+        i, b, units = task
+        lo, hi = units[0] * SEED_BLOCK, min((units[-1] + 1) * SEED_BLOCK, trials)
+        return SweepError(f"`experiment` failed at grid point {i} {points[i]}, block {b} "
+                          f"(trials {lo}..{hi - 1}): {type(exc).__name__}: {exc}")
+
+    outputs: dict[str, np.ndarray] = {}
+    layout: dict = {}
+
+    def place(task, result):
+        i, _, units = task
+        if not outputs:
+            per_trial = sum(a.nbytes // a.shape[0] if a.shape[0] else
+                            a.dtype.itemsize * math.prod(a.shape[1:]) for a in result.values())
+            check_size(len(points) * trials * per_trial, MEMORY_LIMIT,
+                       what="bytes of per-trial results (points x trials x "
+                            f"{per_trial} bytes per trial)",
+                       alternative="a reduction inside `experiment` (return per-trial "
+                                   "summaries, not whole scenes) or fewer `trials` per call")
+            for k, a in result.items():
+                outputs[k] = np.empty((len(points), trials, *a.shape[1:]), dtype=a.dtype)
+            layout.update(result)
+        try:
+            _same_layout(layout, result)
+        except TypeError as exc:
+            raise failed(task, exc) from exc
+        lo = units[0] * SEED_BLOCK
+        for k, a in result.items():
+            outputs[k][i, lo:lo + a.shape[0]] = a
+
+    bar = _bar(show, len(tasks), backend)
+    try:
+        if client is None:
+            for task in _schedule(tasks):
+                i, _, units = task
+                try:
+                    result = _run_task(points[i], i, units, experiment=experiment,
+                                       trials=trials, entropy=seed[0], spawn_key=seed[1],
+                                       pool_size=seed[2])
+                except Exception as exc:
+                    raise failed(task, exc) from exc
+                place(task, result)
+                bar.update()
+        else:
+            _run_on_cluster(client, experiment, points, tasks, trials, seed, place, failed, bar)
+    finally:
+        bar.close()
+
+    for a in outputs.values():
+        a.flags.writeable = False
+    return SweepResult(points, names, grid_shape, MappingProxyType(outputs), trials, block,
+                       SEED_BLOCK, root.entropy, tuple(root.spawn_key), len(tasks),
+                       time.perf_counter() - start_time, backend)
+
+
+def _run_on_cluster(client, experiment, points, tasks, trials, seed, place, failed, bar):
+    """Run the first task, check the output size, then map the rest; place as they finish."""
+    from distributed import as_completed
+
+    entropy, spawn_key, pool_size = seed
+    shared = {"experiment": experiment, "trials": trials, "entropy": entropy,
+              "spawn_key": spawn_key, "pool_size": pool_size}
+
+    def submit(batch):
+        return client.map(_run_task, [points[i] for i, _, _ in batch],
+                          [i for i, _, _ in batch], [u for _, _, u in batch],
+                          pure=False, **shared)
+
+    def outcome(future, result, task):
+        if future.status == "error":
+            raise failed(task, result[1]) from result[1]
+        if future.status == "cancelled" or isinstance(result, BaseException):
+            raise failed(task, result if isinstance(result, BaseException)
+                         else RuntimeError("the task was cancelled"))
+        place(task, result)
+        bar.update()
+
+    first = submit(tasks[:1])[0]
+    for future, result in as_completed([first], with_results=True, raise_errors=False):
+        outcome(future, result, tasks[0])
+    pending = dict(zip(submit(tasks[1:]), tasks[1:], strict=True)) if len(tasks) > 1 else {}
+    try:
+        for future, result in as_completed(list(pending), with_results=True,
+                                           raise_errors=False):
+            outcome(future, result, pending.pop(future))
+    finally:
+        if pending:
+            client.cancel(list(pending))
