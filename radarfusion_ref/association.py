@@ -28,7 +28,7 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   likelihood ratio (detection probabilities, false-report densities);
 * :func:`two_radar_clutter_scene` — the shared scene simulator
   (:func:`radarfusion_ref.scenes.two_radar_scene`) with missed detections and
-  false reports added;
+  false reports added (it lives in :mod:`radarfusion_ref.scenes`);
 * :func:`compare_decisions` — the Monte-Carlo decision-level comparison of the
   three procedures used by the chapter.
 
@@ -71,7 +71,6 @@ from ._validation import (
     as_int,
     as_positive,
     as_probability,
-    as_rng,
     broadcast,
     check_size,
 )
@@ -1308,165 +1307,10 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
 
 
 # --------------------------------------------------------------------------- scenes
-@dataclass(frozen=True)
-class ClutterScene:
-    """Two radars' reports with missed detections and false reports, many trials.
-
-    Report lists have different lengths in different trials; they are padded
-    to a common length (padding has owner -2 and coordinates 0).
-
-    Attributes
-    ----------
-    truth : numpy.ndarray, shape (trials, n, d)
-        True object positions.
-    reports1, reports2 : numpy.ndarray, shape (trials, m1, d) and (trials, m2, d)
-        Reports of each radar, in random order, padded.
-    owner1, owner2 : numpy.ndarray of int, shape (trials, m1) and (trials, m2)
-        Object that produced each report; -1 for a false report, -2 for padding.
-    sigma1, sigma2 : float
-        Error standard deviations (per coordinate).
-    p_detect1, p_detect2, false_density1, false_density2 : float
-        The simulation's detection probabilities and false-report densities.
-    region_low, region_high : numpy.ndarray, shape (d,)
-        The box in which false reports fall (volume ``n * spacing**d``).
-    """
-
-    truth: np.ndarray
-    reports1: np.ndarray
-    reports2: np.ndarray
-    owner1: np.ndarray
-    owner2: np.ndarray
-    sigma1: float
-    sigma2: float
-    p_detect1: float
-    p_detect2: float
-    false_density1: float
-    false_density2: float
-    region_low: np.ndarray
-    region_high: np.ndarray
-
-    @property
-    def valid1(self) -> np.ndarray:
-        """Which entries of ``reports1`` are real reports (not padding)."""
-        return self.owner1 > -2
-
-    @property
-    def valid2(self) -> np.ndarray:
-        """Which entries of ``reports2`` are real reports (not padding)."""
-        return self.owner2 > -2
-
-    @property
-    def volume(self) -> float:
-        """Volume of the surveillance region."""
-        return float(np.prod(self.region_high - self.region_low))
-
-    @property
-    def object_density(self) -> float:
-        """Objects per unit volume, :math:`\\rho_T = n / \\text{volume}`."""
-        return self.truth.shape[1] / self.volume
-
-    @property
-    def true_row_to_col(self) -> np.ndarray:
-        """The correct decisions: for each radar-1 report, the radar-2 report of the
-        same object, or -1 (false report, object missed by radar 2, padding)."""
-        o1, o2 = self.owner1[..., :, None], self.owner2[..., None, :]
-        match = (o1 == o2) & (o1 >= 0)
-        return np.where(match.any(-1), match.argmax(-1), -1)
-
-    def mask_cost(self, cost) -> np.ndarray:
-        """`cost` with ``+inf`` in the padding rows and columns."""
-        c = np.array(cost, dtype=float)
-        return np.where(self.valid1[..., :, None] & self.valid2[..., None, :], c, np.inf)
-
-
-def two_radar_clutter_scene(n_objects: int, *, spacing: float, sigma1: float, sigma2: float,
-                            p_detect1: float = 1.0, p_detect2: float = 1.0,
-                            false_density1: float = 0.0, false_density2: float = 0.0,
-                            trials: int = 1, dim: int = 1, layout: str = "line",
-                            rng=None) -> ClutterScene:
-    """The shared two-radar scene with missed detections and false reports.
-
-    Draws :func:`radarfusion_ref.scenes.two_radar_scene`, then lets radar
-    :math:`r` keep each object's report with probability :math:`P_{D,r}` and add
-    a Poisson number of false reports, uniform over the surveillance box, with
-    density :math:`\\rho_{F,r}`; both lists are then shuffled.
-
-    Parameters
-    ----------
-    n_objects, spacing, sigma1, sigma2, trials, dim, layout
-        As in :func:`radarfusion_ref.scenes.two_radar_scene`.
-    p_detect1, p_detect2 : float, optional
-        Detection probabilities in [0, 1] (default 1).
-    false_density1, false_density2 : float, optional
-        Expected false reports per unit volume (default 0). The box is
-        ``[-s/2, (n - 1/2) s] x [-s/2, s/2]^(d-1)`` for the line layout and
-        the objects' cube for the uniform layout; its volume is
-        :math:`n s^d` either way.
-    rng : None, int or numpy.random.Generator, optional
-        Source of randomness (SPEC 7).
-
-    Returns
-    -------
-    ClutterScene
-
-    Examples
-    --------
-    >>> s = two_radar_clutter_scene(4, spacing=1.0, sigma1=0.1, sigma2=0.1, p_detect2=0.5,
-    ...                             false_density1=0.5, trials=3, rng=2)
-    >>> s.reports1.shape[0], s.true_row_to_col.shape == s.owner1.shape
-    (3, True)
-    """
-    pd1 = _scalar(as_probability(p_detect1, "p_detect1", open_interval=False), "p_detect1")
-    pd2 = _scalar(as_probability(p_detect2, "p_detect2", open_interval=False), "p_detect2")
-    lam1 = _scalar(as_positive(false_density1, "false_density1", strict=False), "false_density1")
-    lam2 = _scalar(as_positive(false_density2, "false_density2", strict=False), "false_density2")
-    rng = as_rng(rng)
-    base = scenes.two_radar_scene(n_objects, spacing=spacing, sigma1=sigma1, sigma2=sigma2,
-                                  trials=trials, dim=dim, layout=layout, rng=rng)
-    t, n, d = base.truth.shape
-    s = float(spacing)
-    if layout == "line":
-        low = np.full(d, -s / 2)
-        high = np.full(d, s / 2)
-        high[0] = (n - 0.5) * s
-    else:
-        low, high = np.zeros(d), np.full(d, s * n ** (1.0 / d))
-    volume = float(np.prod(high - low))
-    owner1_obj = np.broadcast_to(np.arange(n), (t, n))
-
-    # The false reports' memory is checked before any is drawn: expected count, then
-    # (after the Poisson draw, before the positions are allocated) the actual one.
-    for name, lam in (("false_density1", lam1), ("false_density2", lam2)):
-        _limit(math.ceil(lam * volume) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name=name,
-               what=f"bytes of false reports (expected {lam * volume:.3g} per trial, "
-                    f"{t} trials, d = {d})",
-               alternative="fewer `trials` per call (draw the trials in batches)")
-
-    def build(reports, owners, pd, lam):
-        detected = rng.random((t, n)) < pd
-        nfalse = rng.poisson(lam * volume, size=t)
-        fmax = int(nfalse.max()) if t else 0
-        _limit((n + fmax) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name="trials",
-               what=f"bytes of reports ({n} objects + up to {fmax} false reports per trial)",
-               alternative="fewer `trials` per call (draw the trials in batches)")
-        fpos = low + (high - low) * rng.random((t, fmax, d))
-        fvalid = np.arange(fmax)[None, :] < nfalse[:, None]
-        allpos = np.concatenate([reports, fpos], axis=1)
-        allown = np.concatenate([np.where(detected, owners, -2),
-                                 np.where(fvalid, -1, -2)], axis=1)
-        keys = np.where(allown > -2, rng.random(allown.shape), np.inf)
-        order = np.argsort(keys, axis=1, kind="stable")
-        width = max(1, int((allown > -2).sum(axis=1).max()))
-        order = order[:, :width]
-        own = np.take_along_axis(allown, order, axis=1)
-        pos = np.take_along_axis(allpos, order[..., None], axis=1)
-        pos = np.where(own[..., None] > -2, pos, 0.0)
-        return pos, own
-
-    r1, o1 = build(base.reports1, owner1_obj, pd1, lam1)
-    r2, o2 = build(base.reports2, base.owner2, pd2, lam2)
-    return ClutterScene(base.truth, r1, r2, o1, o2, base.sigma1, base.sigma2, pd1, pd2,
-                        lam1, lam2, low, high)
+#: The two-radar scene with misses and false reports; its home is
+#: :mod:`radarfusion_ref.scenes` (the same function and class, under their names here).
+ClutterScene = scenes.ClutterScene
+two_radar_clutter_scene = scenes.two_radar_clutter_scene
 
 
 def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False) -> np.ndarray:

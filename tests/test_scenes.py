@@ -199,6 +199,8 @@ def test_the_old_names_are_the_scenes_functions():
     assert separated.simulate_polar is scenes.simulate_polar
     assert separated.PolarReports is scenes.PolarReports
     assert grouping.GroupingScene is scenes.GroupingScene
+    assert association.two_radar_clutter_scene is scenes.two_radar_clutter_scene
+    assert association.ClutterScene is scenes.ClutterScene
 
 
 # ================================================================ statistics
