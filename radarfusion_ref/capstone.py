@@ -45,6 +45,7 @@ that known rotation before fusing, and the simulation leaves it out.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import gzip
 import io
 import math
@@ -397,8 +398,9 @@ def truth_scans(traffic, *, period=10.0, start=0.0, duration=600.0,
         Length of the scanned interval (s, > 0; default 600): scans at
         ``start + k * period < start + duration``.
     max_gap : float, optional
-        An aircraft is placed at a scan time only if two of its records bracket the time
-        and lie at most `max_gap` seconds apart (default 30); never extrapolated.
+        An aircraft is placed at a scan time only if it has a record at that time, or two
+        of its records bracket the time and lie at most `max_gap` seconds apart (default
+        30); never extrapolated.
 
     Returns
     -------
@@ -435,7 +437,7 @@ def truth_scans(traffic, *, period=10.0, start=0.0, duration=600.0,
         t = traffic.t[a0:a1]
         k = np.searchsorted(t, times, side="right") - 1             # record at or before
         ok = (k >= 0) & (k < t.size - 1)
-        exact = (k == t.size - 1) & (k >= 0) & (t[-1] == times)
+        exact = (k >= 0) & (t[np.maximum(k, 0)] == times)            # a record at the scan
         kk = np.clip(k, 0, max(t.size - 2, 0))
         if t.size >= 2:
             ok &= (t[kk + 1] - t[kk]) <= max_gap
@@ -517,7 +519,7 @@ class Radar:
         return math.pi * self.max_range**2 * (_CLUTTER_ALT[1] - _CLUTTER_ALT[0])
 
 
-def default_radars() -> tuple[Radar, ...]:
+def default_radars(**overrides) -> tuple[Radar, ...]:
     """The three radars of the capstone, at the :data:`RADAR_SITES`.
 
     Every radar: range noise 50 m, azimuth 0.08°, elevation 0.12°, speed feature
@@ -526,9 +528,22 @@ def default_radars() -> tuple[Radar, ...]:
     La Dôle (+120 m, +0.12°, 0.90), Albis (−80 m, −0.10°, 0.85),
     Monte Lema (+60 m, +0.15°, 0.92).
 
+    Parameters
+    ----------
+    **overrides
+        Fields of :class:`Radar` (other than the site) set to the same value for all
+        three radars, e.g. ``sigma_beta=np.radians(1.0), clutter_rate=50.0``.
+
     Returns
     -------
     tuple of Radar
+
+    Raises
+    ------
+    TypeError
+        An override that is not a field of :class:`Radar` (or is a site field).
+    ValueError
+        An override value the radars cannot take (as :func:`run_pipeline` checks them).
 
     Examples
     --------
@@ -537,9 +552,20 @@ def default_radars() -> tuple[Radar, ...]:
     """
     extra = {"La Dole": (120.0, 0.12, 0.90), "Albis": (-80.0, -0.10, 0.85),
              "Monte Lema": (60.0, 0.15, 0.92)}
-    return tuple(Radar(name, *site, bias_range=extra[name][0],
-                       bias_azimuth=math.radians(extra[name][1]), p_detect=extra[name][2])
-                 for name, site in RADAR_SITES.items())
+    allowed = set(Radar.__dataclass_fields__) - {"name", "lat", "lon", "height"}
+    bad = sorted(set(overrides) - allowed)
+    if bad:
+        raise TypeError(f"`overrides`: {', '.join(f'`{k}`' for k in bad)} not a radar "
+                        f"parameter; allowed: {', '.join(sorted(allowed))}")
+    for k, v in overrides.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+            raise TypeError(f"`{k}` must be a number; received {_describe(v)}")
+    out = tuple(dataclasses.replace(
+        Radar(name, *site, bias_range=extra[name][0],
+              bias_azimuth=math.radians(extra[name][1]), p_detect=extra[name][2]),
+        **{k: float(v) for k, v in overrides.items()})
+        for name, site in RADAR_SITES.items())
+    return _radars_iv(out)
 
 
 def _radars_iv(radars):

@@ -1,0 +1,469 @@
+"""Tests of radarfusion_ref.capstone: data, ENU, truth, simulator, GOSPA, pipeline, bad input."""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from radarfusion_ref import capstone as cp
+from radarfusion_ref import montecarlo
+
+SHA256 = "38fc29bbf0e2d67c7a4ef42723f0390d35c5eeedb581225e8db94d4322f89ba4"
+SIZE = 155_801
+
+
+@pytest.fixture(scope="module")
+def traffic():
+    return cp.load_traffic()
+
+
+@pytest.fixture(scope="module")
+def short(traffic):
+    """Two minutes of truth, the default radars, one seeded draw."""
+    truth = cp.truth_scans(traffic, period=10.0, start=600.0, duration=120.0)
+    radars = cp.default_radars()
+    return truth, radars, cp.simulate_reports(truth, radars, rng=7)
+
+
+# ----------------------------------------------------------------------------- data
+def test_committed_file_hash_and_size():
+    raw = cp.DATA_FILE.read_bytes()
+    assert len(raw) == SIZE <= 1_000_000
+    assert hashlib.sha256(raw).hexdigest() == SHA256
+
+
+def test_load_default(traffic):
+    assert len(traffic.icao24) == 142
+    assert traffic.t.size == 12_902
+    assert traffic.t.min() >= 0 and traffic.t.max() < 3600
+    assert traffic.lat.min() > 45.8 and traffic.lat.max() < 47.9
+    assert traffic.lon.min() > 5.9 and traffic.lon.max() < 10.5
+    assert traffic.alt.min() >= 30_000 * 0.3048 and traffic.alt.max() <= 47_000 * 0.3048
+    # sorted by aircraft, then time
+    key = traffic.aircraft * 10_000 + traffic.t
+    assert np.all(np.diff(key) > 0)
+    assert len(traffic.callsign) == 142 and all(traffic.callsign)
+
+
+def _write(tmp_path, text, name="f.csv.gz"):
+    p = tmp_path / name
+    p.write_bytes(gzip.compress(text.encode()))
+    return p
+
+
+GOOD_ROW = "0,abc123,XYZ1,4680000,820000,35000,450,90"
+HEAD = ",".join(cp._HEADER)
+
+
+def test_load_small_valid_file(tmp_path):
+    p = _write(tmp_path, f"{HEAD}\n{GOOD_ROW}\n10,abc123,XYZ1,4680100,820000,35000,451,90\n")
+    tr = cp.load_traffic(p)
+    assert tr.t.tolist() == [0.0, 10.0]
+    assert tr.lat[1] == pytest.approx(46.801)
+    assert tr.alt[0] == pytest.approx(35000 * 0.3048)
+
+
+@pytest.mark.parametrize(("content", "match"), [
+    (None, "no such file"),
+    (b"not gzip at all", "gzip"),
+    ("truncated", "gzip"),
+    (f"a,b,c\n{GOOD_ROW}\n", "header"),
+    (f"{HEAD}\n", "no records"),
+    (f"{HEAD}\n0,abc123,XYZ1,4680000,820000\n", "columns"),
+    (f"{HEAD}\n0,abc123,XYZ1,46.8,820000,35000,450,90\n", "not an integer"),
+    (f"{HEAD}\n0,abc123,XYZ1,nan,820000,35000,450,90\n", "not an integer"),
+    (f"{HEAD}\n0,abc123,XYZ1,9100000,820000,35000,450,90\n", "outside"),
+    (f"{HEAD}\n0,abc123,XYZ1,4680000,18100000,35000,450,90\n", "outside"),
+    (f"{HEAD}\n-5,abc123,XYZ1,4680000,820000,35000,450,90\n", "outside"),
+])
+def test_load_bad_files(tmp_path, content, match):
+    p = tmp_path / "bad.csv.gz"
+    if content == "truncated":
+        p.write_bytes(cp.DATA_FILE.read_bytes()[:5000])
+    elif isinstance(content, bytes):
+        p.write_bytes(content)
+    elif content is not None:
+        p.write_bytes(gzip.compress(content.encode()))
+    with pytest.raises(ValueError, match=f"`path`.*{match}"):
+        cp.load_traffic(p)
+
+
+@pytest.mark.parametrize("bad", [3, 1.5, True, ["a"]])
+def test_load_bad_path_type(bad):
+    with pytest.raises(TypeError, match="`path`"):
+        cp.load_traffic(bad)
+
+
+# ----------------------------------------------------------------------------- ENU
+A, F = 6378137.0, 1 / 298.257223563
+
+
+def _enu_to_geodetic(enu, origin):
+    """Independent inverse: ENU -> ECEF by the transposed rotation, then Bowring's method."""
+    lat0, lon0, h0 = np.radians(origin[0]), np.radians(origin[1]), origin[2]
+    e2 = F * (2 - F)
+    n0 = A / math.sqrt(1 - e2 * math.sin(lat0) ** 2)
+    p0 = np.array([(n0 + h0) * math.cos(lat0) * math.cos(lon0),
+                   (n0 + h0) * math.cos(lat0) * math.sin(lon0),
+                   (n0 * (1 - e2) + h0) * math.sin(lat0)])
+    e_, n_, u_ = enu[..., 0], enu[..., 1], enu[..., 2]
+    X = p0[0] - math.sin(lon0) * e_ - math.sin(lat0) * math.cos(lon0) * n_ \
+        + math.cos(lat0) * math.cos(lon0) * u_
+    Y = p0[1] + math.cos(lon0) * e_ - math.sin(lat0) * math.sin(lon0) * n_ \
+        + math.cos(lat0) * math.sin(lon0) * u_
+    Z = p0[2] + math.cos(lat0) * n_ + math.sin(lat0) * u_
+    b = A * (1 - F)
+    ep2 = (A**2 - b**2) / b**2
+    p = np.hypot(X, Y)
+    th = np.arctan2(Z * A, p * b)
+    lat = np.arctan2(Z + ep2 * b * np.sin(th) ** 3, p - e2 * A * np.cos(th) ** 3)
+    for _ in range(3):   # refine (Bowring's one step is already at the micrometre level)
+        N = A / np.sqrt(1 - e2 * np.sin(lat) ** 2)
+        h = p / np.cos(lat) - N
+        lat = np.arctan2(Z, p * (1 - e2 * N / (N + h)))
+    N = A / np.sqrt(1 - e2 * np.sin(lat) ** 2)
+    h = p / np.cos(lat) - N
+    return np.degrees(lat), np.degrees(np.arctan2(Y, X)), h
+
+
+def test_enu_known_points():
+    o = (0.0, 0.0, 0.0)
+    assert np.allclose(cp.geodetic_to_enu(0.0, 90.0, 0.0, origin=o), [A, 0.0, -A], atol=1e-6)
+    assert np.allclose(cp.geodetic_to_enu(90.0, 0.0, 0.0, origin=o),
+                       [0.0, A * (1 - F), -A], atol=1e-6)
+    assert np.allclose(cp.geodetic_to_enu(*cp.ORIGIN), 0.0, atol=1e-6)
+    up = cp.geodetic_to_enu(cp.ORIGIN[0], cp.ORIGIN[1], 1234.5)
+    assert np.allclose(up, [0.0, 0.0, 1234.5], atol=1e-6)
+    # a small step east along the parallel: east = (N cos(lat)) dlon to first order
+    lat = math.radians(cp.ORIGIN[0])
+    N = A / math.sqrt(1 - F * (2 - F) * math.sin(lat) ** 2)
+    east = cp.geodetic_to_enu(cp.ORIGIN[0], cp.ORIGIN[1] + 1e-4, 0.0)
+    assert east[0] == pytest.approx(N * math.cos(lat) * math.radians(1e-4), rel=1e-7)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(44, 49), st.floats(4, 12), st.floats(-100, 15_000))
+def test_enu_round_trip(lat, lon, h):
+    enu = cp.geodetic_to_enu(lat, lon, h)
+    la, lo, hh = _enu_to_geodetic(enu, cp.ORIGIN)
+    assert la == pytest.approx(lat, abs=1e-9)
+    assert lo == pytest.approx(lon, abs=1e-9)
+    assert hh == pytest.approx(h, abs=1e-4)
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    (dict(lat=91.0, lon=0.0, h=0.0), "`lat`"),
+    (dict(lat=0.0, lon=-181.0, h=0.0), "`lon`"),
+    (dict(lat=np.nan, lon=0.0, h=0.0), "`lat`"),
+    (dict(lat=0.0, lon=0.0, h=np.inf), "`h`"),
+    (dict(lat=[1.0, 2.0], lon=[1.0, 2.0, 3.0], h=0.0), "`lat`, `lon` and `h`"),
+    (dict(lat=0.0, lon=0.0, h=0.0, origin=(1.0, 2.0)), "`origin`"),
+    (dict(lat=0.0, lon=0.0, h=0.0, origin=(95.0, 2.0, 0.0)), "`origin`"),
+])
+def test_enu_bad_input(kw, match):
+    with pytest.raises(ValueError, match=match):
+        cp.geodetic_to_enu(**kw)
+
+
+def test_enu_non_numeric():
+    with pytest.raises(TypeError, match="`lat`"):
+        cp.geodetic_to_enu("north", 0.0, 0.0)
+
+
+# ----------------------------------------------------------------------------- truth
+def test_truth_at_record_times_equals_records(traffic):
+    tr = cp.truth_scans(traffic, period=10.0, start=0.0, duration=3600.0)
+    enu = cp.geodetic_to_enu(traffic.lat, traffic.lon, traffic.alt)
+    # records at multiples of 10 s whose neighbours bracket them are reproduced exactly
+    rec = {(int(a), float(t)): k for k, (a, t) in enumerate(zip(traffic.aircraft, traffic.t,
+                                                                 strict=True))}
+    hits = 0
+    for k in range(0, tr.scan.size, 97):
+        key = (int(tr.aircraft[k]), float(tr.times[tr.scan[k]]))
+        if key in rec:
+            assert np.allclose(tr.position[k], enu[rec[key]], atol=1e-6)
+            hits += 1
+    assert hits > 50
+    # every row lies inside its aircraft's record span (no extrapolation)
+    for a in np.unique(tr.aircraft)[:40]:
+        t = traffic.t[traffic.aircraft == a]
+        s = tr.times[tr.scan[tr.aircraft == a]]
+        assert s.min() >= t.min() and s.max() <= t.max()
+    assert np.all(np.isin(tr.speed_class, [0, 1, 2]))
+    assert tr.n_scans == 360
+
+
+def test_truth_gap_is_not_bridged(tmp_path):
+    head = ",".join(cp._HEADER)
+    rows = ["0,aaaaaa,A,4680000,820000,35000,450,90", "10,aaaaaa,A,4680100,820000,35000,450,90",
+            "100,aaaaaa,A,4681000,820000,35000,450,90"]
+    p = tmp_path / "gap.csv.gz"
+    p.write_bytes(gzip.compress(("\n".join([head, *rows]) + "\n").encode()))
+    tr = cp.truth_scans(cp.load_traffic(p), period=5.0, duration=120.0, max_gap=30.0)
+    assert tr.times[tr.scan].tolist() == [0.0, 5.0, 10.0, 100.0]
+    mid = cp.geodetic_to_enu(46.8005, 8.2, 35000 * 0.3048)
+    assert np.allclose(tr.position[1], mid, atol=0.05)     # linear between the records
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    (dict(period=0.0), "`period`"), (dict(period=np.nan), "`period`"),
+    (dict(start=-1.0), "`start`"), (dict(duration=-5.0), "`duration`"),
+    (dict(max_gap=0.0), "`max_gap`"), (dict(start=5000.0), "`traffic`"),
+])
+def test_truth_bad_input(traffic, kw, match):
+    with pytest.raises(ValueError, match=match):
+        cp.truth_scans(traffic, **kw)
+    with pytest.raises(TypeError, match="`traffic`"):
+        cp.truth_scans("traffic")
+
+
+# ----------------------------------------------------------------------------- simulator
+def test_simulator_statistics(traffic):
+    """P_D, clutter rate and the noise variances agree with the model (Monte Carlo, CIs)."""
+    truth = cp.truth_scans(traffic, duration=3600.0)
+    radars = cp.default_radars(clutter_rate=25.0)
+    rep = cp.simulate_reports(truth, radars, rng=2024)
+    sites = np.stack([r.enu for r in radars])
+    tkey = truth.scan * 1000 + truth.aircraft
+    covered = cp._coverage_count(truth.position, radars[:1]) > 0
+    for i, rad in enumerate(radars):
+        cov_i = cp._coverage_count(truth.position, [rad]) > 0
+        mine = (rep.radar == i) & (rep.source >= 0)
+        detected = np.isin(tkey[cov_i], rep.scan[mine] * 1000 + rep.source[mine])
+        montecarlo.require(montecarlo.proportion(int(detected.sum()), detected.size),
+                           rad.p_detect, f"P_D of {rad.name}")
+        n_false = np.bincount(rep.scan[(rep.radar == i) & (rep.source < 0)],
+                              minlength=truth.n_scans)
+        montecarlo.require(montecarlo.mean(n_false.astype(float)), rad.clutter_rate,
+                           f"clutter rate of {rad.name}")
+        # residuals against the true (biased) polar coordinates
+        k = np.searchsorted(tkey, rep.scan[mine] * 1000 + rep.source[mine])
+        rel = truth.position[k] - sites[i]
+        r, b, e = cp._polar(rel)
+        dr = rep.r[mine] - (r + rad.bias_range)
+        db = cp._wrap(rep.beta[mine] - (b + rad.bias_azimuth))
+        de = rep.epsilon[mine] - e
+        df = rep.feature[mine] - truth.speed[k]
+        for name, resid, sig in (("range", dr, rad.sigma_r), ("azimuth", db, rad.sigma_beta),
+                                 ("elevation", de, rad.sigma_epsilon),
+                                 ("feature", df, rad.sigma_feature)):
+            montecarlo.require(montecarlo.mean(resid / sig), 0.0, f"{name} mean of {rad.name}")
+            montecarlo.require(montecarlo.mean((resid / sig) ** 2), 1.0,
+                               f"{name} variance of {rad.name}")
+    assert covered.any() and not covered.all()     # the coverage limit bites
+
+
+def test_simulator_reproducible(short):
+    truth, radars, rep = short
+    again = cp.simulate_reports(truth, radars, rng=7)
+    for f in ("scan", "radar", "r", "beta", "epsilon", "feature", "source"):
+        assert np.array_equal(getattr(rep, f), getattr(again, f))
+    other = cp.simulate_reports(truth, radars, rng=8)
+    assert not np.array_equal(rep.r[:50], other.r[:50])
+
+
+def test_simulator_bad_input(short):
+    truth, radars, _ = short
+    with pytest.raises(TypeError, match="`truth`"):
+        cp.simulate_reports(None, radars, rng=0)
+    with pytest.raises(TypeError, match="`radars`"):
+        cp.simulate_reports(truth, radars[0], rng=0)
+    with pytest.raises(ValueError, match="`radars`"):
+        cp.simulate_reports(truth, radars[:1], rng=0)
+    with pytest.raises(TypeError, match="`rng`"):
+        cp.simulate_reports(truth, radars, rng="seed")
+    with pytest.raises(ValueError, match="`radars`"):
+        cp.default_radars(p_detect=1.5)
+    with pytest.raises(ValueError, match="`radars`"):
+        cp.default_radars(sigma_r=np.nan)
+    with pytest.raises(TypeError, match="`overrides`"):
+        cp.default_radars(lat=3.0)
+    with pytest.raises(TypeError, match="`sigma_r`"):
+        cp.default_radars(sigma_r="big")
+
+
+# ----------------------------------------------------------------------------- GOSPA
+def _gospa_brute(x, y, c, p):
+    """Minimum over every partial assignment (each truth to at most one estimate)."""
+    n, k = len(x), len(y)
+    best = math.inf
+    for size in range(min(n, k) + 1):
+        for xs in itertools.combinations(range(n), size):
+            for ys in itertools.permutations(range(k), size):
+                loc = sum(float(np.linalg.norm(x[i] - y[j])) ** p for i, j in zip(xs, ys, strict=True))
+                best = min(best, loc + c**p / 2 * (n + k - 2 * size))
+    return best ** (1 / p)
+
+
+points = st.integers(0, 4).flatmap(
+    lambda n: st.lists(st.tuples(st.floats(-10, 10), st.floats(-10, 10)), min_size=n,
+                       max_size=n))
+
+
+@settings(max_examples=150, deadline=None)
+@given(points, points, st.floats(0.5, 20), st.sampled_from([1.0, 2.0, 3.0]))
+def test_gospa_brute_force(x, y, c, p):
+    x = np.array(x, dtype=float).reshape(-1, 2)
+    y = np.array(y, dtype=float).reshape(-1, 2)
+    g = cp.gospa(x, y, c=c, p=p)
+    assert g.total == pytest.approx(_gospa_brute(x, y, c, p), rel=1e-9, abs=1e-9)
+    assert g.localisation + g.missed + g.false == pytest.approx(g.total**p, rel=1e-9,
+                                                                abs=1e-9)
+    assert g.n_missed + g.n_assigned == len(x) and g.n_false + g.n_assigned == len(y)
+
+
+def test_gospa_against_stone_soup():
+    import datetime
+
+    from stonesoup.metricgenerator.ospametric import GOSPAMetric
+    from stonesoup.types.state import State
+
+    rng = np.random.default_rng(11)
+    now = datetime.datetime(2018, 8, 1, 11)
+    compared = 0
+    for _ in range(40):
+        n, k = rng.integers(0, 7, size=2)
+        if n + k == 0:
+            continue                     # Stone Soup needs one state to read the time from
+        x = rng.uniform(-5000, 5000, (n, 3))
+        y = rng.uniform(-5000, 5000, (k, 3))
+        c, p = float(rng.uniform(500, 4000)), float(rng.choice([1.0, 2.0]))
+        ours = cp.gospa(x, y, c=c, p=p)
+        metric = GOSPAMetric(c=c, p=p)
+        theirs, _ = metric.compute_gospa_metric(
+            [State(v.reshape(3, 1), timestamp=now) for v in y],
+            [State(v.reshape(3, 1), timestamp=now) for v in x])
+        val = theirs.value
+        assert ours.total == pytest.approx(val["distance"], rel=1e-9, abs=1e-9)
+        assert ours.localisation == pytest.approx(val["localisation"], rel=1e-9, abs=1e-6)
+        assert ours.missed == pytest.approx(val["missed"], rel=1e-9, abs=1e-6)
+        assert ours.false == pytest.approx(val["false"], rel=1e-9, abs=1e-6)
+        compared += int(n > 0 and k > 0)
+    assert compared > 20
+
+
+@pytest.mark.parametrize(("kw", "exc", "match"), [
+    (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0, 0.0]], c=1.0), ValueError, "same dimension"),
+    (dict(x=[[np.nan, 0.0]], y=[[0.0, 0.0]], c=1.0), ValueError, "`x`"),
+    (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0]], c=0.0), ValueError, "`c`"),
+    (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0]], c=1.0, p=0.5), ValueError, "`p`"),
+    (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0]], c=1.0, alpha=1.0), ValueError, "`alpha`"),
+    (dict(x=[0.0, 1.0], y=[[0.0, 0.0]], c=1.0), ValueError, "`x`"),
+    (dict(x="a", y=[[0.0, 0.0]], c=1.0), TypeError, "`x`"),
+])
+def test_gospa_bad_input(kw, exc, match):
+    with pytest.raises(exc, match=match):
+        cp.gospa(**kw)
+
+
+# ----------------------------------------------------------------------------- pipeline
+def test_pipeline_short_window(short):
+    truth, radars, rep = short
+    res = cp.run_pipeline(rep, radars, warmup=12)
+    ev = cp.evaluate(res, truth, c=2000.0)
+    assert set(res.timings) == set(cp.STAGES) and set(ev.timings) == {*cp.STAGES, "metrics"}
+    # registration recovers the offsets to within a few metres and a few hundredths of a degree
+    true_b = np.array([[r.bias_range, r.bias_azimuth] for r in radars])
+    assert np.all(np.abs(res.biases[:, 0] - true_b[:, 0]) < 20.0)
+    assert np.all(np.abs(res.biases[:, 2] - true_b[:, 1]) < math.radians(0.02))
+    assert ev.purity.low > 0.97 and ev.completeness.low > 0.95
+    mean, lo, hi, n = ev.nees
+    assert n > 200 and 0.8 * lo < mean < 1.25 * hi
+    assert ev.recognition.low > 0.75
+    assert np.all(np.isfinite(ev.gospa)) and ev.gospa.size == truth.n_scans
+    assert np.allclose(ev.localisation + ev.missed + ev.false, ev.gospa**2)
+    # without registration the biases make the fused estimates inconsistent and split groups
+    raw = cp.evaluate(cp.run_pipeline(rep, radars, register=False), truth, c=2000.0)
+    assert raw.nees[0] > 2 * mean
+    assert raw.completeness.high < ev.completeness.low
+    assert raw.mean_gospa > ev.mean_gospa
+
+
+@pytest.fixture(scope="module")
+def coarse(traffic):
+    """Coarse, unbiased radars in heavy clutter: the regime where the other stages matter."""
+    truth = cp.truth_scans(traffic, start=1200.0, duration=150.0)
+    radars = cp.default_radars(sigma_beta=math.radians(1.0), sigma_epsilon=math.radians(1.0),
+                               clutter_rate=100.0, bias_range=0.0, bias_azimuth=0.0)
+    rep = cp.simulate_reports(truth, radars, rng=3)
+    base = cp.evaluate(cp.run_pipeline(rep, radars, register=False), truth, c=5000.0)
+    return truth, radars, rep, base
+
+
+def test_ablation_debias(coarse):
+    truth, radars, rep, base = coarse
+    lin = cp.evaluate(cp.run_pipeline(rep, radars, register=False, debias=False), truth,
+                      c=5000.0)
+    # the linearized covariance is too small at 1 degree: NEES far above 3, debiased near 3
+    assert lin.nees[0] > 1.5 * base.nees[0]
+    assert base.nees[1] * 0.8 < base.nees[0] < base.nees[2] * 1.25
+
+
+def test_ablation_features(coarse):
+    truth, radars, rep, base = coarse
+    nof = cp.evaluate(cp.run_pipeline(rep, radars, register=False, use_features=False), truth,
+                      c=5000.0)
+    assert nof.completeness.high < base.completeness.low
+    assert nof.purity.estimate < base.purity.estimate
+
+
+def test_ablation_logdet(coarse):
+    truth, radars, rep, base = coarse
+    nold = cp.evaluate(cp.run_pipeline(rep, radars, register=False, logdet=False), truth,
+                       c=5000.0)
+    assert nold.mean_gospa > base.mean_gospa
+    assert nold.purity.estimate <= base.purity.estimate
+
+
+def test_pipeline_reproducible_and_solver_agree(short):
+    truth, radars, rep = short
+    a = cp.run_pipeline(rep, radars, register=False)
+    b = cp.run_pipeline(rep, radars, register=False)
+    assert np.array_equal(a.members, b.members) and np.array_equal(a.position, b.position)
+    lag = cp.run_pipeline(rep, radars, register=False, method="lagrangian")
+    ea, el = cp.evaluate(a, truth), cp.evaluate(lag, truth)
+    assert abs(ea.purity.estimate - el.purity.estimate) < 0.02
+    assert a.members.shape[0] > 100
+
+
+def test_pipeline_bad_input(short):
+    truth, radars, rep = short
+    with pytest.raises(TypeError, match="`reports`"):
+        cp.run_pipeline(truth, radars)
+    with pytest.raises(TypeError, match="`radars`"):
+        cp.run_pipeline(rep, "radars")
+    with pytest.raises(ValueError, match="`reports`"):
+        cp.run_pipeline(rep, radars[:2])
+    for name, bad in (("debias", 1), ("register", "yes"), ("logdet", None),
+                      ("use_features", 0.0)):
+        with pytest.raises(TypeError, match=f"`{name}`"):
+            cp.run_pipeline(rep, radars, **{name: bad})
+    with pytest.raises(ValueError, match="`warmup`"):
+        cp.run_pipeline(rep, radars, warmup=0)
+    with pytest.raises(ValueError, match="`p_false_reject`"):
+        cp.run_pipeline(rep, radars, p_false_reject=1.5)
+    with pytest.raises(ValueError, match="`method`"):
+        cp.run_pipeline(rep, radars, method="greedy")
+    with pytest.raises(ValueError, match="`min_reports`"):
+        cp.run_pipeline(rep, radars, min_reports=4)
+    res = cp.run_pipeline(rep, radars, register=False)
+    with pytest.raises(TypeError, match="`result`"):
+        cp.evaluate(rep, truth)
+    with pytest.raises(TypeError, match="`truth`"):
+        cp.evaluate(res, rep)
+    with pytest.raises(ValueError, match="`c`"):
+        cp.evaluate(res, truth, c=-1.0)
+    with pytest.raises(ValueError, match="`p`"):
+        cp.evaluate(res, truth, p=0.5)
+    with pytest.raises(ValueError, match="`scope`"):
+        cp.evaluate(res, truth, scope="some")
+    other = cp.truth_scans(cp.load_traffic(), duration=30.0)
+    with pytest.raises(ValueError, match="`truth`"):
+        cp.evaluate(res, other)
