@@ -54,12 +54,13 @@ derives from :class:`Scene`, which reads ``trials``, ``n_objects`` and
 allocated (draw the trials in batches from generators spawned from one
 :class:`numpy.random.SeedSequence`).
 
-The chapters' modules keep their names for these simulators
-(:func:`radarfusion_ref.association.two_radar_clutter_scene`,
-:func:`radarfusion_ref.features.typed_scene`,
-:func:`radarfusion_ref.grouping.grouping_scene` — which names its first argument
-``n_targets`` — and :func:`radarfusion_ref.separated.simulate_polar`); they are
-the functions of this module.
+The chapters' modules keep their names for these simulators:
+:func:`radarfusion_ref.association.two_radar_clutter_scene`,
+:func:`radarfusion_ref.features.typed_scene` and
+:func:`radarfusion_ref.separated.simulate_polar` are this module's functions
+(and classes) under those names; :func:`radarfusion_ref.grouping.grouping_scene`
+is a thin wrapper that names its first argument ``n_targets``. The same seed
+gives the same scenes through either name.
 
 Also here: :func:`nearest_neighbour_pairing` (the naive rule the book starts
 from) and :func:`ellipse_covariance` (a 2-D covariance from its ellipse).

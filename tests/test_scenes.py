@@ -439,3 +439,19 @@ def test_memory_is_refused_before_allocation(call, name):
     msg = str(info.value)
     # the limit, and the scalable route instead (check_size's wording)
     assert f"above the limit of {MEMORY_LIMIT}" in msg and "; use " in msg, msg
+
+
+def test_the_shared_vocabulary_agrees_across_results():
+    two = scenes.two_radar_scene(5, spacing=1.0, sigma1=0.1, sigma2=0.1, trials=7, rng=13)
+    rows = np.arange(two.trials)[:, None]
+    np.testing.assert_array_equal(two.owner2[rows, two.true_row_to_col], two.owner1)
+    typed = scenes.typed_scene(5, spacing=1.0, sigma1=0.1, sigma2=0.1, type_means=[0.0],
+                               type_vars=[1.0], feature_sigma1=0.1, feature_sigma2=0.1,
+                               trials=7, rng=13)
+    np.testing.assert_array_equal(typed.owner2, typed.coords.owner2)
+    np.testing.assert_array_equal(typed.truth, typed.coords.truth)
+    grp = scenes.grouping_scene(4, 3, cov=np.eye(2)[None, None], trials=2, rng=13)
+    assert (grp.n_objects, grp.n_sources, grp.dim, grp.trials) == (4, 3, 2, 2)
+    rep = scenes.simulate_polar(GEO, sigma_r=0.1, sigma_beta=0.01, trials=3, rng=13)
+    np.testing.assert_array_equal(rep.truth[2], GEO.targets)
+    assert (rep.n_objects, rep.dim) == (2, 2)
