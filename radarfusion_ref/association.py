@@ -32,6 +32,17 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
 * :func:`compare_decisions` — the Monte-Carlo decision-level comparison of the
   three procedures used by the chapter.
 
+The solvers themselves live in :mod:`radarfusion_ref.assignment` (the home of
+the 2-D and S-D assignment solvers): :func:`associate_joint`,
+:func:`associate_bruteforce` and :func:`k_best_assignments` call
+:func:`radarfusion_ref.assignment.solve_2d`,
+:func:`radarfusion_ref.assignment.solve_2d_bruteforce` and
+:func:`radarfusion_ref.assignment.k_best_2d`; their results,
+:class:`radarfusion_ref.assignment.Association` and
+:class:`radarfusion_ref.assignment.KBestAssignments`, are importable from here
+too and share the vocabulary ``assignment``, ``cost``, ``lower_bound``,
+``gap``, ``history``, ``exact``.
+
 .. rubric:: References
 
 .. [1] V. M. Grachov, V. A. Korneev, "Method of combining radar information
@@ -47,20 +58,13 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
 
 from __future__ import annotations
 
-import bisect
-import heapq
-import itertools
 import math
 import warnings
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
-from scipy import sparse
-from scipy.optimize import linear_sum_assignment
-from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
-from . import scenes
+from . import assignment, scenes
 from ._validation import (
     MEMORY_LIMIT,
     _describe,
@@ -68,11 +72,27 @@ from ._validation import (
     as_choice,
     as_covariance,
     as_float_array,
-    as_int,
     as_positive,
     as_probability,
     broadcast,
-    check_size,
+)
+from .assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
+    _BLOCK_BYTES,
+    MAX_HYPOTHESES,
+    MAX_K_BEST,
+    MAX_PARTIAL_MATCHINGS,
+    MAX_SCORED_HYPOTHESES,
+    Association,
+    KBestAssignments,
+    _as_cost,
+    _as_miss_cost,
+    _as_threshold,
+    _exponents,
+    _injections,
+    _inverse,
+    _limit,
+    _make_result,
+    _scaled,
 )
 from .errors import RadarFusionWarning
 from .montecarlo import Proportion, proportion
@@ -95,102 +115,8 @@ __all__ = [
     "two_radar_clutter_scene",
 ]
 
-#: Largest number of joint hypotheses of one cost matrix that
-#: :func:`associate_bruteforce` and the exact :func:`association_probabilities`
-#: enumerate (:math:`10! = 3\,628\,800` fits; :math:`n = 11` does not).
-MAX_HYPOTHESES = 4_000_000
-#: Largest number of *partial* matchings :func:`associate_bruteforce` scores
-#: when a gate, a non-assignment cost or forbidden pairs are given (7 x 7 fits).
-MAX_PARTIAL_MATCHINGS = 200_000
-#: Largest number of hypotheses :func:`associate_bruteforce` scores in one call,
-#: summed over a batch of cost matrices (bounds its run time).
-MAX_SCORED_HYPOTHESES = 200_000_000
-#: Largest `k` of :func:`k_best_assignments` (and ``association_probabilities(k=...)``).
-MAX_K_BEST = 100_000
-#: Planned bytes per ranked hypothesis and matrix entry in :func:`k_best_assignments`
-#: (sub-problem matrices kept for pending children): the memory limit is checked
-#: against ``_MURTY_BYTES_PER_NODE * k * n**2``.
-_MURTY_BYTES_PER_NODE = 32
 #: Working copies of the report arrays :func:`two_radar_clutter_scene` makes.
 _SCENE_COPIES = 6
-#: Working memory of one vectorized block of the enumerations, in bytes.
-_BLOCK_BYTES = 1 << 25
-
-
-def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
-    """:func:`check_size`, with the public argument named in the message."""
-    try:
-        return check_size(requested, limit, what=what, alternative=alternative)
-    except ValueError as exc:
-        raise ValueError(f"`{name}`: {exc}") from None
-
-
-def _exponents(c: np.ndarray, *extra: float) -> np.ndarray:
-    """Binary exponents ``e`` (per matrix) with ``|finite entries| < 2**e``.
-
-    The solvers work on ``ldexp(cost, -e)``: a power-of-two scaling is exact,
-    keeps every finite entry below 1 in magnitude, so no sum or difference of
-    a few entries overflows even for costs near the float maximum.
-    """
-    finite = np.where(np.isfinite(c), np.abs(c), 0.0)
-    top = finite.max(axis=(-2, -1)) if c.size else np.zeros(c.shape[:-2])
-    for x in extra:
-        top = np.maximum(top, abs(x))
-    return np.frexp(top)[1]
-
-
-def _scaled(c: np.ndarray, e: np.ndarray) -> np.ndarray:
-    """``c * 2**-e`` per matrix (exact; ``+inf`` stays ``+inf``)."""
-    return np.ldexp(c, -np.asarray(e)[..., None, None])
-
-
-# --------------------------------------------------------------------------- validation
-def _as_cost(cost, name: str = "cost") -> np.ndarray:
-    """Cost matrices ``(..., n1, n2)``: finite or ``+inf``; NaN, ``-inf`` and empty refused."""
-    arr = as_float_array(cost, name, ndim_min=2, allow_nonfinite=True)
-    if arr.shape[-1] == 0 or arr.shape[-2] == 0:
-        raise ValueError(
-            f"`{name}` must have at least one row and one column; received shape {arr.shape}"
-        )
-    if np.any(np.isnan(arr)):
-        raise ValueError(
-            f"`{name}` must not contain NaN (use +inf for a forbidden pair); received "
-            f"{int(np.count_nonzero(np.isnan(arr)))} NaN entries in shape {arr.shape}"
-        )
-    if np.any(arr == -np.inf):
-        raise ValueError(
-            f"`{name}` must not contain -inf (a pair cannot be infinitely likely); received "
-            f"{int(np.count_nonzero(arr == -np.inf))} -inf entries in shape {arr.shape}"
-        )
-    return arr
-
-
-def _as_threshold(threshold, name: str = "threshold") -> float:
-    """A gate: a number > 0; ``+inf`` and None both mean "no gate" (returned as ``+inf``)."""
-    if threshold is None:
-        return np.inf
-    arr = as_float_array(threshold, name, allow_nonfinite=True)
-    if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single number > 0; received shape {arr.shape}")
-    value = float(arr)
-    if math.isnan(value) or value <= 0:
-        raise ValueError(f"`{name}` must be a number > 0 (or +inf for no gate); received {value}")
-    return value
-
-
-def _as_miss_cost(miss_cost, name: str = "miss_cost") -> float | None:
-    """Non-assignment cost: a real number; ``+inf`` means the same as None."""
-    if miss_cost is None:
-        return None
-    arr = as_float_array(miss_cost, name, allow_nonfinite=True)
-    if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single number; received shape {arr.shape}")
-    value = float(arr)
-    if math.isnan(value) or value == -np.inf:
-        raise ValueError(f"`{name}` must be a real number or +inf; received {value}")
-    return None if value == np.inf else value
-
-
 def _scalar(arr: np.ndarray, name: str) -> float:
     """A validated 0-d array as a float (one number expected)."""
     if arr.ndim != 0:
@@ -221,98 +147,6 @@ def _as_decisions(value, name: str) -> np.ndarray:
         raise ValueError(f"`{name}` entries must be column indices >= 0 or -1 (unassigned); "
                          f"received {_describe(value)} (smallest entry {int(arr.min())})")
     return arr
-
-
-# --------------------------------------------------------------------------- result
-@dataclass(frozen=True)
-class Association:
-    """Association decisions for one cost matrix or a batch of them.
-
-    Attributes
-    ----------
-    row_to_col : numpy.ndarray of int, shape (..., n1)
-        ``row_to_col[..., i]`` is the radar-2 report paired with radar-1
-        report ``i``, or -1 if report ``i`` is left unassigned.
-    col_to_row : numpy.ndarray of int, shape (..., n2)
-        The inverse map; -1 for an unassigned radar-2 report.
-    total_cost : numpy.ndarray or float, shape (...)
-        Sum of the costs of the assigned pairs, plus ``miss_cost`` for every
-        unassigned row and every unassigned column when a ``miss_cost`` was
-        given.
-    pairs : numpy.ndarray of int, shape (k, 2)
-        (property, unbatched results only) the assigned pairs ``(i, j)``,
-        sorted by ``i``.
-    unassigned_rows, unassigned_cols : numpy.ndarray of int
-        (properties, unbatched results only) reports left without a partner.
-    n_assigned : numpy.ndarray or int, shape (...)
-        (property) number of assigned pairs.
-    """
-
-    row_to_col: np.ndarray
-    col_to_row: np.ndarray
-    total_cost: np.ndarray | float
-
-    def _single(self, what: str) -> None:
-        if self.row_to_col.ndim != 1:
-            raise ValueError(
-                f"`{what}` is defined for a single cost matrix; this result holds a batch of "
-                f"shape {self.row_to_col.shape[:-1]} (index it with .row_to_col instead)"
-            )
-
-    @property
-    def pairs(self) -> np.ndarray:
-        """Assigned pairs ``(i, j)`` as a ``(k, 2)`` int array, sorted by ``i``."""
-        self._single("pairs")
-        rows = np.flatnonzero(self.row_to_col >= 0)
-        return np.column_stack([rows, self.row_to_col[rows]]).astype(int)
-
-    @property
-    def unassigned_rows(self) -> np.ndarray:
-        """Radar-1 reports left unassigned."""
-        self._single("unassigned_rows")
-        return np.flatnonzero(self.row_to_col < 0)
-
-    @property
-    def unassigned_cols(self) -> np.ndarray:
-        """Radar-2 reports left unassigned."""
-        self._single("unassigned_cols")
-        return np.flatnonzero(self.col_to_row < 0)
-
-    @property
-    def n_assigned(self):
-        """Number of assigned pairs (per batch entry)."""
-        out = np.count_nonzero(self.row_to_col >= 0, axis=-1)
-        return int(out) if np.ndim(out) == 0 else out
-
-
-def _inverse(row_to_col: np.ndarray, n2: int) -> np.ndarray:
-    """``col_to_row`` from ``row_to_col`` (batched, -1 for unassigned)."""
-    batch = row_to_col.shape[:-1]
-    flat = row_to_col.reshape(-1, row_to_col.shape[-1])
-    inv = np.full((flat.shape[0], n2), -1, dtype=int)
-    b, i = np.nonzero(flat >= 0)
-    inv[b, flat[b, i]] = i
-    return inv.reshape(*batch, n2)
-
-
-def _make_result(cost: np.ndarray, row_to_col: np.ndarray, miss_cost: float | None):
-    """Assemble an :class:`Association` (total cost computed from the decisions)."""
-    n1, n2 = cost.shape[-2:]
-    col_to_row = _inverse(row_to_col, n2)
-    assigned = row_to_col >= 0
-    picked = np.take_along_axis(cost, np.where(assigned, row_to_col, 0)[..., None], axis=-1)[..., 0]
-    with np.errstate(over="ignore", invalid="ignore"):
-        total = np.where(assigned, picked, 0.0).sum(axis=-1)
-        if miss_cost is not None:
-            n_un = (n1 - assigned.sum(-1)) + (n2 - np.count_nonzero(col_to_row >= 0, axis=-1))
-            total = total + miss_cost * n_un
-    if not np.all(np.isfinite(total)):
-        raise ValueError(
-            "`cost`: the total cost of the chosen association lies beyond the float range "
-            f"(|total| > {np.finfo(float).max:.3g}); the decisions exist but their sum cannot be "
-            "represented: divide `cost` (and `miss_cost`) by a common factor")
-    total = float(total) if np.ndim(total) == 0 else total
-    return Association(row_to_col, col_to_row, total)
 
 
 # --------------------------------------------------------------------------- pointwise
@@ -403,156 +237,6 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
 
 
 # --------------------------------------------------------------------------- joint (exact)
-def _solve_batch(c: np.ndarray, th: float, miss: float | None) -> np.ndarray:
-    """Optimal ``row_to_col`` for a stack of matrices ``(B, n1, n2)`` (validated inputs).
-
-    Every matrix is turned into one plain rectangular assignment problem
-    (vectorized over the stack), then solved by
-    :func:`scipy.optimize.linear_sum_assignment`; pairs that are not allowed or
-    not worth taking are dropped afterwards. Costs are first scaled by a power
-    of two (exact) so that the working matrix cannot overflow.
-    """
-    nb, n1, n2 = c.shape
-    allowed = (c < th) & np.isfinite(c)              # the gate of eq. (eq-gate): kappa < gamma
-    e = _exponents(c, *(() if miss is None else (miss,)))
-    c = _scaled(c, e)
-    if miss is not None:
-        miss = np.ldexp(miss, -e)[:, None, None]      # per matrix, same scale as its costs
-        # Partial matching with a cost `miss` per unassigned report: a pair is worth
-        # taking only if c < 2*miss, and
-        #   min over partial matchings of sum(c - 2 miss)
-        #     = min over full assignments of sum(min(c - 2 miss, 0)),
-        # so one rectangular assignment of the clipped matrix is exact (no augmentation).
-        work = np.where(allowed, np.minimum(c - 2.0 * miss, 0.0), 0.0)     # |work| < 4
-        useful = allowed & (work < 0)
-    elif allowed.all():
-        work, useful = c, allowed                 # the plain complete assignment
-    else:
-        # Maximum number of allowed pairs first, then the smallest cost among those:
-        # forbidden pairs get a cost larger than any possible saving, so every
-        # assignment with fewer forbidden pairs is cheaper (exact lexicographic order).
-        lo = np.min(c, axis=(1, 2), where=allowed, initial=np.inf)
-        hi = np.max(c, axis=(1, 2), where=allowed, initial=-np.inf)
-        lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
-        big = (min(n1, n2) + 1) * (hi - lo + 1.0)            # hi - lo < 2 after scaling
-        work = np.where(allowed, c - lo[:, None, None], big[:, None, None])
-        useful = allowed
-    k = min(n1, n2)
-    rows = np.empty((nb, k), dtype=int)
-    cols = np.empty((nb, k), dtype=int)
-    for b in range(nb):
-        rows[b], cols[b] = linear_sum_assignment(work[b])
-    keep = useful[np.arange(nb)[:, None], rows, cols]
-    out = np.full((nb, n1), -1, dtype=int)
-    bb, kk = np.nonzero(keep)
-    out[bb, rows[bb, kk]] = cols[bb, kk]
-    return out
-
-
-# --------------------------------------------------------------------------- joint (sparse, gated)
-def _as_sparse_cost(cost, name: str = "cost"):
-    """A scipy.sparse cost matrix as canonical CSR: 2-D, real, finite stored entries."""
-    shape = cost.shape
-    if len(shape) != 2:
-        raise ValueError(f"`{name}` (sparse) must be a 2-D matrix (n1, n2); received shape "
-                         f"{shape}")
-    if shape[0] == 0 or shape[1] == 0:
-        raise ValueError(f"`{name}` must have at least one row and one column; received shape "
-                         f"{shape}")
-    if cost.dtype.kind not in "iuf":
-        raise TypeError(f"`{name}` (sparse) must hold real numbers; received dtype {cost.dtype}")
-    csr = sparse.csr_array(cost, dtype=float, copy=True)
-    csr.sum_duplicates()                       # scipy's meaning of repeated (i, j) entries
-    data = csr.data
-    if np.any(np.isnan(data)):
-        raise ValueError(
-            f"`{name}` (sparse) must not store NaN: a forbidden pair is one left out of the "
-            f"matrix; received {int(np.count_nonzero(np.isnan(data)))} stored NaN entries")
-    if not np.all(np.isfinite(data)):
-        bad = int(np.count_nonzero(~np.isfinite(data)))
-        raise ValueError(
-            f"`{name}` (sparse) must store finite costs only: a missing entry already forbids "
-            f"the pair, so +inf is never stored, and -inf (an infinitely likely pair) is "
-            f"refused; received {bad} infinite stored entries")
-    return csr
-
-
-def _solve_sparse(csr, th: float, miss: float | None) -> np.ndarray:
-    """Optimal ``row_to_col`` of one gated sparse problem (validated inputs).
-
-    The partial matching with a cost per unassigned report is the full matching
-    of the rows into the columns plus one private dummy column per row:
-
-    * an allowed pair (i, j) is an edge of weight :math:`c_{ij} - 2 c_0`, the
-      dummy edge (i, n2 + i) has weight 0 — so the matching cost is
-      :math:`\\sum_{\\text{pairs}} c_{ij} + c_0 (\\#\\text{unassigned rows} +
-      \\#\\text{unassigned columns}) - c_0 (n_1 + n_2)`; pairs with
-      :math:`c_{ij} \\ge 2 c_0` are never worth taking and are left out;
-    * with no `miss_cost`, the largest number of pairs first: the dummy weight is
-      larger than any saving among pairs (the lexicographic order of the dense
-      solver).
-
-    Every full matching saturates the n1 rows, so adding one constant to every
-    weight keeps the optimum and makes all weights >= 1 (LAPJVsp needs non-zero
-    weights). Solved by :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`.
-    """
-    n1, n2 = csr.shape
-    rows = np.repeat(np.arange(n1), np.diff(csr.indptr))
-    cols = csr.indices
-    c = csr.data
-    keep = c < th
-    if miss is not None:
-        keep &= c < 2.0 * miss                 # scaled below; the comparison is exact in 2**k
-    rows, cols, c = rows[keep], cols[keep], c[keep]
-    out = np.full(n1, -1, dtype=int)
-    if c.size == 0:
-        return out
-    e = int(np.frexp(max(float(np.max(np.abs(c))), 0.0 if miss is None else abs(miss)))[1])
-    c = np.ldexp(c, -e)                        # exact: every |entry| < 1
-    if miss is not None:
-        gain = np.ldexp(2.0 * miss, -e) - c    # > 0: what taking the pair saves, < 4
-        w_pair = float(np.max(gain)) + 1.0 - gain
-        w_dummy = float(np.max(gain)) + 1.0
-    else:
-        lo, hi = float(np.min(c)), float(np.max(c))
-        w_pair = c - lo + 1.0                  # in [1, 3)
-        w_dummy = 2.0 * (min(n1, n2) + 1) * (hi - lo + 1.0) + 1.0
-    graph = sparse.csr_array(
-        (np.concatenate([w_pair, np.full(n1, w_dummy)]),
-         (np.concatenate([rows, np.arange(n1)]), np.concatenate([cols, n2 + np.arange(n1)]))),
-        shape=(n1, n1 + n2))
-    r, col = min_weight_full_bipartite_matching(graph)
-    real = col < n2
-    out[r[real]] = col[real]
-    return out
-
-
-def _associate_sparse(cost, threshold, miss_cost) -> Association:
-    """:func:`associate_joint` for a scipy.sparse matrix of gated pair costs."""
-    csr = _as_sparse_cost(cost)
-    th = _as_threshold(threshold)
-    miss = _as_miss_cost(miss_cost)
-    n1, n2 = csr.shape
-    _limit(24 * (csr.nnz + n1), MEMORY_LIMIT, name="cost", what="bytes of the sparse graph",
-           alternative="a tighter gate (fewer stored pairs)")
-    row_to_col = _solve_sparse(csr, th, miss)
-    assigned = row_to_col >= 0
-    # the chosen pairs' stored costs: canonical CSR keys row * n2 + col are sorted
-    keys = np.repeat(np.arange(n1, dtype=np.int64), np.diff(csr.indptr)) * n2 + csr.indices
-    want = np.flatnonzero(assigned).astype(np.int64) * n2 + row_to_col[assigned]
-    picked = csr.data[np.searchsorted(keys, want)]
-    col_to_row = _inverse(row_to_col, n2)
-    with np.errstate(over="ignore", invalid="ignore"):
-        total = float(np.sum(picked))
-        if miss is not None:
-            total += miss * float((n1 - assigned.sum()) + (n2 - assigned.sum()))
-    if not math.isfinite(total):
-        raise ValueError(
-            "`cost`: the total cost of the chosen association lies beyond the float range; "
-            "divide `cost` (and `miss_cost`) by a common factor")
-    return Association(row_to_col, col_to_row, total)
-
-
 def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     """The joint maximum-likelihood association: an exact linear assignment.
 
@@ -651,65 +335,10 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     >>> associate_joint(gated).pairs.tolist()
     [[0, 1], [1, 0]]
     """
-    if sparse.issparse(cost):
-        return _associate_sparse(cost, threshold, miss_cost)
-    c = _as_cost(cost)
-    th = _as_threshold(threshold)
-    miss = _as_miss_cost(miss_cost)
-    n1, n2 = c.shape[-2:]
-    flat = c.reshape(-1, n1, n2)
-    out = _solve_batch(flat, th, miss)
-    return _make_result(c, out.reshape(*c.shape[:-2], n1), miss)
+    return assignment.solve_2d(cost, threshold=threshold, miss_cost=miss_cost)
 
 
 # --------------------------------------------------------------------------- brute force
-@lru_cache(maxsize=16)
-def _permutations(n: int) -> np.ndarray:
-    """All ``n!`` permutations of ``range(n)``, one per row (int8, read-only)."""
-    perms = np.zeros((1, 0), dtype=np.int8)
-    for k in range(n):
-        m = perms.shape[0]
-        out = np.empty((m * (k + 1), k + 1), dtype=np.int8)
-        for pos in range(k + 1):
-            block = out[pos * m:(pos + 1) * m]
-            block[:, :pos] = perms[:, :pos]
-            block[:, pos] = k
-            block[:, pos + 1:] = perms[:, pos:]
-        perms = out
-    perms.setflags(write=False)
-    return perms
-
-
-@lru_cache(maxsize=16)
-def _injections(n1: int, n2: int) -> np.ndarray:
-    """All ``n2! / (n2 - n1)!`` injective maps rows -> columns (n1 <= n2)."""
-    if n1 == n2:
-        return _permutations(n1)
-    out = np.array(list(itertools.permutations(range(n2), n1)), dtype=np.int8).reshape(-1, n1)
-    out.setflags(write=False)
-    return out
-
-
-@lru_cache(maxsize=16)
-def _partial_matchings(n1: int, n2: int) -> np.ndarray:
-    """Every partial matching as a ``row_to_col`` vector with -1 for unassigned."""
-    rows = []
-    for k in range(min(n1, n2) + 1):
-        for rsel in itertools.combinations(range(n1), k):
-            for cperm in itertools.permutations(range(n2), k):
-                v = [-1] * n1
-                for r, cc in zip(rsel, cperm, strict=True):
-                    v[r] = cc
-                rows.append(v)
-    out = np.array(rows, dtype=np.int8).reshape(-1, n1)
-    out.setflags(write=False)
-    return out
-
-
-def _n_partial(n1: int, n2: int) -> int:
-    return sum(math.comb(n1, k) * math.perm(n2, k) for k in range(min(n1, n2) + 1))
-
-
 def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
     """The joint ML association by enumerating every joint hypothesis.
 
@@ -750,142 +379,10 @@ def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association
     >>> associate_bruteforce([[0.5, 0.1], [0.2, 3.0]]).row_to_col
     array([1, 0])
     """
-    c = _as_cost(cost)
-    th = _as_threshold(threshold)
-    miss = _as_miss_cost(miss_cost)
-    n1, n2 = c.shape[-2:]
-    batch = c.shape[:-2]
-    flat = c.reshape(-1, n1, n2)
-    nb = flat.shape[0]
-    allowed = (flat < th) & np.isfinite(flat)
-    # Plain complete assignment: enumerate permutations. With a gate, a miss cost or
-    # forbidden (+inf) pairs, score every partial matching instead.
-    simple = th == np.inf and miss is None and bool(np.all(np.isfinite(flat)))
-    if simple:
-        transpose = n1 > n2
-        a, b = min(n1, n2), max(n1, n2)
-        count = _limit(math.perm(b, a), MAX_HYPOTHESES, name="cost",
-                       what=f"joint hypotheses (n!-type count for a {n1} x {n2} matrix)",
-                       alternative="associate_joint (exact linear assignment, O(n^3))")
-    else:
-        count = _limit(_n_partial(n1, n2), MAX_PARTIAL_MATCHINGS, name="cost",
-                       what=f"partial matchings (gated or with a miss cost, {n1} x {n2} matrix)",
-                       alternative="associate_joint (exact linear assignment, O(n^3))")
-    _limit(nb * count, MAX_SCORED_HYPOTHESES, name="cost",
-           what=f"hypotheses to score over a batch of {nb} matrices",
-           alternative="associate_joint (exact linear assignment, O(n^3))")
-    e = _exponents(flat, *(() if miss is None else (miss,)))
-    scaled = _scaled(flat, e)                         # exact; sums of n entries cannot overflow
-    if simple:
-        work = np.swapaxes(scaled, 1, 2) if transpose else scaled
-        hyps = _injections(a, b)
-        best = np.full(nb, np.inf)
-        best_k = np.zeros(nb, dtype=int)
-        idx = np.arange(a)
-        chunk = max(1, _BLOCK_BYTES // (8 * a * nb))   # bounded memory per block
-        for start in range(0, hyps.shape[0], chunk):
-            h = hyps[start:start + chunk]
-            tot = work[:, idx, h].sum(axis=-1)            # (nb, chunk)
-            k = tot.argmin(axis=1)
-            v = tot[np.arange(nb), k]
-            better = v < best
-            best[better] = v[better]
-            best_k[better] = start + k[better]
-        chosen = hyps[best_k].astype(int)                 # (nb, a)
-        out = _inverse(chosen, n1) if transpose else chosen
-        return _make_result(c, out.reshape(*batch, n1), None)
-
-    hyps = _partial_matchings(n1, n2).astype(int)         # (H, n1)
-    used = hyps >= 0
-    safe = np.maximum(hyps, 0)
-    npairs = used.sum(axis=1)
-    out = np.full((nb, n1), -1, dtype=int)
-    for t in range(nb):
-        ct = np.where(allowed[t], scaled[t], np.inf)
-        vals = np.where(used, ct[np.arange(n1), safe], 0.0)
-        ok = np.all(np.isfinite(vals), axis=1)
-        total = vals.sum(axis=1)
-        if miss is not None:
-            m_t = np.ldexp(miss, -e[t])
-            score = np.where(ok, total + m_t * (n1 + n2 - 2 * npairs), np.inf)
-        else:
-            top = npairs[ok].max()
-            score = np.where(ok & (npairs == top), total, np.inf)
-        out[t] = hyps[int(np.argmin(score))]
-    return _make_result(c, out.reshape(*batch, n1), miss)
+    return assignment.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss_cost)
 
 
 # --------------------------------------------------------------------------- Murty k-best
-@dataclass(frozen=True)
-class KBestAssignments:
-    """The best joint hypotheses in order of increasing cost.
-
-    Attributes
-    ----------
-    assignments : numpy.ndarray of int, shape (k_found, n1)
-        ``assignments[r]`` is the ``row_to_col`` vector of the ``r``-th best
-        complete assignment (every row assigned when ``n1 <= n2``; otherwise
-        -1 marks the ``n1 - n2`` rows left out).
-    costs : numpy.ndarray, shape (k_found,)
-        Their total costs, non-decreasing.
-    solved : int
-        Number of assignment sub-problems solved exactly (a measure of work).
-    """
-
-    assignments: np.ndarray
-    costs: np.ndarray
-    solved: int
-
-    @property
-    def k(self) -> int:
-        """Number of assignments found (fewer than asked if fewer exist)."""
-        return int(self.costs.shape[0])
-
-
-def _reduced_costs(m: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Reduced costs certifying the diagonal of ``m`` as an optimal assignment.
-
-    ``m`` is ``(s, s)`` with ``+inf`` for forbidden pairs and an optimal
-    assignment on its diagonal. Column potentials ``v`` with
-    ``v_j - v_i <= m_ij - m_ii`` are found by Bellman–Ford (vectorized; an
-    optimum has no negative cycle), started from ``v0`` — any finite start
-    converges, and a parent's potentials converge in a few sweeps. With
-    ``u_i = m_ii - v_i`` the reduced costs ``m_ij - u_i - v_j`` are >= 0 and vanish on
-    the diagonal.
-
-    Returns
-    -------
-    red : numpy.ndarray, shape (s, s)
-        Reduced costs, clipped at 0, with ``+inf`` on the diagonal (an
-        assignment's own pairs are excluded from the bounds).
-    v : numpy.ndarray, shape (s,)
-        The column potentials (a warm start for the children).
-    """
-    s = m.shape[0]
-    diag = np.diagonal(m)
-    w = m - diag[:, None]                     # edge i -> j (column i is held by row i)
-    tol = 1e-12 * (1.0 + float(np.abs(diag).max()))
-    v = v0
-    for _ in range(s + 1):
-        nv = np.min(v[:, None] + w, axis=0)
-        if not (nv < v - tol).any():
-            break
-        v = np.minimum(v, nv)
-    red = w + v[:, None]
-    red -= v
-    np.maximum(red, 0.0, out=red)
-    red.flat[::s + 1] = np.inf
-    return red, v
-
-
-@lru_cache(maxsize=64)
-def _not_upper(s: int) -> np.ndarray:
-    """``+inf`` on and below the diagonal, 0 above (cached, read-only)."""
-    out = np.where(np.triu(np.ones((s, s), dtype=bool), 1), 0.0, np.inf)
-    out.setflags(write=False)
-    return out
-
-
 def k_best_assignments(cost, k) -> KBestAssignments:
     """Rank the `k` best complete assignments (joint hypotheses): Murty's algorithm.
 
@@ -947,127 +444,7 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     >>> r.assignments.tolist(), r.costs.tolist()
     ([[1, 0], [0, 1]], [4.0, 6.0])
     """
-    c = _as_cost(cost)
-    if c.ndim != 2:
-        raise ValueError(f"`cost` must be a single matrix (n1, n2); received shape {c.shape}")
-    k = as_int(k, "k", minimum=1)
-    _limit(k, MAX_K_BEST, name="k", what="ranked hypotheses",
-           alternative="association_probabilities(cost) (exact, small n) or fewer hypotheses")
-    n1, n2 = c.shape
-    b0 = max(n1, n2)
-    _limit(_MURTY_BYTES_PER_NODE * k * b0 * b0, MEMORY_LIMIT, name="k",
-           what=f"bytes of Murty sub-problems (about {_MURTY_BYTES_PER_NODE} k n^2 for k = {k}, "
-                f"n = {b0})",
-           alternative="a smaller `k`, or associate_joint for the best hypothesis alone")
-    transpose = n1 > n2
-    e = int(_exponents(c))
-    work = _scaled(c.T if transpose else c, e)             # exact power-of-two scaling
-    a, b = work.shape                                      # a <= b real rows
-    square = np.zeros((b, b))
-    square[:a] = work
-    is_real = np.arange(b) < a
-
-    out_assign: list[np.ndarray] = []
-    out_cost: list[float] = []
-    counter = itertools.count()
-    solved = 0
-
-    def solve(mat):
-        try:
-            r, cc = linear_sum_assignment(mat)
-        except ValueError:            # "cost matrix is infeasible"
-            return None
-        return cc, float(mat[r, cc].sum())
-
-    root = solve(square)
-    solved += 1
-    heap: list = []
-    exact_pending: list[float] = []     # sorted costs of solved, not yet output, nodes
-    # An exact node: (row_ids, col_ids, matrix, fixed, offset, cols, v0) -- the
-    # sub-problem's rows/columns (original indices), its matrix, the pairs fixed above it
-    # (a chain (previous, rows, cols) shared with its siblings), their cost, its optimal
-    # column per row, and a warm start for its duals.
-    # A pending child: (parent, t) -- solved only when its lower bound reaches the front.
-    if root is not None:
-        cols, total = root
-        node = (np.arange(b), np.arange(b), square, None, 0.0, cols, np.zeros(b))
-        heapq.heappush(heap, (total, next(counter), True, node))
-        exact_pending.append(total)
-    while heap and len(out_assign) < k:
-        bound, _, exact, node = heapq.heappop(heap)
-        if not exact:
-            (row_ids, col_ids, pm, fixed, offsets, v), t = node
-            sub = pm[t:, t:].copy()
-            sub[0, 0] = np.inf
-            res = solve(sub)
-            solved += 1
-            if res is None:
-                continue
-            cols, total = res
-            child = (row_ids[t:], col_ids[t:], sub, (fixed, row_ids[:t], col_ids[:t]),
-                     offsets[t], cols, v[t:])
-            heapq.heappush(heap, (offsets[t] + total, next(counter), True, child))
-            bisect.insort(exact_pending, offsets[t] + total)
-            continue
-        exact_pending.pop(0)
-        row_ids, col_ids, mat, fixed, offset, cols, v0 = node
-        out_assign.append((fixed, row_ids, col_ids[cols]))
-        out_cost.append(bound)
-        need = k - len(out_assign)
-        if need == 0:
-            break
-        real = is_real[row_ids]
-        m_real = int(np.count_nonzero(real))
-        if m_real == 0:
-            continue
-        # Solved nodes already queued give an upper bound on the k-th best cost: a
-        # child whose lower bound exceeds it can never be output.
-        upper = exact_pending[need - 1] if len(exact_pending) >= need else np.inf
-        # Solution on the diagonal, then reduced costs.
-        pm = mat[:, cols]
-        red, v = _reduced_costs(pm, v0[cols])
-        # Partition order (Miller et al.): real rows whose children are likely needed
-        # (small bound) go last, where their sub-problems are smallest; dummies after.
-        loose = red.min(axis=1) + red.min(axis=0)
-        if m_real == len(real):
-            order = np.argsort(-loose, kind="stable")
-        else:
-            idx_real = np.flatnonzero(real)
-            order = np.concatenate([idx_real[np.argsort(-loose[idx_real], kind="stable")],
-                                    np.flatnonzero(~real)])
-        pm, red = pm[order][:, order], red[order][:, order]
-        mask = _not_upper(red.shape[0])
-        row_min = np.min(red + mask, axis=1)      # row r_t to a column s_tau, tau > t
-        col_min = np.min(red + mask.T, axis=0)    # column s_t from a row r_tau, tau > t
-        lb = (bound - 1e-9 * (1.0 + abs(bound))) + (row_min + col_min)[:m_real]
-        keep = np.flatnonzero(lb <= upper)
-        if keep.size == 0:
-            continue
-        # child t's fixed cost: this node's offset plus its first t diagonal entries
-        offsets = (offset + np.concatenate([[0.0], np.cumsum(np.diagonal(pm))])).tolist()
-        parent = (row_ids[order], col_ids[cols][order], pm, fixed, offsets, v[order])
-        for t, val in zip(keep.tolist(), lb[keep].tolist(), strict=True):
-            heapq.heappush(heap, (val, next(counter), False, (parent, t)))
-
-    rows_out = []
-    for fixed, rids, cids in out_assign:
-        full = np.empty(b, dtype=int)
-        full[rids] = cids
-        while fixed is not None:
-            fixed, frows, fcols = fixed
-            full[frows] = fcols
-        rows_out.append(full[:a])
-    out_assign = rows_out
-    assign = np.array(out_assign, dtype=int).reshape(-1, a)
-    if transpose:
-        assign = _inverse(assign, n1) if assign.size else np.empty((0, n1), dtype=int)
-    with np.errstate(over="ignore"):
-        costs = np.ldexp(np.array(out_cost, dtype=float), e)
-    if not np.all(np.isfinite(costs)):
-        raise ValueError(
-            "`cost`: a ranked hypothesis's total cost lies beyond the float range "
-            f"(|total| > {np.finfo(float).max:.3g}); divide `cost` by a common factor")
-    return KBestAssignments(assign, costs, solved)
+    return assignment.k_best_2d(cost, k)
 
 
 # --------------------------------------------------------------------------- marginals

@@ -116,4 +116,5 @@ def test_the_net_covers_the_package():
     modules = {q.split(".")[0] for q, _, _ in FUNCTIONS}
     assert len(FUNCTIONS) >= 60, len(FUNCTIONS)
     assert {"fusion", "proximity", "gating", "association", "features", "conversion",
-            "separated", "grouping", "checks", "montecarlo", "scenes"} <= modules
+            "separated", "grouping", "checks", "montecarlo", "scenes",
+            "assignment"} <= modules

@@ -1,0 +1,297 @@
+"""Tests of radarfusion_ref.assignment (the 2-D and S-D assignment solvers).
+
+Reference values come from independent routes:
+
+* 2-D: the dense solver, the sparse solver and enumeration of every (partial)
+  matching must agree on the same gated problem; the plain complete problem is
+  also checked against ``scipy.optimize.linear_sum_assignment`` directly;
+* S-D: enumeration of all :math:`(n!)^{m-1}` groupings (``itertools`` here, not
+  the package's enumeration) and an exact-cover search over explicit
+  candidate groups written out in this file; the Lagrangian's bound must lie
+  below that optimum and its gap must be the proved one;
+* the result vocabulary: every result type satisfies the ``AssignmentResult``
+  protocol with the same meanings.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import sparse
+from scipy.optimize import linear_sum_assignment
+
+from radarfusion_ref import assignment as asg
+from radarfusion_ref import association, grouping
+
+
+# ---------------------------------------------------------------- independent references
+def brute_2d(c, miss=None):
+    """Best partial matching (fewest forbidden pairs) by enumeration; +inf = forbidden."""
+    n1, n2 = c.shape
+    best_v = (np.inf, np.inf)
+    for k in range(min(n1, n2) + 1):
+        for rows in itertools.combinations(range(n1), k):
+            for cols in itertools.permutations(range(n2), k):
+                vals = [c[r, q] for r, q in zip(rows, cols, strict=True)]
+                if not np.all(np.isfinite(vals)):
+                    continue
+                total = float(sum(vals))
+                key = (-k, total) if miss is None else (0, total + miss * (n1 + n2 - 2 * k))
+                best_v = min(best_v, key)
+    return best_v[1]
+
+
+def brute_sd_tensor(c):
+    """Optimal total of a full S-D tensor by enumerating (n!)^(m-1) groupings."""
+    m, n = c.ndim, c.shape[0]
+    best = np.inf
+    for perms in itertools.product(itertools.permutations(range(n)), repeat=m - 1):
+        total = sum(c[(j, *(p[j] for p in perms))] for j in range(n))
+        best = min(best, total)
+    return best
+
+
+def exact_cover(T, c, counts):
+    """Optimal total of explicit candidate groups by a depth-first exact-cover search."""
+    m = T.shape[1]
+    nodes = [(i, j) for i in range(m) for j in range(counts[i])]
+    holds = {nd: [k for k in range(T.shape[0]) if T[k, nd[0]] == nd[1]] for nd in nodes}
+    best = [np.inf]
+
+    def go(covered, total):                      # no pruning: costs may be negative
+        free = [nd for nd in nodes if nd not in covered]
+        if not free:
+            best[0] = min(best[0], total)
+            return
+        nd = free[0]
+        for k in holds[nd]:
+            mine = {(i, int(T[k, i])) for i in range(m) if T[k, i] >= 0}
+            if mine & covered:
+                continue
+            go(covered | mine, total + c[k])
+
+    go(frozenset(), 0.0)
+    return best[0]
+
+
+def gated(rng, n1, n2, p_keep):
+    c = rng.uniform(0.0, 10.0, size=(n1, n2))
+    keep = rng.random((n1, n2)) < p_keep
+    return np.where(keep, c, np.inf)
+
+
+def to_sparse(c):
+    r, q = np.nonzero(np.isfinite(c))
+    return sparse.csr_array((c[r, q], (r, q)), shape=c.shape)
+
+
+# ---------------------------------------------------------------- 2-D
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 6), st.integers(1, 6), st.floats(0.2, 1.0), st.integers(0, 2**31),
+       st.sampled_from([None, 1.5, 4.0]))
+def test_dense_equals_sparse_equals_bruteforce_on_gated_problems(n1, n2, p_keep, seed, miss):
+    c = gated(np.random.default_rng(seed), n1, n2, p_keep)
+    dense = asg.solve_2d(c, miss_cost=miss)
+    sp = asg.solve_2d(to_sparse(c), miss_cost=miss)
+    ref = brute_2d(c, miss)
+    assert np.array_equal(dense.row_to_col, sp.row_to_col)
+    assert dense.cost == pytest.approx(ref, rel=1e-12, abs=1e-12)
+    assert sp.cost == pytest.approx(ref, rel=1e-12, abs=1e-12)
+    if n1 * n2 <= 25:
+        bf = asg.solve_2d_bruteforce(c, miss_cost=miss)
+        assert bf.cost == pytest.approx(ref, rel=1e-12, abs=1e-12)
+        assert np.array_equal(bf.row_to_col, dense.row_to_col)   # continuous costs: no ties
+
+
+def test_plain_dense_equals_scipy_and_threshold_equals_forbidden():
+    rng = np.random.default_rng(3)
+    c = rng.uniform(0, 5, size=(7, 9))
+    r, q = linear_sum_assignment(c)
+    res = asg.solve_2d(c)
+    assert np.array_equal(res.row_to_col[r], q) and res.cost == pytest.approx(c[r, q].sum())
+    gate = 2.0
+    a = asg.solve_2d(c, threshold=gate)
+    b = asg.solve_2d(np.where(c < gate, c, np.inf))
+    assert np.array_equal(a.row_to_col, b.row_to_col)
+    assert np.all(c[np.flatnonzero(a.row_to_col >= 0), a.row_to_col[a.row_to_col >= 0]] < gate)
+
+
+def test_association_functions_are_the_assignment_solvers():
+    rng = np.random.default_rng(4)
+    c = gated(rng, 5, 6, 0.6)
+    for f, g in ((association.associate_joint, asg.solve_2d),
+                 (association.associate_bruteforce, asg.solve_2d_bruteforce)):
+        a, b = f(c, miss_cost=3.0), g(c, miss_cost=3.0)
+        assert np.array_equal(a.row_to_col, b.row_to_col) and a.total_cost == b.total_cost
+    k1, k2 = association.k_best_assignments(c[:, :5], 4), asg.k_best_2d(c[:, :5], 4)
+    assert np.array_equal(k1.assignments, k2.assignments) and np.array_equal(k1.costs, k2.costs)
+    assert association.Association is asg.Association
+    assert association.KBestAssignments is asg.KBestAssignments
+
+
+def test_k_best_ranks_every_assignment_in_order():
+    c = np.random.default_rng(5).uniform(0, 3, size=(4, 4))
+    kb = asg.k_best_2d(c, 24)
+    brute = sorted(sum(c[i, p[i]] for i in range(4)) for p in itertools.permutations(range(4)))
+    np.testing.assert_allclose(kb.costs, brute, rtol=1e-12)
+    assert kb.k == 24 and len({tuple(a) for a in kb.assignments.tolist()}) == 24
+
+
+# ---------------------------------------------------------------- S-D
+@settings(max_examples=25, deadline=None)
+@given(st.integers(2, 4), st.integers(0, 2**31))
+def test_sd_milp_lagrangian_and_bruteforce_agree_on_small_tensors(n, seed):
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(0.0, 10.0, size=(n, n, n))
+    opt = brute_sd_tensor(c)
+    milp = asg.solve_sd(c)
+    bf = asg.solve_sd_bruteforce(c)
+    assert milp.cost == pytest.approx(opt, rel=1e-9) and bf.cost == pytest.approx(opt, rel=1e-9)
+    assert milp.exact and bf.exact and milp.gap == 0.0
+    lag = asg.solve_sd(c, method="lagrangian", gap=0.05)
+    # a proved bound: below the true optimum; the gap is the one proved
+    assert lag.lower_bound <= opt + 1e-9 * max(1.0, abs(opt))
+    assert lag.cost >= opt - 1e-9 * max(1.0, abs(opt))
+    assert lag.gap == pytest.approx(max(0.0, (lag.cost - lag.lower_bound)
+                                        / max(abs(lag.cost), 1.0)))
+    assert lag.gap <= 0.05
+    tight = asg.solve_sd(c, method="lagrangian", gap=1e-9)
+    assert tight.cost == pytest.approx(opt, rel=1e-9)
+    for r in (milp, bf, lag):      # a grouping: one report of each source per group
+        assert np.array_equal(np.sort(r.assignment, axis=0), np.tile(np.arange(n)[:, None],
+                                                                     (1, 3)))
+        assert r.cost == pytest.approx(sum(c[tuple(g)] for g in r.assignment), rel=1e-12)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31), st.floats(0.3, 0.9))
+def test_sd_gated_candidates_with_missing_reports_match_exact_cover(seed, p_keep):
+    rng = np.random.default_rng(seed)
+    counts = [3, 2, 3]
+    full = [t for t in itertools.product(*[range(-1, k) for k in counts]) if max(t) >= 0]
+    lone = [t for t in full if sum(v >= 0 for v in t) == 1]       # every report may stay alone
+    rest = [t for t in full if sum(v >= 0 for v in t) > 1 and rng.random() < p_keep]
+    T = np.array(lone + rest)
+    c = np.where(np.sum(T >= 0, axis=1) == 1, 2.0, rng.uniform(-6.0, 3.0, size=len(T)))
+    opt = exact_cover(T, c, counts)
+    for method in ("milp", "lagrangian"):
+        r = asg.solve_sd(c, T, method=method, gap=0.02)
+        assert r.lower_bound <= opt + 1e-9 * max(1.0, abs(opt))
+        assert opt - 1e-9 * max(1.0, abs(opt)) <= r.cost
+        assert r.gap <= 0.02
+        assert r.cost == pytest.approx(c[r.chosen].sum())
+        used = np.concatenate([np.flatnonzero(np.isin(np.arange(k), r.assignment[:, i]))
+                               for i, k in enumerate(counts)])
+        assert used.size == sum(counts)                        # every report exactly once
+    assert asg.solve_sd(c, T).cost == pytest.approx(opt, rel=1e-9, abs=1e-9)
+
+
+def test_sd_full_tensor_with_forbidden_groups_equals_bruteforce():
+    rng = np.random.default_rng(8)
+    c = rng.uniform(0, 4, size=(3, 3, 3))
+    c[rng.random(c.shape) < 0.5] = np.inf
+    c[0, 0, 0] = c[1, 1, 1] = c[2, 2, 2] = 5.0               # one grouping always exists
+    opt = brute_sd_tensor(c)
+    assert asg.solve_sd(c).cost == pytest.approx(opt)
+    assert asg.solve_sd(c, method="lagrangian", gap=1e-6).cost == pytest.approx(opt)
+    assert asg.solve_sd_bruteforce(c).cost == pytest.approx(opt)
+
+
+def test_group_sd_and_group_bruteforce_go_through_the_solvers():
+    x = np.array([[[0.0], [5.0], [9.0]], [[5.3], [0.1], [9.2]], [[0.2], [4.9], [8.7]]])
+    cov = np.ones((3, 3, 1, 1))
+    tensor = grouping.group_costs(x, cov)
+    g = grouping.group_sd(x, cov)
+    s = asg.solve_sd(tensor)
+    assert np.array_equal(g.groups, s.assignment) and g.cost == pytest.approx(s.cost)
+    b = grouping.group_bruteforce(x, cov)
+    assert np.array_equal(b.groups, asg.solve_sd_bruteforce(tensor).assignment)
+
+
+# ---------------------------------------------------------------- one vocabulary
+def test_every_result_speaks_the_same_vocabulary():
+    c = np.array([[1.0, 2.0], [2.0, 5.0]])
+    x = np.array([[[0.0], [5.0]], [[5.3], [0.1]], [[0.2], [4.9]]])
+    results = [asg.solve_2d(c), asg.k_best_2d(c, 2), asg.solve_sd(np.ones((2, 2, 2))),
+               grouping.group_sd(x, np.ones((3, 2, 1, 1))),
+               grouping.group_sd(x, np.ones((3, 2, 1, 1)), method="lagrangian",
+                                 p_false_reject=1e-3)]
+    for r in results:
+        assert isinstance(r, asg.AssignmentResult), type(r)
+        assert np.all(np.asarray(r.lower_bound) <= np.asarray(r.cost) + 1e-12)
+        assert r.exact == bool(np.all(np.asarray(r.gap) == 0.0))
+    a, kb, sd, gm, gl = results
+    assert np.array_equal(a.assignment, a.row_to_col) and a.cost == a.total_cost == 4.0 \
+        and a.history is None
+    assert np.array_equal(kb.assignment, kb.assignments) and np.array_equal(kb.cost, kb.costs)
+    assert sd.cost == 2.0 and sd.method == "milp"
+    assert np.array_equal(gm.assignment, gm.groups) and gm.exact
+    assert gl.history is not None and gl.history.shape[1] == 2
+
+
+# ---------------------------------------------------------------- bad input
+@pytest.mark.parametrize("g", [0.0, 1.0, -0.1, 1.5, np.nan, [0.1, 0.2]])
+def test_gap_outside_the_open_unit_interval_is_refused(g):
+    with pytest.raises(ValueError, match="`gap`"):
+        asg.solve_sd(np.ones((2, 2, 2)), method="lagrangian", gap=g)
+    x = np.array([[[0.0], [5.0]], [[5.3], [0.1]], [[0.2], [4.9]]])
+    with pytest.raises(ValueError, match="`gap`"):
+        grouping.group_sd(x, np.ones((3, 2, 1, 1)), method="lagrangian", gap=g)
+
+
+def test_sparse_costs_with_nan_or_infinite_stored_entries_are_refused():
+    for bad, what in ((np.nan, "NaN"), (np.inf, "finite"), (-np.inf, "finite")):
+        m = sparse.csr_array(([1.0, bad], ([0, 1], [0, 1])), shape=(2, 2))
+        with pytest.raises(ValueError, match=rf"`cost`.*{what}"):
+            asg.solve_2d(m)
+    with pytest.raises(TypeError, match="`cost`"):
+        asg.solve_2d(sparse.csr_array(np.array([[1 + 1j]])))
+
+
+@pytest.mark.parametrize(("call", "exc", "name"), [
+    (lambda: asg.solve_2d([[np.nan, 1.0]]), ValueError, "cost"),
+    (lambda: asg.solve_2d([[-np.inf, 1.0]]), ValueError, "cost"),
+    (lambda: asg.solve_2d([[1.0]], threshold=0.0), ValueError, "threshold"),
+    (lambda: asg.solve_2d([[1.0]], miss_cost=np.nan), ValueError, "miss_cost"),
+    (lambda: asg.k_best_2d([[1.0]], 0), ValueError, "k"),
+    (lambda: asg.k_best_2d([[1.0]], 1.5), TypeError, "k"),
+    (lambda: asg.solve_2d_bruteforce(np.ones((11, 11))), ValueError, "cost"),
+    (lambda: asg.solve_sd(np.ones((2, 3, 2))), ValueError, "cost"),
+    (lambda: asg.solve_sd(np.full((2, 2, 2), np.nan)), ValueError, "cost"),
+    (lambda: asg.solve_sd(np.ones((2, 2, 2)), method="greedy"), ValueError, "method"),
+    (lambda: asg.solve_sd(np.ones((2, 2, 2)), max_iter=0), ValueError, "max_iter"),
+    (lambda: asg.solve_sd(np.ones((2, 2, 2)), relaxation="yes"), TypeError, "relaxation"),
+    (lambda: asg.solve_sd(np.ones((2, 2, 2)), counts=[2, 2, 2]), ValueError, "counts"),
+    (lambda: asg.solve_sd([1.0], [[0, -2]]), ValueError, "candidates"),
+    (lambda: asg.solve_sd([1.0], [[-1, -1]]), ValueError, "candidates"),
+    (lambda: asg.solve_sd([1.0], [[0.5, 1]]), TypeError, "candidates"),
+    (lambda: asg.solve_sd([1.0, 2.0], [[0, 0]]), ValueError, "cost"),
+    (lambda: asg.solve_sd([np.inf], [[0, 0]]), ValueError, "cost"),
+    (lambda: asg.solve_sd([1.0], [[0, 0]], counts=[0, 1]), ValueError, "counts"),
+    (lambda: asg.solve_sd(np.ones((12,) * 6)), ValueError, "cost"),
+    (lambda: asg.solve_sd_bruteforce(np.ones((6,) * 5)), ValueError, "cost"),
+    (lambda: asg.solve_sd_bruteforce(np.full((2, 2), np.inf)), ValueError, "cost"),
+])
+def test_bad_input_names_the_argument(call, exc, name):
+    with pytest.raises(exc, match=f"`{name}`"):
+        call()
+
+
+def test_infeasible_gated_sd_names_the_source():
+    # source 2's report 1 is in no candidate group
+    T = np.array([[0, 0, 0], [1, 1, 0], [0, 1, 0]])
+    with pytest.raises(ValueError, match=r"`candidates`.*report\(s\) \[1\] of source 2"):
+        asg.solve_sd([1.0, 1.0, 1.0], T, counts=[2, 2, 2])
+    # every report is covered, but no exact cover exists: a cluster lacks a report of source 1
+    T = np.array([[0, 0, 0], [1, 0, 1]])
+    with pytest.raises(ValueError, match=r"`candidates`.*source \d"):
+        asg.solve_sd([1.0, 1.0], T, counts=[2, 1, 2])
+    c = np.full((2, 2, 2), np.inf)
+    c[0, 0, 0] = c[1, 0, 1] = 1.0                       # source 1's report 1 never grouped
+    for method in ("milp", "lagrangian"):
+        with pytest.raises(ValueError, match=r"`cost`.*source 1"):
+            asg.solve_sd(c, method=method)
