@@ -120,9 +120,10 @@ SPEED_CLASSES = ("slow", "medium", "fast")
 SPEED_BOUNDS = (440.0, 465.0)
 #: Gaussian type model of the speed feature (kt, kt^2) used by the recognition step
 #: (:func:`radarfusion_ref.features.type_posterior`): the class means and variances of
-#: the ground speed over the committed hour, rounded.
-SPEED_TYPE_MEANS = (422.0, 452.0, 481.0)
-SPEED_TYPE_VARS = (15.0**2, 7.0**2, 13.0**2)
+#: the ground speed over the committed hour's 10-s scan positions (standard deviations
+#: 39.0, 7.0 and 10.7 kt; the slow class has a long tail of slower aircraft).
+SPEED_TYPE_MEANS = (419.0, 451.0, 479.5)
+SPEED_TYPE_VARS = (39.0**2, 7.0**2, 10.7**2)
 #: Span (kt) over which false reports draw their speed feature, uniformly.
 _FEATURE_SPAN = (300.0, 600.0)
 #: Altitudes (m, common frame) between which false reports are placed, uniformly.

@@ -200,6 +200,18 @@ def test_truth_at_record_times_equals_records(traffic):
     assert tr.n_scans == 360
 
 
+def test_speed_type_model_matches_the_hour(traffic):
+    """The stated class means and deviations are those of the committed hour (rounded)."""
+    tr = cp.truth_scans(traffic, duration=3600.0)
+    lo, hi = cp.SPEED_BOUNDS
+    for k, sel in enumerate((tr.speed < lo, (tr.speed >= lo) & (tr.speed < hi),
+                             tr.speed >= hi)):
+        assert np.array_equal(sel, tr.speed_class == k)
+        assert tr.speed[sel].mean() == pytest.approx(cp.SPEED_TYPE_MEANS[k], abs=0.5)
+        assert tr.speed[sel].std() == pytest.approx(math.sqrt(cp.SPEED_TYPE_VARS[k]), abs=0.1)
+        assert 0.3 < sel.mean() < 0.37          # about the tertiles
+
+
 def test_truth_gap_is_not_bridged(tmp_path):
     head = ",".join(cp._HEADER)
     rows = ["0,aaaaaa,A,4680000,820000,35000,450,90", "10,aaaaaa,A,4680100,820000,35000,450,90",
