@@ -427,8 +427,15 @@ def group_costs(x, cov, *, cost: str = "ml") -> np.ndarray:
     cost : {"ml", "pairwise"}, optional
         ``"ml"`` (default): minus twice the log marginal likelihood that the
         group's reports come from one target, with the constant
-        :math:`(m-1)d\\log 2\\pi` dropped. ``"pairwise"``: the paper's sum of
-        the pairwise quadratic forms.
+        :math:`(m-1)d\\ln 2\\pi` dropped: every grouping has the same :math:`n`
+        groups of :math:`m` reports, so the constant is the same for every
+        grouping and cannot change a decision (the package's rule: a constant
+        of the full :math:`-2\\ln f` is dropped only where every hypothesis
+        holds the same number of groups; :func:`group_sd` with the dummy
+        index, where group sizes differ, adds :math:`(|S|-1)d\\ln 2\\pi` back,
+        as ``association.proximity_matrix(..., logdet=True)`` and
+        ``separated.pair_statistic(..., logdet=True)`` include it for a pair).
+        ``"pairwise"``: the paper's sum of the pairwise quadratic forms.
 
     Returns
     -------

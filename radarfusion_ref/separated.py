@@ -773,11 +773,17 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
 
     Notes
     -----
-    For a pairing :math:`\\pi` the negative log-likelihood (up to a constant) is
+    For a pairing :math:`\\pi` the negative log-likelihood is
 
     .. math::
 
-        -2\\ln L(\\pi) = \\sum_i \\bigl[\\kappa_{i\\pi(i)} + \\ln\\det(\\Sigma_{1i} + \\Sigma_{2\\pi(i)})\\bigr],
+        -2\\ln L(\\pi) = \\sum_i \\bigl[\\kappa_{i\\pi(i)} + \\ln\\det(\\Sigma_{1i} + \\Sigma_{2\\pi(i)})\\bigr]
+        + 2n\\ln 2\\pi,
+
+    whose last term, the same for every complete pairing, is dropped (the
+    package's rule: a constant of the full :math:`-2\\ln f` is dropped only
+    where every hypothesis holds the same number of pairs; the per-pair cost
+    ``pair_statistic(..., logdet=True)`` keeps its :math:`2\\ln 2\\pi`),
 
     and the rule picks :math:`\\hat\\pi = \\arg\\min_\\pi`. Under the true
     pairing the sum of the :math:`\\kappa` is :math:`\\chi^2(2n)`.

@@ -1049,3 +1049,51 @@ def test_dummy_index_needs_the_ml_cost_and_one_scene():
     kw = dict(p_detect=0.9, false_density=0.1, object_density=1.0)
     _raises_naming(["cost"], grouping.group_sd, GOOD_X, GOOD_COV, cost="pairwise", **kw)
     _raises_naming(["x"], grouping.group_sd, np.zeros((2, 2, 3, 2)), GOOD_COV, **kw)
+
+
+# ---------------------------------------------------------------- one ML cost (2 pi) across modules
+def _stacked_neg2_logpdf(reports, covs):
+    """-2 ln of the flat-prior marginal likelihood of one group, by scipy: the density of
+    the stacked differences a_i - a_0 (i >= 1), N(0, C_0 + diag(C_1, ..., C_{m-1}))."""
+    m, d = len(reports), reports[0].shape[0]
+    D = np.concatenate([reports[i] - reports[0] for i in range(1, m)])
+    S = np.kron(np.ones((m - 1, m - 1)), covs[0])
+    for i in range(1, m):
+        S[(i - 1) * d:i * d, (i - 1) * d:i * d] += covs[i]
+    return -2.0 * stats.multivariate_normal(np.zeros(D.size), S).logpdf(D)
+
+
+@pytest.mark.parametrize(("m", "d"), [(2, 1), (2, 2), (3, 2), (4, 3)])
+def test_ml_group_cost_is_the_stacked_density_less_its_documented_constant(m, d):
+    """group_costs(cost="ml") = -2 ln f - (m - 1) d ln 2 pi, f from scipy.stats.multivariate_normal."""
+    g = np.random.default_rng(10 * m + d)
+    n = 2
+    x = g.normal(size=(m, n, d)) * 3.0
+    M = g.normal(size=(m, n, d, d))
+    cov = M @ np.swapaxes(M, -1, -2) + 0.3 * np.eye(d)
+    tensor = grouping.group_costs(x, cov)
+    for t in itertools.product(range(n), repeat=m):
+        ref = _stacked_neg2_logpdf([x[i, t[i]] for i in range(m)], [cov[i, t[i]] for i in range(m)])
+        assert tensor[t] + (m - 1) * d * np.log(2 * np.pi) == pytest.approx(ref, rel=1e-10)
+
+
+def test_dummy_index_group_costs_carry_the_full_density_with_its_2pi():
+    """With missed detections the groups differ in size, so the 2 pi term is kept: a group of
+    the sources S costs -2 ln(rho_T prod_S P_D prod_not-S (1 - P_D) f_S), f_S by scipy."""
+    g = np.random.default_rng(3)
+    m, d = 3, 2
+    xs = [g.normal(size=(2, d)) * 0.5 for _ in range(m)]
+    cs = [np.stack([np.eye(d) * (0.2 + 0.1 * k + 0.05 * i) for k in range(2)]) for i in range(m)]
+    pd, rf, rt = np.array([0.9, 0.8, 0.7]), np.array([0.01, 0.02, 0.03]), 0.05
+    det = {"p_detect": pd, "false_density": rf, "object_density": np.asarray(rt)}
+    T, c = grouping._scene_candidates(xs, cs, cost="ml", gamma=None, det=det)
+    checked = 0
+    for t, cost in zip(T, c, strict=True):
+        S = [i for i in range(m) if t[i] >= 0]
+        if len(S) < 2:
+            continue
+        dens = _stacked_neg2_logpdf([xs[i][t[i]] for i in S], [cs[i][t[i]] for i in S])
+        prior = rt * np.prod([pd[i] if i in S else 1 - pd[i] for i in range(m)])
+        assert cost == pytest.approx(dens - 2 * np.log(prior), rel=1e-10)
+        checked += 1
+    assert checked > 0

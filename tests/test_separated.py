@@ -856,3 +856,27 @@ def test_pair_kernel_is_the_shared_kernel_and_equals_the_hand_formula_and_linalg
                 C = cov[0, i, t] + cov[1, j, t]
                 assert s[i, j, t] == pytest.approx(d @ np.linalg.solve(C, d), rel=1e-9)
                 assert ld[i, j, t] == pytest.approx(np.linalg.slogdet(C)[1], rel=1e-9, abs=1e-12)
+
+
+def test_the_full_ml_pair_cost_is_one_cost_in_association_separated_and_grouping():
+    """kappa + ln det(2 pi S): association.proximity_matrix(logdet=True),
+    pair_statistic(logdet=True) and group_costs (m = 2) + 2 ln 2 pi all equal
+    -2 ln N(x1 - x2; 0, S) from scipy.stats.multivariate_normal."""
+    from radarfusion_ref import association, grouping
+
+    g = np.random.default_rng(21)
+    x1, x2 = g.normal(size=(3, 2)) * 2.0, g.normal(size=(4, 2)) * 2.0
+    s1, s2 = g.uniform(0.3, 2.0, size=3), g.uniform(0.3, 2.0, size=4)
+    cov1 = s1[:, None, None] ** 2 * np.eye(2)
+    cov2 = s2[:, None, None] ** 2 * np.eye(2)
+    a = association.proximity_matrix(x1, x2, s1, s2, logdet=True)
+    p = sep.pair_statistic(x1, cov1, x2, cov2, logdet=True)
+    for i in range(3):
+        for j in range(4):
+            S = cov1[i] + cov2[j]
+            ref = -2.0 * stats.multivariate_normal(np.zeros(2), S).logpdf(x1[i] - x2[j])
+            grp = grouping.group_costs(np.stack([x1[i:i + 1], x2[j:j + 1]]),
+                                       np.stack([cov1[i:i + 1], cov2[j:j + 1]])).item()
+            assert a[i, j] == pytest.approx(ref, rel=1e-12)
+            assert p[i, j] == pytest.approx(ref, rel=1e-12)
+            assert grp + 2 * np.log(2 * np.pi) == pytest.approx(ref, rel=1e-10)
