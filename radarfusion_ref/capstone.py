@@ -58,7 +58,7 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from . import conversion, features, fusion, gating, grouping, registration
+from . import assignment, conversion, features, fusion, gating, grouping, registration
 from ._validation import (
     _describe,
     as_bool,
@@ -841,7 +841,6 @@ def _group_all(reports, x, cov, radars, opts, timings):
     p_lo = opts["p_false_reject"]
     gamma = float(stats.chi2.isf(p_lo, d))
     p2 = float(stats.chi2.sf(gamma, 2))          # 2-D gate no tighter than the d-D one
-    det = grouping._detection_iv(m, pd_, false_density, object_density)
     bounds = np.searchsorted(reports.scan, np.arange(reports.n_scans + 1))
     group_of = np.full(n, -1, dtype=np.int64)
     members = []
@@ -877,7 +876,9 @@ def _group_all(reports, x, cov, radars, opts, timings):
                     false_density=false_density[active], object_density=object_density)
                 g = res.groups
             else:
-                g = _group_without_logdet(xs, cs, gamma, det, active, opts)
+                sub = {"p_detect": pd_[active], "false_density": false_density[active],
+                       "object_density": object_density}
+                g = _group_without_logdet(xs, cs, gamma, sub, opts)
             tg = np.full((g.shape[0], m), -1, dtype=np.int64)
             for c, i in enumerate(active):
                 ok = g[:, c] >= 0
@@ -905,35 +906,54 @@ def _group_all(reports, x, cov, radars, opts, timings):
     return group_of, allm
 
 
-def _group_without_logdet(xs, cs, gamma, det, active, opts):
-    """S-D grouping whose ML cost has ln|2 pi S| replaced by its median (the ablation)."""
+def _group_without_logdet(xs, cs, gamma, det, opts, *, median=True):
+    """S-D grouping whose ML cost has ln|2 pi S| replaced by its median (the ablation).
+
+    The candidate groups and costs are those of :func:`radarfusion_ref.grouping.group_sd`
+    with the dummy index (same gate, same detection terms); only the log-determinant part
+    of each group's ML cost, :math:`\\ln|W| + \\sum_i \\ln|C_i|` with
+    :math:`W = \\sum_i C_i^{-1}`, is replaced by its median over the candidate groups of
+    the same size. The exact S-D problem is then solved by
+    :func:`radarfusion_ref.assignment.solve_sd`.
+    """
     counts = [xi.shape[0] for xi in xs]
-    ma = len(xs)
-    d = xs[0].shape[1]
-    gates = {}
-    for i in range(ma):
-        for k in range(i + 1, ma):
-            gates[i, k] = grouping._pair_statistics(xs[i], cs[i], xs[k], cs[k]) <= gamma
+    ma, d = len(xs), xs[0].shape[1]
+    gates = {(i, k): grouping._pair_statistics(xs[i], cs[i], xs[k], cs[k]) <= gamma
+             for i in range(ma) for k in range(i + 1, ma)}
     T = grouping._gated_tuples(gates, counts, True)
-    c_ml, cnt = grouping._tuple_ml_costs(xs, cs, T, 0.0)
-    ld = np.zeros(T.shape[0])
-    info = np.zeros((T.shape[0], d, d))
+    K = T.shape[0]
+    info = np.zeros((K, d, d))
+    b = np.zeros((K, d))
+    cnt = np.sum(T >= 0, axis=1)
+    inv = [np.linalg.inv(c) for c in cs]
+    for i in range(ma):
+        p = T[:, i] >= 0
+        info[p] += inv[i][T[p, i]]
+        b[p] += np.einsum("kab,kb->ka", inv[i][T[p, i]], xs[i][T[p, i]])
+    xhat = np.linalg.solve(info, b[..., None])[..., 0]
+    q = np.zeros(K)
+    for i in range(ma):
+        p = T[:, i] >= 0
+        r = xs[i][T[p, i]] - xhat[p]
+        q[p] += np.einsum("ka,kab,kb->k", r, inv[i][T[p, i]], r)
+    ld = np.linalg.slogdet(info)[1]
     for i in range(ma):
         p = T[:, i] >= 0
         ld[p] += np.linalg.slogdet(cs[i][T[p, i]])[1]
-        info[p] += np.linalg.inv(cs[i][T[p, i]])
-    ld += np.linalg.slogdet(info)[1]
-    for k in np.unique(cnt[cnt >= 2]):
+    for k in np.unique(cnt[cnt >= 2]) if median else ():
         sel = cnt == k
-        ld[sel] -= np.median(ld[sel])
-    c_ml = np.where(cnt >= 2, c_ml - ld, c_ml)
-    sub = {k: (v[active] if k != "object_density" else v) for k, v in det.items()}
-    c, keep = grouping._detection_costs(c_ml, cnt, T, sub, d)
-    T, c = T[keep], c[keep]
-    chosen, *_ = grouping._solve_candidates(
-        T, c, counts, dummy=True, method=opts["method"], gap=0.01, max_iter=100,
-        time_limit=None, why="pair gate, no ln|S| term")
-    return T[chosen]
+        ld[sel] = np.median(ld[sel])                     # constant within each group size
+    pd_, rf, rt = det["p_detect"], det["false_density"], det["object_density"]
+    present = T >= 0
+    miss_others = np.array([np.sum(np.log1p(-np.delete(pd_, i))) for i in range(ma)])
+    lone = -2.0 * np.logaddexp(np.log(rf), np.log(rt) + np.log(pd_) + miss_others)
+    group = (q + ld + (cnt - 1) * d * math.log(2 * math.pi) - 2.0 * math.log(rt)
+             - 2.0 * np.where(present, np.log(pd_), 0.0).sum(axis=1)
+             - 2.0 * np.where(present, 0.0, np.log1p(-pd_)).sum(axis=1))
+    cost = np.where(cnt == 1, lone[np.argmax(present, axis=1)], group)
+    keep = np.isfinite(cost)
+    res = assignment.solve_sd(cost[keep], T[keep], counts=counts, method=opts["method"])
+    return res.assignment
 
 
 def run_pipeline(reports, radars, *, debias=True, register=True, logdet=True,
