@@ -115,8 +115,6 @@ __all__ = [
     "two_radar_clutter_scene",
 ]
 
-#: Working copies of the report arrays :func:`two_radar_clutter_scene` makes.
-_SCENE_COPIES = 6
 def _scalar(arr: np.ndarray, name: str) -> float:
     """A validated 0-d array as a float (one number expected)."""
     if arr.ndim != 0:
