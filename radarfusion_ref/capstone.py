@@ -60,6 +60,7 @@ from scipy.optimize import linear_sum_assignment
 
 from . import assignment, conversion, features, fusion, gating, grouping, registration
 from ._validation import (
+    MEMORY_LIMIT,
     _describe,
     as_bool,
     as_choice,
@@ -67,6 +68,7 @@ from ._validation import (
     as_int,
     as_probability,
     as_rng,
+    check_size,
 )
 from .montecarlo import Proportion, proportion
 
@@ -1180,6 +1182,9 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0) -> GospaResult:
     if a != 2.0:
         raise ValueError(f"`alpha` must be 2 (the decomposable GOSPA); received {alpha!r}")
     n, k = x.shape[0], y.shape[0]
+    check_size(8 * 3 * n * k * max(x.shape[1], 1), MEMORY_LIMIT,
+               what=f"bytes of the distance matrix of {n} x {k} points (`x`, `y`)",
+               alternative="scoring smaller sets (one scan at a time, or spatial regions)")
     loc, assigned = 0.0, 0
     if n and k:
         dist = np.linalg.norm(x[:, None, :] - y[None, :, :], axis=-1)
@@ -1243,11 +1248,11 @@ class Evaluation:
         return float(np.mean(self.gospa))
 
     def parts_rms(self) -> dict:
-        """Root of the mean (over scans) of each part and of the total, in metres."""
-        return {k: float(np.sqrt(np.mean(getattr(self, k)) ** (2.0 / self.p) if self.p != 2
-                                 else np.mean(getattr(self, k))))
-                for k in ("localisation", "missed", "false")} | {
-            "total": float(np.mean(self.gospa ** self.p) ** (1.0 / self.p))}
+        """Each part and the total as a length: the p-th root of its mean over scans (m)."""
+        out = {k: float(np.mean(getattr(self, k)) ** (1.0 / self.p))
+               for k in ("localisation", "missed", "false")}
+        out["total"] = float(np.mean(self.gospa ** self.p) ** (1.0 / self.p))
+        return out
 
 
 def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:

@@ -375,6 +375,12 @@ def test_gospa_bad_input(kw, exc, match):
         cp.gospa(**kw)
 
 
+def test_gospa_refuses_huge_sets_before_allocating():
+    x = np.lib.stride_tricks.as_strided(np.zeros(1), shape=(200_000, 3), strides=(0, 0))
+    with pytest.raises(ValueError, match=r"`x`, `y`.*one scan at a time"):
+        cp.gospa(x, x, c=1.0)
+
+
 # ----------------------------------------------------------------------------- pipeline
 def test_pipeline_short_window(short):
     truth, radars, rep = short
