@@ -31,7 +31,9 @@ radar measures range, azimuth (counter-clockwise from east, as in
 position relative to its own common-frame position. A real radar measures in
 its own local frame, which is rotated against the common one (by the meridian
 convergence, about 0.7° per degree of longitude here); a fusion centre undoes
-that known rotation before fusing, and the simulation leaves it out.
+that known rotation before fusing, and the simulation leaves it out. The three
+radars scan at the same instants (every `period` seconds), so the reports of one
+scan describe the aircraft at one time, as S-D grouping assumes.
 
 .. rubric:: References
 

@@ -404,6 +404,22 @@ def test_pipeline_short_window(short):
     assert raw.mean_gospa > ev.mean_gospa
 
 
+def test_missed_aircraft_are_the_detection_model_s(short):
+    """GOSPA's missed count agrees with the chance that fewer than two covering radars detect."""
+    truth, radars, rep = short
+    ev = cp.evaluate(cp.run_pipeline(rep, radars, warmup=12), truth, c=2000.0)
+    observed = float(np.sum(ev.missed) / (ev.c**2 / 2))
+    cov = np.stack([cp._coverage_count(truth.position, [r]) > 0 for r in radars])
+    pd = np.array([r.p_detect for r in radars])[:, None]
+    none = np.prod(np.where(cov, 1 - pd, 1), axis=0)
+    one = sum(np.where(cov[i], pd[i], 0) * np.prod(np.where(cov & (np.arange(3)[:, None] != i),
+                                                             1 - pd, 1), axis=0)
+              for i in range(3))
+    p = (none + one)[cov.sum(axis=0) >= 2]
+    z = (observed - p.sum()) / math.sqrt(np.sum(p * (1 - p)))
+    assert p.size > 400 and abs(z) < 5
+
+
 @pytest.fixture(scope="module")
 def coarse(traffic):
     """Coarse, unbiased radars in heavy clutter: the regime where the other stages matter."""
