@@ -32,6 +32,14 @@ def short(traffic):
     return truth, radars, cp.simulate_reports(truth, radars, rng=7)
 
 
+@pytest.fixture(scope="module")
+def short_runs(short):
+    """The pipeline on `short`: registered (warm-up = the 12 scans) and unregistered."""
+    _, radars, rep = short
+    return (cp.run_pipeline(rep, radars, warmup=12),
+            cp.run_pipeline(rep, radars, register=False))
+
+
 # ----------------------------------------------------------------------------- data
 def test_committed_file_hash_and_size():
     raw = cp.DATA_FILE.read_bytes()
@@ -382,9 +390,9 @@ def test_gospa_refuses_huge_sets_before_allocating():
 
 
 # ----------------------------------------------------------------------------- pipeline
-def test_pipeline_short_window(short):
-    truth, radars, rep = short
-    res = cp.run_pipeline(rep, radars, warmup=12)
+def test_pipeline_short_window(short, short_runs):
+    truth, radars, _ = short
+    res, unregistered = short_runs
     ev = cp.evaluate(res, truth, c=2000.0)
     assert set(res.timings) == set(cp.STAGES) and set(ev.timings) == {*cp.STAGES, "metrics"}
     # registration recovers the offsets to within a few metres and a few hundredths of a degree
@@ -398,16 +406,16 @@ def test_pipeline_short_window(short):
     assert np.all(np.isfinite(ev.gospa)) and ev.gospa.size == truth.n_scans
     assert np.allclose(ev.localisation + ev.missed + ev.false, ev.gospa**2)
     # without registration the biases make the fused estimates inconsistent and split groups
-    raw = cp.evaluate(cp.run_pipeline(rep, radars, register=False), truth, c=2000.0)
+    raw = cp.evaluate(unregistered, truth, c=2000.0)
     assert raw.nees[0] > 2 * mean
     assert raw.completeness.high < ev.completeness.low
     assert raw.mean_gospa > ev.mean_gospa
 
 
-def test_missed_aircraft_are_the_detection_model_s(short):
+def test_missed_aircraft_are_the_detection_model_s(short, short_runs):
     """GOSPA's missed count agrees with the chance that fewer than two covering radars detect."""
-    truth, radars, rep = short
-    ev = cp.evaluate(cp.run_pipeline(rep, radars, warmup=12), truth, c=2000.0)
+    truth, radars, _ = short
+    ev = cp.evaluate(short_runs[0], truth, c=2000.0)
     observed = float(np.sum(ev.missed) / (ev.c**2 / 2))
     cov = np.stack([cp._coverage_count(truth.position, [r]) > 0 for r in radars])
     pd = np.array([r.p_detect for r in radars])[:, None]
@@ -478,18 +486,24 @@ def test_logdet_ablation_costs_are_group_sds(coarse):
         assert key(ours) == key(ref) and len(ref) > 50
 
 
-def test_pipeline_reproducible_and_solver_agree(short):
-    truth, radars, rep = short
-    a = cp.run_pipeline(rep, radars, register=False)
+def test_pipeline_reproducible_and_solver_agree(short, short_runs):
+    _, radars, rep = short
+    a = short_runs[1]
     b = cp.run_pipeline(rep, radars, register=False)
     assert np.array_equal(a.members, b.members) and np.array_equal(a.position, b.position)
-    lag = cp.run_pipeline(rep, radars, register=False, method="lagrangian")
-    ea, el = cp.evaluate(a, truth), cp.evaluate(lag, truth)
-    assert abs(ea.purity.estimate - el.purity.estimate) < 0.02
     assert a.members.shape[0] > 100
+    # the Lagrangian solver (1 % gap) groups the first four scans as the exact MILP does
+    keep = rep.scan < 4
+    sub = cp.Reports(**{f: getattr(rep, f)[keep] for f in
+                        ("scan", "radar", "r", "beta", "epsilon", "feature", "source")},
+                     n_scans=4)
+    exact = cp.run_pipeline(sub, radars, register=False)
+    lag = cp.run_pipeline(sub, radars, register=False, method="lagrangian")
+    same = {tuple(r) for r in exact.members.tolist()} & {tuple(r) for r in lag.members.tolist()}
+    assert len(same) >= 0.98 * exact.members.shape[0] > 60
 
 
-def test_pipeline_bad_input(short):
+def test_pipeline_bad_input(short, short_runs):
     truth, radars, rep = short
     with pytest.raises(TypeError, match="`reports`"):
         cp.run_pipeline(truth, radars)
@@ -509,7 +523,7 @@ def test_pipeline_bad_input(short):
         cp.run_pipeline(rep, radars, method="greedy")
     with pytest.raises(ValueError, match="`min_reports`"):
         cp.run_pipeline(rep, radars, min_reports=4)
-    res = cp.run_pipeline(rep, radars, register=False)
+    res = short_runs[1]
     with pytest.raises(TypeError, match="`result`"):
         cp.evaluate(rep, truth)
     with pytest.raises(TypeError, match="`truth`"):
