@@ -961,23 +961,24 @@ def _run_on_cluster(client, experiment, points, tasks, trials, seed, place, fail
                           [i for i, _, _ in batch], [u for _, _, u in batch],
                           pure=False, **shared)
 
-    def outcome(future, result, task):
-        if future.status == "error":
-            raise failed(task, result[1]) from result[1]
-        if future.status == "cancelled" or isinstance(result, BaseException):
-            raise failed(task, result if isinstance(result, BaseException)
-                         else RuntimeError("the task was cancelled"))
-        place(task, result)
-        bar.update()
+    def settle(batch):
+        """Place the finished futures of `batch` (fetched in one gather), or raise."""
+        for future in batch:
+            if future.status != "finished":
+                task = pending.get(future, tasks[0])
+                exc = (future.exception() if future.status == "error" else
+                       RuntimeError(f"the task ended with status {future.status!r}"))
+                raise failed(task, exc) from exc
+        for future, result in zip(batch, client.gather(batch), strict=True):
+            place(pending.pop(future, tasks[0]), result)
+            bar.update()
 
-    first = submit(tasks[:1])[0]
-    for future, result in as_completed([first], with_results=True, raise_errors=False):
-        outcome(future, result, tasks[0])
-    pending = dict(zip(submit(tasks[1:]), tasks[1:], strict=True)) if len(tasks) > 1 else {}
+    pending: dict = {}
+    settle(list(as_completed(submit(tasks[:1]))))
+    pending.update(zip(submit(tasks[1:]), tasks[1:], strict=True))
     try:
-        for future, result in as_completed(list(pending), with_results=True,
-                                           raise_errors=False):
-            outcome(future, result, pending.pop(future))
+        for batch in as_completed(list(pending)).batches():
+            settle(batch)
     finally:
         if pending:
             client.cancel(list(pending))
