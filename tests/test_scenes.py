@@ -370,6 +370,7 @@ def test_grouping_old_name_keeps_its_first_argument_name():
 
 GEO = separated.paper_geometry(0.0, -5.0)
 BASE = {
+    "two_radar_scene": ((3,), dict(spacing=1.0, sigma1=0.1, sigma2=0.1)),
     "two_radar_clutter_scene": ((3,), dict(spacing=1.0, sigma1=0.1, sigma2=0.1)),
     "typed_scene": ((3,), dict(spacing=1.0, sigma1=0.1, sigma2=0.1, type_means=[0.0, 1.0],
                                type_vars=[1.0, 1.0], feature_sigma1=0.1, feature_sigma2=0.1)),
@@ -377,6 +378,20 @@ BASE = {
     "simulate_polar": ((GEO,), dict(sigma_r=0.1, sigma_beta=0.01)),
 }
 BAD = [
+    ("two_radar_scene", "n_objects", 0, ValueError),
+    ("two_radar_scene", "n_objects", 2.5, TypeError),
+    ("two_radar_scene", "spacing", [1.0, 2.0], ValueError),
+    ("two_radar_scene", "spacing", np.nan, ValueError),
+    ("two_radar_scene", "layout", 3, ValueError),
+    ("two_radar_scene", "sigma1", np.inf, ValueError),
+    ("two_radar_scene", "sigma2", "0.1", TypeError),
+    ("two_radar_scene", "trials", True, TypeError),
+    ("two_radar_scene", "dim", 0, ValueError),
+    ("two_radar_scene", "rng", "seed", TypeError),
+    ("two_radar_clutter_scene", "n_objects", -1, ValueError),
+    ("two_radar_clutter_scene", "spacing", 0.0, ValueError),
+    ("two_radar_clutter_scene", "sigma1", -0.1, ValueError),
+    ("two_radar_clutter_scene", "trials", 0, ValueError),
     ("two_radar_clutter_scene", "p_detect1", 1.5, ValueError),
     ("two_radar_clutter_scene", "p_detect2", np.nan, ValueError),
     ("two_radar_clutter_scene", "p_detect2", [0.5, 0.5], ValueError),
@@ -393,6 +408,15 @@ BAD = [
     ("typed_scene", "feature_sigma2", [0.1, 0.2], ValueError),
     ("typed_scene", "model", "mixed", ValueError),
     ("typed_scene", "spacing", -1.0, ValueError),
+    ("typed_scene", "n_objects", 0, ValueError),
+    ("typed_scene", "layout", "ring", ValueError),
+    ("typed_scene", "sigma1", 0.0, ValueError),
+    ("typed_scene", "sigma2", np.nan, ValueError),
+    ("typed_scene", "trials", -2, ValueError),
+    ("typed_scene", "dim", 1.5, TypeError),
+    ("typed_scene", "rng", np.random.RandomState(1), TypeError),
+    ("grouping_scene", "n_objects", 0, ValueError),
+    ("grouping_scene", "rng", "seed", TypeError),
     ("grouping_scene", "n_sources", 0, ValueError),
     ("grouping_scene", "cov", np.ones((2, 2)), ValueError),
     ("grouping_scene", "cov", -np.eye(2)[None, None], ValueError),
@@ -413,7 +437,7 @@ BAD = [
 def test_bad_input_is_refused_by_name(name, arg, value, exc):
     counts, kwargs = BASE[name]
     counts, kwargs = list(counts), dict(kwargs)
-    if arg == "geometry":
+    if arg in ("geometry", "n_objects"):
         counts[0] = value
     elif arg == "n_sources":
         counts[1] = value
@@ -455,3 +479,36 @@ def test_the_shared_vocabulary_agrees_across_results():
     rep = scenes.simulate_polar(GEO, sigma_r=0.1, sigma_beta=0.01, trials=3, rng=13)
     np.testing.assert_array_equal(rep.truth[2], GEO.targets)
     assert (rep.n_objects, rep.dim) == (2, 2)
+
+
+@pytest.mark.parametrize("name", SIMULATORS)
+def test_every_argument_has_a_bad_input_case(name):
+    """The table above covers every public argument of every simulator."""
+    covered = {arg for fn, arg, _, _ in BAD if fn == name}
+    assert set(inspect.signature(getattr(scenes, name)).parameters) == covered
+
+
+@settings(max_examples=25, deadline=None)
+@given(n=st.integers(1, 5), trials=st.integers(1, 4), dim=st.integers(1, 3),
+       layout=st.sampled_from(scenes.LAYOUTS), pd=st.floats(0.0, 1.0),
+       lam=st.floats(0.0, 3.0), seed=st.integers(0, 2**32 - 1))
+def test_property_clutter_scene_shapes_owners_and_seed(n, trials, dim, layout, pd, lam, seed):
+    kw = dict(spacing=1.3, layout=layout, sigma1=0.2, sigma2=0.3, p_detect1=pd, p_detect2=pd,
+              false_density1=lam, false_density2=lam, trials=trials, dim=dim, rng=seed)
+    sc = scenes.two_radar_clutter_scene(n, **kw)
+    again = scenes.two_radar_clutter_scene(n, **kw)
+    for field in ("reports1", "reports2", "owner1", "owner2"):
+        np.testing.assert_array_equal(getattr(sc, field), getattr(again, field))
+    for rep, own in ((sc.reports1, sc.owner1), (sc.reports2, sc.owner2)):
+        assert rep.shape[:2] == own.shape and rep.shape[0] == trials and rep.shape[2] == dim
+        assert np.all(np.isfinite(rep)) and np.all(own >= -2) and np.all(own < n)
+        # padding only at the end of each list; every object at most once
+        valid = own > -2
+        assert np.all(np.diff(valid.astype(int), axis=1) <= 0)
+        for j in range(n):
+            assert np.all((own == j).sum(axis=1) <= 1)
+    if pd == 1.0:
+        assert np.all(np.sort(np.where(sc.owner1 >= 0, sc.owner1, n), axis=1)[:, :n]
+                      == np.arange(n))
+    if pd == 0.0 and lam == 0.0:
+        assert np.all(sc.owner1 == -2)
