@@ -955,11 +955,20 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
     Parameters
     ----------
     reports1 : array_like, shape (..., n1, d)
+        Radar 1's reports (leading axes are a batch, e.g. trials).
     reports2 : array_like, shape (..., n2, d)
+        Radar 2's reports, the same leading axes and d.
 
     Returns
     -------
     numpy.ndarray of int, shape (..., n1)
+        Index in `reports2` of the report nearest (Euclidean) to each radar-1 report.
+
+    Raises
+    ------
+    ValueError
+        If the last dimensions differ, or an input is not finite or has fewer
+        than two axes.
 
     Examples
     --------
