@@ -82,6 +82,7 @@ __all__ = [
     "SPEED_BOUNDS",
     "SPEED_TYPE_MEANS",
     "SPEED_TYPE_VARS",
+    "MIN_REGISTRATION_GROUPS",
     "STAGES",
     "Evaluation",
     "GospaResult",
@@ -132,6 +133,15 @@ SPEED_TYPE_VARS = (39.0**2, 7.0**2, 10.7**2)
 _FEATURE_SPAN = (300.0, 600.0)
 #: Altitudes (m, common frame) between which false reports are placed, uniformly.
 _CLUTTER_ALT = (8000.0, 15000.0)
+
+#: The grouping's detection model: the per-scan P_D of a radar (its P_D times the share of
+#: the scan's reports inside its coverage) is kept in [_MIN_PD, _MAX_PD], and the false-report
+#: density is at least _MIN_FALSE times the object density, so that a report failing the gate
+#: can always stay alone (never an infeasible scan).
+_MIN_PD, _MAX_PD, _MIN_FALSE = 1e-3, 0.999, 1e-3
+
+#: Fewest groups holding a report of every radar that the registration accepts.
+MIN_REGISTRATION_GROUPS = 10
 
 #: Stages timed by :func:`run_pipeline` (in order); :func:`evaluate` adds "metrics".
 STAGES = ("conversion", "registration", "gating", "grouping", "fusion", "recognition")
@@ -806,9 +816,11 @@ def _register(reports, radars, sites, scans, debias, opts):
         x, cov = _convert(sub, radars, sites, biases, debias)
         _, full = _group_all(sub, x, cov, radars, opts, timings=None)
         full = full[np.all(full >= 0, axis=1)]
-        if full.shape[0] < 3:
-            raise ValueError(f"`warmup`: only {full.shape[0]} groups of all {m} radars in the "
-                             "warm-up scans; registration needs more (a longer `warmup`)")
+        if full.shape[0] < MIN_REGISTRATION_GROUPS:
+            raise ValueError(
+                f"`warmup`: only {full.shape[0]} groups hold a report of all {m} radars in the "
+                f"{len(scans)} warm-up scans; the registration needs at least "
+                f"{MIN_REGISTRATION_GROUPS} (a longer `warmup`, or `register`=False)")
         # in km: the estimator's rank test compares the information of range offsets
         # (1/sigma_r^2) with that of azimuth offsets (r^2/sigma_beta^2) on one scale
         ground = sub.r * np.cos(sub.epsilon) / 1000.0
@@ -836,12 +848,14 @@ def _group_all(reports, x, cov, radars, opts, timings):
         d, xf, cf = 3, x, cov
     span = _FEATURE_SPAN[1] - _FEATURE_SPAN[0]
     vol = np.array([r.coverage_volume for r in radars]) * (span if use_f else 1.0)
-    pd_ = np.array([r.p_detect for r in radars])
+    p_detect = np.array([r.p_detect for r in radars])
     false_density = np.array([r.clutter_rate for r in radars]) / vol
     counts = np.bincount(reports.radar, minlength=m) / max(reports.n_scans, 1)
     n_obj = max(float(np.mean(np.maximum(counts - [r.clutter_rate for r in radars], 1.0)
-                              / pd_)), 1.0)
+                              / p_detect)), 1.0)
     object_density = n_obj / float(np.mean(vol))
+    false_density = np.maximum(false_density, _MIN_FALSE * object_density)
+    cover = np.stack([_coverage_count(x, [r]) > 0 for r in radars])      # (m, n)
     p_lo = opts["p_false_reject"]
     gamma = float(stats.chi2.isf(p_lo, d))
     p2 = float(stats.chi2.sf(gamma, 2))          # 2-D gate no tighter than the d-D one
@@ -874,6 +888,9 @@ def _group_all(reports, x, cov, radars, opts, timings):
         if len(active) >= 2:
             xs = [xf[sel[i]] for i in active]
             cs = [cf[sel[i]] for i in active]
+            # detection probability averaged over the scan's report positions: P_D inside
+            # the radar's coverage, 0 outside it
+            pd_ = np.clip(p_detect * cover[:, lo:hi].mean(axis=1), _MIN_PD, _MAX_PD)
             if opts["logdet"]:
                 res = grouping.group_sd(
                     xs, cs, method=opts["method"], p_false_reject=p_lo, p_detect=pd_[active],
@@ -1000,6 +1017,16 @@ def run_pipeline(reports, radars, *, debias=True, register=True, logdet=True,
     min_reports : int, optional
         A group of at least this many reports is declared an object (default 2); lone
         reports are left as false reports.
+
+    Notes
+    -----
+    The grouping's detection model (:func:`radarfusion_ref.grouping.group_sd` with
+    `p_detect`, `false_density`, `object_density`) uses, per scan and radar, the radar's
+    P_D times the share of the scan's converted reports inside its coverage (kept in
+    [0.001, 0.999]); the false-report density is the radar's clutter rate over its
+    coverage volume (times the 300 kt feature span with `use_features`), at least 0.001
+    times the object density; the object density is estimated from the mean report
+    counts, :math:`(\\bar n_i - \\lambda_i)/(P_{D,i} V_i)` averaged over the radars.
 
     Returns
     -------

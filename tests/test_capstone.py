@@ -486,6 +486,20 @@ def test_logdet_ablation_costs_are_group_sds(coarse):
         assert key(ours) == key(ref) and len(ref) > 50
 
 
+def test_pipeline_edge_models(traffic):
+    """Certain detection without clutter still groups every scan; a warm-up without enough
+    three-radar groups is refused by name instead of registering on a handful."""
+    truth = cp.truth_scans(traffic, duration=60.0)
+    sure = cp.default_radars(p_detect=1.0, clutter_rate=0.0, bias_range=0.0, bias_azimuth=0.0)
+    ev = cp.evaluate(cp.run_pipeline(cp.simulate_reports(truth, sure, rng=4), sure,
+                                     register=False), truth)
+    assert ev.purity.low > 0.95 and ev.completeness.low > 0.95
+    assert np.all(ev.false == 0)
+    small = cp.default_radars(max_range=120e3)
+    with pytest.raises(ValueError, match=r"`warmup`.*at least 10"):
+        cp.run_pipeline(cp.simulate_reports(truth, small, rng=4), small, warmup=6)
+
+
 def test_pipeline_reproducible_and_solver_agree(short, short_runs):
     _, radars, rep = short
     a = short_runs[1]
