@@ -93,6 +93,21 @@ MUTATIONS = {
                 return dataclasses.replace(r, covariance=np.asarray(r.covariance) * 1.01)
             return g
         """),
+    "book/11_capstone": ("radarfusion_ref.capstone", "gospa", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                r = f(*a, **k)
+                return dataclasses.replace(r, total=r.total * 1.01)
+            return g
+        """),
+    "book/montecarlo": ("radarfusion_ref.montecarlo", "_unit_rng", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(entropy, spawn_key, pool_size, point, unit):
+                return f(entropy, spawn_key, pool_size, 0, unit)   # every point, one stream
+            return g
+        """),
 }
 
 PREAMBLE = """\
