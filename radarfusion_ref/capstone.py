@@ -142,6 +142,10 @@ _MIN_PD, _MAX_PD, _MIN_FALSE = 1e-3, 0.999, 1e-3
 
 #: Fewest groups holding a report of every radar that the registration accepts.
 MIN_REGISTRATION_GROUPS = 10
+#: Registration passes over the warm-up: group, estimate, regroup with the estimate,
+#: estimate again. One pass is biased towards small offsets (the uncorrected gate keeps
+#: the triples whose offsets happen to cancel); the second removes most of that.
+_REG_PASSES = 2
 
 #: Stages timed by :func:`run_pipeline` (in order); :func:`evaluate` adds "metrics".
 STAGES = ("conversion", "registration", "gating", "grouping", "fusion", "recognition")
@@ -812,7 +816,7 @@ def _register(reports, radars, sites, scans, debias, opts):
                   n_scans=reports.n_scans)
     biases = np.zeros((m, 3))
     est = None
-    for _ in range(2):
+    for _ in range(_REG_PASSES):
         x, cov = _convert(sub, radars, sites, biases, debias)
         _, full = _group_all(sub, x, cov, radars, opts, timings=None)
         full = full[np.all(full >= 0, axis=1)]
