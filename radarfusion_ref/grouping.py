@@ -460,9 +460,9 @@ def group_costs(x, cov, *, cost: str = "ml") -> np.ndarray:
     .. math::
 
         c_{\\mathrm{ML}} = \\sum_i (a_i-\\hat x)^T C_i^{-1}(a_i-\\hat x)
-        + \\log\\det W + \\sum_i \\log\\det C_i ,
+        + \\ln\\det W + \\sum_i \\ln\\det C_i ,
 
-    which for :math:`m = 2` is :math:`\\Delta^T(C_1+C_2)^{-1}\\Delta + \\log\\det(C_1+C_2)`.
+    which for :math:`m = 2` is :math:`\\Delta^T(C_1+C_2)^{-1}\\Delta + \\ln\\det(C_1+C_2)`.
     The paper's cost is
 
     .. math::

@@ -548,7 +548,8 @@ def test_all_correct():
 
 PUBLIC = ("associate_pointwise", "associate_joint", "associate_bruteforce", "k_best_assignments",
           "association_probabilities", "non_assignment_cost", "two_radar_clutter_scene",
-          "proximity_matrix", "all_correct", "compare_decisions")
+          "proximity_matrix", "all_correct", "compare_decisions", "decision_outcome",
+          "calibrate_gate")
 
 
 def test_every_public_function_is_covered():
@@ -1188,3 +1189,120 @@ def test_sparse_joint_other_arguments_validated():
         A.associate_joint(cost, miss_cost=np.nan)
     with pytest.raises(ValueError, match="`miss_cost`"):
         A.associate_joint(cost, miss_cost=[1.0, 2.0])
+
+
+# ---------------------------------------------------------------- calibration (decision_outcome, calibrate_gate)
+def _loop_outcome(kappa, truth, rule, gate):
+    """Per-trial classes written out with loops: brute-force joint pairing, explicit scans."""
+    T, n1, n2 = kappa.shape
+    correct = np.zeros(T, bool)
+    fa = np.zeros(T, bool)
+    for t in range(T):
+        k = kappa[t]
+        if rule == "joint":
+            best = min(itertools.permutations(range(n2), n1),
+                       key=lambda p: sum(k[i, p[i]] for i in range(n1)))
+            total = sum(k[i, best[i]] for i in range(n1))
+            right = all(best[i] == truth[t, i] for i in range(n1))
+            correct[t], fa[t] = right and total < gate, (not right) and total < gate
+            continue
+        dec = [-1] * n1
+        used = set()
+        if rule == "scan":
+            for i in range(n1):
+                for j in range(n2):
+                    if j not in used and k[i, j] < gate:
+                        dec[i] = j
+                        used.add(j)
+                        break
+        else:
+            pairs = sorted((k[i, j], i, j) for i in range(n1) for j in range(n2) if k[i, j] < gate)
+            for _, i, j in pairs:
+                if dec[i] < 0 and j not in used:
+                    dec[i] = j
+                    used.add(j)
+        correct[t] = all(dec[i] == truth[t, i] for i in range(n1))
+        fa[t] = any(dec[i] >= 0 and dec[i] != truth[t, i] for i in range(n1))
+    return correct, fa
+
+
+def _kappa_scene(trials, n, sig, seed):
+    sc = A.two_radar_clutter_scene(n, spacing=1.0, sigma1=sig, sigma2=sig, trials=trials,
+                                   rng=np.random.default_rng(seed))
+    return A.proximity_matrix(sc.reports1, sc.reports2, sig, sig), sc.true_row_to_col
+
+
+@pytest.mark.parametrize("rule", ["scan", "greedy", "joint"])
+def test_decision_outcome_equals_a_loop_over_trials(rule):
+    k, truth = _kappa_scene(300, 3, 0.4, 7)
+    for gate in (0.5, 3.0, 12.0):
+        o = A.decision_outcome(k, truth, rule, gate)
+        c_ref, fa_ref = _loop_outcome(k, truth, rule, gate)
+        assert np.array_equal(o.correct, c_ref) and np.array_equal(o.false_accept, fa_ref)
+        assert np.array_equal(o.rejected, ~c_ref & ~fa_ref)
+        assert o.correct.any() or o.false_accept.any() or o.rejected.any()
+
+
+def test_calibrated_false_reject_gate_is_the_chi2_quantile_for_one_pair():
+    """One object, known covariance: the true pair's kappa is chi2_d, so the narrowest gate
+    with a false-reject rate <= alpha converges to the chi2_d quantile (eq-gate). With T trials
+    the empirical CDF is within eps of the true one except with probability 2 exp(-2 T eps^2)
+    (Dvoretzky-Kiefer-Wolfowitz), which brackets the quantile."""
+    T, alpha, d = 20000, 0.05, 2
+    g = np.random.default_rng(12)
+    kappa = np.sum(g.standard_normal((T, d)) ** 2, axis=-1)[:, None, None]
+    truth = np.zeros((T, 1), dtype=int)
+    eps = math.sqrt(math.log(2 / 1e-9) / (2 * T))          # fails with probability 1e-9
+    for rule in ("greedy", "joint"):
+        gate = A.calibrate_gate(kappa, truth, rule, alpha, error="false_reject")
+        assert stats.chi2.ppf(1 - alpha - eps, d) <= gate <= stats.chi2.ppf(1 - alpha + eps, d)
+        # brute force: the empirical quantile, the smallest kappa with at most alpha*T above it
+        srt = np.sort(kappa.ravel())
+        k_ = math.ceil(T * (1 - alpha))                     # need #{kappa < gate} >= k_
+        assert srt[k_ - 1] < gate <= np.nextafter(srt[k_ - 1], np.inf)
+        assert np.mean(kappa.ravel() >= gate) <= alpha
+
+
+@pytest.mark.parametrize("rule", ["greedy", "joint"])
+def test_calibrated_false_accept_gate_is_the_widest_by_brute_force(rule):
+    k, truth = _kappa_scene(200, 3, 0.45, 9)
+    alpha = 0.05
+    gate = A.calibrate_gate(k, truth, rule, alpha)
+    fa = lambda g: _loop_outcome(k, truth, rule, g)[1].mean()   # noqa: E731
+    assert fa(gate) <= alpha
+    # every breakpoint just above the gate exceeds alpha: the next candidate value
+    stat = (np.array([min(sum(k[t, i, p[i]] for i in range(3))
+                          for p in itertools.permutations(range(3))) for t in range(200)])
+            if rule == "joint" else k[np.isfinite(k)])
+    nxt = np.sort(stat[stat >= gate])
+    if nxt.size:
+        assert fa(np.nextafter(nxt[0], np.inf)) > alpha
+    # a grid: the widest grid gate meeting alpha, scored by the loop
+    grid = np.geomspace(1e-5, 30, 30)
+    ok = [g for g in grid if fa(g) <= alpha]
+    assert A.calibrate_gate(k, truth, rule, alpha, gates=grid) == pytest.approx(max(ok))
+
+
+def test_calibrate_gate_scan_needs_a_grid_and_refuses_unreachable_targets():
+    k, truth = _kappa_scene(100, 3, 0.45, 3)
+    grid = np.geomspace(1e-5, 30, 30)
+    g = A.calibrate_gate(k, truth, "scan", 0.1, gates=grid)
+    assert _loop_outcome(k, truth, "scan", g)[1].mean() <= 0.1
+    with pytest.raises(ValueError, match="`gates`"):
+        A.calibrate_gate(k, truth, "scan", 0.1)
+    with pytest.raises(ValueError, match="`alpha`"):
+        A.calibrate_gate(k, truth, "greedy", 0.0, error="false_reject", gates=[1e-3, 1e-2])
+    with pytest.raises(ValueError, match="`alpha`"):
+        A.calibrate_gate(k, truth, "greedy", 1.5)
+    with pytest.raises(ValueError, match="`gates`"):
+        A.calibrate_gate(k, truth, "greedy", 0.1, gates=[2.0, 1.0])
+    with pytest.raises(ValueError, match="`error`"):
+        A.calibrate_gate(k, truth, "greedy", 0.1, error="both")
+    with pytest.raises(ValueError, match="`rule`"):
+        A.decision_outcome(k, truth, "best", 1.0)
+    with pytest.raises(ValueError, match="`gate`"):
+        A.decision_outcome(k, truth, "greedy", 0.0)
+    with pytest.raises(ValueError, match="`truth`"):
+        A.decision_outcome(k, truth[:, :2], "greedy", 1.0)
+    with pytest.raises(ValueError, match="`kappa`"):
+        A.decision_outcome(np.full_like(k, np.nan), truth, "greedy", 1.0)
