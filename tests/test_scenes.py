@@ -512,3 +512,49 @@ def test_property_clutter_scene_shapes_owners_and_seed(n, trials, dim, layout, p
                       == np.arange(n))
     if pd == 0.0 and lam == 0.0:
         assert np.all(sc.owner1 == -2)
+
+
+@pytest.mark.parametrize("layout", scenes.LAYOUTS)
+def test_two_radar_scene_draws_in_the_documented_order(layout):
+    """Rebuild the scene from a Generator following the docstring's Notes, loop by loop."""
+    n, trials, dim, s, s1, s2 = 4, 3, 2, 1.5, 0.2, 0.3
+    sc = two_radar_scene(n, spacing=s, layout=layout, sigma1=s1, sigma2=s2, trials=trials,
+                         dim=dim, rng=77)
+    g = np.random.default_rng(77)
+    if layout == "uniform":
+        truth = g.uniform(0.0, s * n ** (1 / dim), size=(trials, n, dim))
+    else:
+        truth = np.zeros((trials, n, dim))
+        for j in range(n):
+            truth[:, j, 0] = s * j
+    e1 = g.standard_normal((trials, n, dim))
+    perm = g.permuted(np.tile(np.arange(n), (trials, 1)), axis=1)
+    e2 = g.standard_normal((trials, n, dim))
+    for t in range(trials):
+        for i in range(n):
+            np.testing.assert_array_equal(sc.reports1[t, i], truth[t, i] + s1 * e1[t, i])
+            np.testing.assert_array_equal(sc.reports2[t, i], truth[t, perm[t, i]] + s2 * e2[t, i])
+    np.testing.assert_array_equal(sc.owner2, perm)
+
+
+def test_grouping_scene_draws_in_the_documented_order():
+    n, m, trials = 3, 2, 4
+    cov = np.array([[[0.5, 0.1], [0.1, 0.3]], [[0.2, 0.0], [0.0, 0.7]]])[:, None]
+    tcov = np.eye(2) * 0.4
+    sc = scenes.grouping_scene(n, m, layout="uniform", spacing=[1.0, 2.0], cov=cov,
+                               track_cov=tcov, trials=trials, rng=78)
+    g = np.random.default_rng(78)
+    truth = g.uniform(0.0, 1.0, size=(trials, n, 2)) * (np.array([1.0, 2.0]) * n ** 0.5)
+    owner = g.permuted(np.tile(np.arange(n), (trials, m, 1)), axis=-1)
+    z = g.standard_normal((trials, m, n, 2))
+    zt = g.standard_normal((trials, n, 2))
+    np.testing.assert_array_equal(sc.owner, owner)
+    for t in range(trials):
+        for i in range(m):
+            L = np.linalg.cholesky(cov[i, 0])
+            for j in range(n):
+                np.testing.assert_allclose(sc.reports[t, i, j],
+                                           truth[t, owner[t, i, j]] + L @ z[t, i, j],
+                                           rtol=0, atol=1e-14)
+        np.testing.assert_allclose(sc.tracks[t], truth[t] + zt[t] @ np.linalg.cholesky(tcov).T,
+                                   rtol=0, atol=1e-14)
