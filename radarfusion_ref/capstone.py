@@ -60,7 +60,16 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from . import assignment, conversion, features, fusion, gating, grouping, registration
+from . import (
+    assignment,
+    conversion,
+    features,
+    fusion,
+    gating,
+    grouping,
+    registration,
+    trackfusion,
+)
 from ._validation import (
     MEMORY_LIMIT,
     _describe,
@@ -89,15 +98,19 @@ __all__ = [
     "PipelineResult",
     "Radar",
     "Reports",
+    "TrackEvaluation",
+    "TrackFusionResult",
     "Traffic",
     "TruthScans",
     "default_radars",
     "evaluate",
+    "evaluate_tracks",
     "geodetic_to_enu",
     "gospa",
     "load_traffic",
     "run_pipeline",
     "simulate_reports",
+    "track_fusion",
     "truth_scans",
 ]
 
@@ -769,6 +782,8 @@ class PipelineResult:
         The input.
     radars : tuple of Radar
         The radars used.
+    report_position, report_covariance : numpy.ndarray, shape (N, 3) and (N, 3, 3)
+        Every report converted (and bias-corrected) into the common frame.
     """
 
     scan: np.ndarray
@@ -784,6 +799,8 @@ class PipelineResult:
     settings: dict = field(hash=False)
     reports: Reports = field(hash=False, repr=False)
     radars: tuple = field(hash=False, repr=False, default=())
+    report_position: np.ndarray | None = field(hash=False, repr=False, default=None)
+    report_covariance: np.ndarray | None = field(hash=False, repr=False, default=None)
 
     @property
     def speed_class(self) -> np.ndarray:
@@ -1121,7 +1138,7 @@ def run_pipeline(reports, radars, *, debias=True, register=True, logdet=True,
     return PipelineResult(scan=scan, members=mem, position=pos, covariance=pcov, speed=spd,
                           speed_var=svar, class_prob=prob, group_of=group_of, biases=biases,
                           timings=timings, settings=settings, reports=reports,
-                          radars=radars)
+                          radars=radars, report_position=x, report_covariance=cov)
 
 
 # ----------------------------------------------------------------------------- metrics
@@ -1392,3 +1409,352 @@ def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
                       missed=parts[:, 2], false=parts[:, 3], c=c, p=p, purity=purity,
                       completeness=completeness, nees=nees_t, recognition=recognition,
                       timings=timings)
+
+
+# ----------------------------------------------------------------------------- tracking
+@dataclass(frozen=True)
+class TrackFusionResult:
+    """Fused tracks of every scan (one row per confirmed track and scan).
+
+    Attributes
+    ----------
+    scan, track : numpy.ndarray of int, shape (R,)
+        Scan and track number of each row.
+    position : numpy.ndarray, shape (R, 3)
+        Track-to-track fused position (m).
+    covariance : numpy.ndarray, shape (R, 3, 3)
+        Its covariance under the fusion rule.
+    source : numpy.ndarray of int, shape (R,)
+        Truth label: the aircraft whose reports alone made the object the track was
+        updated with at this scan; -1 when that object mixed sources or the track coasted.
+    rule : str
+        ``"ci"`` (covariance intersection) or ``"naive"`` (independence assumed).
+    n_scans : int
+    seconds : float
+        Wall time of the tracking stage.
+    """
+
+    scan: np.ndarray
+    track: np.ndarray
+    position: np.ndarray
+    covariance: np.ndarray
+    source: np.ndarray
+    rule: str
+    n_scans: int
+    seconds: float
+
+
+#: Cost of leaving a track or an object unlinked: far above any gated pair's cost, so the
+#: link takes as many gated pairs as it can, then the likeliest.
+_LINK_MISS = 1e6
+
+
+def _kf_update(x, P, z, R):
+    """Kalman update of (k, 6) states with (k, 3) position reports."""
+    S = P[:, :3, :3] + R
+    K = np.linalg.solve(S, P[:, :3, :])                         # (k, 3, 6) = S^-1 H P
+    K = np.swapaxes(K, -1, -2)                                  # P H^T S^-1
+    x = x + np.einsum("kab,kb->ka", K, z - x[:, :3])
+    P = P - K @ P[:, :3, :]
+    return x, 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+def track_fusion(result, *, period=10.0, q=10.0, rule="ci", confirm=2, max_misses=2,
+                 p_false_reject=1e-3) -> TrackFusionResult:
+    """Step 7: a track per aircraft, one local track per radar, fused track to track.
+
+    Parameters
+    ----------
+    result : PipelineResult
+        The fused objects of :func:`run_pipeline` (and the converted reports it keeps).
+    period : float, optional
+        Scan period (s, default 10), as given to :func:`truth_scans`.
+    q : float, optional
+        Process-noise intensity of the constant-velocity model (m²/s³, default 10:
+        :func:`radarfusion_ref.trackfusion.constant_velocity`, continuous white noise).
+    rule : {"ci", "naive"}, optional
+        Track-to-track fusion: :func:`radarfusion_ref.trackfusion.covariance_intersection`
+        (sequentially over the radars; default) or
+        :func:`radarfusion_ref.trackfusion.naive_fusion`, which assumes the local tracks'
+        errors independent although they share the process noise.
+    confirm : int, optional
+        Updates before a track is reported (default 2).
+    max_misses : int, optional
+        Consecutive scans without an object before a track is dropped (default 2).
+    p_false_reject : float, optional
+        Gate of the scan-to-scan link (default 1e-3): an object joins a track only if
+        its statistic against the predicted track is below the :math:`\\chi^2_3` quantile.
+
+    Returns
+    -------
+    TrackFusionResult
+
+    Raises
+    ------
+    TypeError
+        If `result` is not a :class:`PipelineResult` with its converted reports.
+    ValueError
+        Bad `q`, `rule`, `confirm`, `max_misses` or `p_false_reject`.
+
+    Notes
+    -----
+    Each scan: the fused track of every live track is predicted over the period
+    by the constant-velocity model and linked to the scan's objects by an exact gated
+    assignment (:func:`radarfusion_ref.assignment.solve_2d`): pairs whose Mahalanobis
+    statistic passes the gate cost :math:`\\kappa + \\ln|2\\pi S|` (the full negative
+    log-likelihood, so that a young, uncertain track cannot take a confident track's
+    object), and the link takes as many gated pairs as possible. A linked track updates the
+    local filter of every radar that has a report in the object (a Kalman update with the
+    report's converted covariance; a radar's first report starts its local track from the
+    fused velocity), then fuses its local tracks. Unlinked objects start tracks (velocity
+    0 ± 250 m/s); unlinked tracks coast and are dropped after `max_misses` scans.
+    """
+    t0 = time.perf_counter()
+    if not isinstance(result, PipelineResult) or result.report_position is None:
+        raise TypeError(f"`result` must be a PipelineResult from run_pipeline; received "
+                        f"{_describe(result)}")
+    period = _scalar(period, "period")
+    q = _scalar(q, "q")
+    rule = as_choice(rule, "rule", ("ci", "naive"))
+    confirm = as_int(confirm, "confirm", minimum=1)
+    max_misses = as_int(max_misses, "max_misses", minimum=0)
+    p_lo = as_probability(p_false_reject, "p_false_reject")
+    if p_lo.ndim:
+        raise ValueError(f"`p_false_reject` must be a number in (0, 1); received "
+                         f"{_describe(p_false_reject)}")
+    gamma = float(stats.chi2.isf(float(p_lo), 3))
+    rep = result.reports
+    m = result.members.shape[1]
+    model = trackfusion.constant_velocity(period, q, dim=3)
+    F, Q = model.F, model.Q
+    v0 = 250.0 ** 2
+    xr, cr = result.report_position, result.report_covariance
+    src = np.where(result.members >= 0, rep.source[np.maximum(result.members, 0)], -2)
+    first = src[np.arange(src.shape[0]), np.argmax(result.members >= 0, axis=1)]
+    pure = (first >= 0) & np.all((src == first[:, None]) | (result.members < 0), axis=1)
+    label = np.where(pure, first, -1)
+    # live tracks
+    X = np.zeros((0, m, 6))
+    P = np.zeros((0, m, 6, 6))
+    act = np.zeros((0, m), dtype=bool)
+    XF = np.zeros((0, 6))
+    PF = np.zeros((0, 6, 6))
+    hits = np.zeros(0, dtype=np.int64)
+    miss = np.zeros(0, dtype=np.int64)
+    ids = np.zeros(0, dtype=np.int64)
+    next_id = 0
+    order = np.argsort(result.scan, kind="stable")
+    bounds = np.searchsorted(result.scan[order], np.arange(rep.n_scans + 1))
+    out = []
+    for s in range(rep.n_scans):
+        obj = order[bounds[s]:bounds[s + 1]]
+        # predict
+        X = X @ F.T
+        P = F @ P @ F.T + Q
+        XF = XF @ F.T
+        PF = F @ PF @ F.T + Q
+        k, g = XF.shape[0], obj.size
+        link = np.full(k, -1)
+        if k and g:
+            D = result.position[obj][None, :, :] - XF[:, None, :3]
+            S = PF[:, None, :3, :3] + result.covariance[obj][None]
+            kappa = np.einsum("kga,kga->kg", D, np.linalg.solve(S, D[..., None])[..., 0])
+            # full negative log-likelihood (with ln|2 pi S|): a confident track keeps its
+            # object against a young, uncertain one; pairs outside the gate are forbidden
+            cost = np.where(kappa < gamma, kappa + np.linalg.slogdet(2 * np.pi * S)[1],
+                            np.inf)
+            link = assignment.solve_2d(cost, miss_cost=_LINK_MISS).row_to_col
+        linked = link >= 0
+        # update the linked tracks' local filters
+        for i in range(m):
+            rows = np.flatnonzero(linked)
+            rr = result.members[obj[link[rows]], i]
+            has = rr >= 0
+            rows, rr = rows[has], rr[has]
+            new = ~act[rows, i]
+            if new.any():
+                nr = rows[new]
+                X[nr, i, :3], X[nr, i, 3:] = xr[rr[new]], XF[nr, 3:]
+                P[nr, i] = 0.0
+                P[nr, i, :3, :3] = cr[rr[new]]
+                P[nr, i, 3:, 3:] = PF[nr, 3:, 3:]
+                act[nr, i] = True
+            old = ~new
+            if old.any():
+                X[rows[old], i], P[rows[old], i] = _kf_update(
+                    X[rows[old], i], P[rows[old], i], xr[rr[old]], cr[rr[old]])
+        hits[linked] += 1
+        miss[linked] = 0
+        miss[~linked] += 1
+        keep = miss <= max_misses
+        # fuse the local tracks of the linked tracks
+        rows = np.flatnonzero(linked)
+        if rows.size:
+            fx, fp = _fuse_local(X[rows], P[rows], act[rows], rule)
+            XF[rows], PF[rows] = fx, fp
+        # start tracks from unlinked objects
+        used = np.zeros(g, dtype=bool)
+        used[link[linked]] = True
+        fresh = obj[~used]
+        nf = fresh.size
+        if nf:
+            Xn = np.zeros((nf, m, 6))
+            Pn = np.zeros((nf, m, 6, 6))
+            an = result.members[fresh] >= 0
+            for i in range(m):
+                rr = result.members[fresh, i]
+                h = rr >= 0
+                Xn[h, i, :3] = xr[rr[h]]
+                Pn[h, i, :3, :3] = cr[rr[h]]
+                Pn[:, i, 3:, 3:] = v0 * np.eye(3)
+                Pn[~h, i, :3, :3] = np.eye(3)
+            XFn = np.zeros((nf, 6))
+            XFn[:, :3] = result.position[fresh]
+            PFn = np.zeros((nf, 6, 6))
+            PFn[:, :3, :3] = result.covariance[fresh]
+            PFn[:, 3:, 3:] = v0 * np.eye(3)
+            X, P, act = (np.concatenate([X[keep], Xn]), np.concatenate([P[keep], Pn]),
+                         np.concatenate([act[keep], an]))
+            XF, PF = np.concatenate([XF[keep], XFn]), np.concatenate([PF[keep], PFn])
+            lab_t = np.concatenate([np.where(linked, label[obj[np.maximum(link, 0)]]
+                                             if g else -1, -1)[keep], label[fresh]])
+            hits = np.concatenate([hits[keep], np.ones(nf, dtype=np.int64)])
+            miss = np.concatenate([miss[keep], np.zeros(nf, dtype=np.int64)])
+            ids = np.concatenate([ids[keep], next_id + np.arange(nf)])
+            next_id += nf
+        else:
+            X, P, act, XF, PF = X[keep], P[keep], act[keep], XF[keep], PF[keep]
+            lab_t = np.where(linked, label[obj[np.maximum(link, 0)]] if g else -1, -1)[keep]
+            hits, miss, ids = hits[keep], miss[keep], ids[keep]
+        show = hits >= confirm
+        out.append((np.full(int(show.sum()), s), ids[show], XF[show, :3], PF[show, :3, :3],
+                    lab_t[show]))
+    cols = [np.concatenate(c) if c else np.empty(0) for c in zip(*out, strict=True)]
+    return TrackFusionResult(scan=cols[0].astype(np.int64), track=cols[1].astype(np.int64),
+                             position=cols[2].reshape(-1, 3),
+                             covariance=cols[3].reshape(-1, 3, 3),
+                             source=cols[4].astype(np.int64), rule=rule,
+                             n_scans=rep.n_scans, seconds=time.perf_counter() - t0)
+
+
+def _fuse_local(X, P, act, rule):
+    """Fuse the active local tracks (k, m, 6) of each track into one (k, 6)."""
+    k, m = act.shape
+    fx = np.zeros((k, 6))
+    fp = np.zeros((k, 6, 6))
+    have = np.zeros(k, dtype=bool)
+    for i in range(m):
+        a = act[:, i]
+        start = a & ~have
+        fx[start], fp[start] = X[start, i], P[start, i]
+        both = a & have
+        if both.any():
+            if rule == "ci":
+                r = trackfusion.covariance_intersection(fx[both], fp[both], X[both, i],
+                                                        P[both, i])
+            else:
+                r = trackfusion.naive_fusion(fx[both], fp[both], X[both, i], P[both, i])
+            fx[both], fp[both] = r.estimate, r.covariance
+        have |= a
+    return fx, fp
+
+
+@dataclass(frozen=True)
+class TrackEvaluation:
+    """Scores of a :class:`TrackFusionResult` against the truth.
+
+    Attributes
+    ----------
+    gospa, localisation, missed, false : numpy.ndarray, shape (S,)
+        Per scan, as in :class:`Evaluation`.
+    c, p : float
+    nees : tuple or None
+        ``(mean, low, high, count)`` of the 3-D NEES of the labelled rows (a track row
+        whose object came from one aircraft), with the 95 % interval of the mean under
+        :math:`\\chi^2_3` errors.
+    rmse : float or None
+        Root-mean-square position error of those rows (m).
+    n_tracks : int
+        Tracks reported at least once.
+    """
+
+    gospa: np.ndarray
+    localisation: np.ndarray
+    missed: np.ndarray
+    false: np.ndarray
+    c: float
+    p: float
+    nees: tuple | None
+    rmse: float | None
+    n_tracks: int
+
+    @property
+    def mean_gospa(self) -> float:
+        """Mean over scans of the per-scan GOSPA (m)."""
+        return float(np.mean(self.gospa))
+
+
+def evaluate_tracks(tracks, truth, radars, *, c=2000.0, p=2.0, min_radars=2) -> TrackEvaluation:
+    """Score fused tracks against the truth: GOSPA per scan, NEES and RMSE.
+
+    Parameters
+    ----------
+    tracks : TrackFusionResult
+    truth : TruthScans
+    radars : sequence of Radar
+        For the GOSPA truth set: the aircraft inside the coverage of at least
+        `min_radars` of them (as :func:`evaluate` with ``scope="covered"``).
+    c, p : float, optional
+        GOSPA cut-off (m, default 2000) and order (default 2); α = 2.
+    min_radars : int, optional
+        Default 2.
+
+    Returns
+    -------
+    TrackEvaluation
+
+    Raises
+    ------
+    TypeError
+        Wrong types of `tracks`, `truth` or `radars`.
+    ValueError
+        Bad `c`, `p` or `min_radars`, or scan counts that differ.
+    """
+    if not isinstance(tracks, TrackFusionResult):
+        raise TypeError(f"`tracks` must be a TrackFusionResult (from track_fusion); received "
+                        f"{_describe(tracks)}")
+    if not isinstance(truth, TruthScans):
+        raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
+                        f"{_describe(truth)}")
+    radars = _radars_iv(radars)
+    c = _scalar(c, "c")
+    p = _scalar(p, "p")
+    min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))
+    if truth.n_scans != tracks.n_scans:
+        raise ValueError(f"`truth` has {truth.n_scans} scans but `tracks` {tracks.n_scans}")
+    keep = _coverage_count(truth.position, radars) >= min_radars
+    S = truth.n_scans
+    tb = np.searchsorted(truth.scan, np.arange(S + 1))
+    rb = np.searchsorted(tracks.scan, np.arange(S + 1))
+    parts = np.zeros((S, 4))
+    for s in range(S):
+        g = gospa(truth.position[tb[s]:tb[s + 1]][keep[tb[s]:tb[s + 1]]],
+                  tracks.position[rb[s]:rb[s + 1]], c=c, p=p)
+        parts[s] = g.total, g.localisation, g.missed, g.false
+    ok = tracks.source >= 0
+    nees_t, rmse = None, None
+    if ok.any():
+        base = len(truth.icao24) + 1
+        tkey = truth.scan.astype(np.int64) * base + truth.aircraft
+        okey = tracks.scan[ok] * base + tracks.source[ok]
+        ti = np.searchsorted(tkey, okey)
+        err = tracks.position[ok] - truth.position[ti]
+        nees = np.einsum("ka,ka->k", err,
+                         np.linalg.solve(tracks.covariance[ok], err[..., None])[..., 0])
+        N = nees.size
+        nees_t = (float(nees.mean()), float(stats.chi2.ppf(0.025, 3 * N) / N),
+                  float(stats.chi2.ppf(0.975, 3 * N) / N), N)
+        rmse = float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+    return TrackEvaluation(gospa=parts[:, 0], localisation=parts[:, 1], missed=parts[:, 2],
+                           false=parts[:, 3], c=c, p=p, nees=nees_t, rmse=rmse,
+                           n_tracks=int(np.unique(tracks.track).size))
