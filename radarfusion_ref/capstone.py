@@ -23,7 +23,11 @@ The truth is one hour of ADS-B records over Switzerland (``data/``, 2018-08-01
   and type recognition (:func:`radarfusion_ref.features.type_posterior`);
 * scores the result against the truth (:func:`evaluate`): GOSPA
   (:func:`gospa`) with its localisation, missed and false parts, association
-  accuracy, NEES and recognition accuracy.
+  accuracy, NEES and recognition accuracy;
+* optionally tracks the fused objects, one local track per radar fused track to
+  track (:func:`track_fusion`, with
+  :func:`radarfusion_ref.trackfusion.covariance_intersection`), scored by
+  :func:`evaluate_tracks`.
 
 Frames. All geometry lives in the common ENU frame about :data:`ORIGIN`; each
 radar measures range, azimuth (counter-clockwise from east, as in
