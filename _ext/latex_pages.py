@@ -1,0 +1,167 @@
+"""Sphinx extension of the radarfusion book: the PDF edition (LaTeX builder only).
+
+What the printed book needs that the HTML pages get elsewhere:
+
+* **Macros.** The book's TeX macros (``\\E``, ``\\Var``, ``\\Cov``, ``\\T``) are
+  defined once, for MathJax, in ``_config.yml`` (``mathjax3_config.tex.macros``).
+  Here the same definitions become ``\\newcommand``\\ s in the LaTeX preamble, so
+  the two editions cannot drift apart.
+* **A class that Debian's TeX Live has.** sphinx-jupyterbook-latex (which turns the
+  parts of ``_toc.yml`` into LaTeX parts and leaves out what ``hide-input``,
+  ``hide-output`` and ``hide-cell`` hide on the HTML page) sets its own
+  ``jupyterBook`` class, which loads ``bbm``, a package Debian ships only in
+  texlive-fonts-extra (500 MB to download). The book uses none of that class's
+  additions but the two environments its code cells are wrapped in, so the
+  book's PDF uses Sphinx's ``manual`` class with those two environments.
+
+* **Equations tagged by hand.** ``\\tag`` inside the ``split`` Sphinx wraps display
+  math in is an error in LaTeX (MathJax accepts it); such an equation's tag is moved
+  after the ``split``.
+
+* **Exercise references across pages** get the label Sphinx's ``{ref}`` points at.
+* **Fonts** with every character the book prints, code outputs included.
+
+Nothing here changes the HTML build: it sets LaTeX configuration values and
+transforms the doctree for the ``latex`` format only.
+
+Registered in ``_config.yml`` under ``sphinx: local_extensions:``.
+"""
+
+from __future__ import annotations
+
+import re
+
+from docutils import nodes
+from sphinx.transforms.post_transforms import SphinxPostTransform
+
+_TAG = re.compile(r"\\tag\*?\{[^{}]*\}")
+
+
+def macro_preamble(macros: dict) -> str:
+    """``\\newcommand`` lines for MathJax macros (``name: body`` or ``name: [body, n]``).
+
+    A name LaTeX already defines is redefined (``\\providecommand`` then
+    ``\\renewcommand``), so the printed macro is the book's, not a package's.
+    """
+    lines = []
+    for name, body in macros.items():
+        nargs = 0
+        if isinstance(body, (list, tuple)):
+            body, nargs = body[0], int(body[1])
+        arg = f"[{nargs}]" if nargs else ""
+        lines.append(f"\\providecommand{{\\{name}}}{{}}\\renewcommand{{\\{name}}}{arg}{{{body}}}")
+    return "\n".join(lines)
+
+
+class TaggedDisplayMath(SphinxPostTransform):
+    """A display equation numbered by hand (``$$ ... \\tag{1} $$``) keeps its tag in print.
+
+    Sphinx wraps every display equation in ``split``, where amsmath forbids
+    ``\\tag`` (MathJax allows it); the tag is moved after the ``split``.
+    """
+
+    default_priority = 200
+    formats = ("latex",)
+
+    def run(self, **kwargs) -> None:
+        for node in list(self.document.findall(nodes.math_block)):
+            text = node.astext()
+            tags = _TAG.findall(text)
+            if node.get("nowrap") or node.get("label") or len(tags) != 1 or "\n\n" in text.strip():
+                continue
+            body = _TAG.sub("", text).strip()
+            wrapped = f"\\begin{{equation*}}\\begin{{split}}{body}\\end{{split}}{tags[0]}\\end{{equation*}}"
+            new = nodes.math_block(wrapped, wrapped, nowrap=True, docname=node.get("docname"))
+            new.source, new.line = node.source, node.line
+            node.replace_self(new)
+
+
+class ExerciseLabels(SphinxPostTransform):
+    """A ``{ref}`` to an exercise from another page resolves in print.
+
+    sphinx-exercise labels an exercise ``exercise:<label>`` in LaTeX, while Sphinx's
+    cross-page ``{ref}`` points at ``<docname>:<label>``; the second label is added,
+    carrying the exercise's number (so the reference reads "Exercise 8.3").
+    """
+
+    default_priority = 25          # after sphinx-exercise numbers its titles (20, 21)
+    formats = ("latex",)
+
+    def run(self, **kwargs) -> None:
+        try:
+            from sphinx_exercise.nodes import exercise_enumerable_node, exercise_node
+            from sphinx_exercise.utils import get_node_number
+        except ImportError:
+            return
+        kinds = (exercise_node, exercise_enumerable_node)
+        for node in list(self.document.findall(lambda n: isinstance(n, kinds))):
+            label, docname = node.get("label"), node.get("docname")
+            if not label or not docname or node.parent is None:
+                continue
+            number = ""
+            if isinstance(node, exercise_enumerable_node):
+                number = get_node_number(self.app, node, "exercise")
+            tex = (r"\begingroup\expandafter\def\csname @currentlabel\endcsname{" + number
+                   + r"}\phantomsection\label{\detokenize{" + f"{docname}:{label}"
+                   + r"}}\endgroup" + "\n")
+            node.parent.insert(node.parent.index(node), nodes.raw("", tex, format="latex"))
+
+
+#: The PDF's fonts: Sphinx's FreeSerif and FreeSans (Cyrillic, Greek), and DejaVu Sans
+#: Mono for code and outputs, which has the characters the book's outputs print
+#: (ᵀ, ᵃ, ✗, box drawing) that FreeMono lacks.
+FONTPKG = r"""
+\setmainfont{FreeSerif}[Extension=.otf, UprightFont=*, ItalicFont=*Italic,
+  BoldFont=*Bold, BoldItalicFont=*BoldItalic]
+\setsansfont{FreeSans}[Extension=.otf, UprightFont=*, ItalicFont=*Oblique,
+  BoldFont=*Bold, BoldItalicFont=*BoldOblique]
+\setmonofont{DejaVu Sans Mono}[Scale=MatchLowercase]
+"""
+
+
+#: What the book's LaTeX needs besides Sphinx's ``manual`` class: the two environments
+#: sphinx-jupyterbook-latex wraps code cells' inputs and outputs in (from its
+#: ``jupyterBook.cls``, whose other packages the book does not use, ``bbm`` among them,
+#: which Debian ships only in texlive-fonts-extra).
+CELL_ENVIRONMENTS = r"""
+\usepackage[strict]{changepage}
+\definecolor{CodeBlockInputBorderColor}{RGB}{204,204,204}
+\definecolor{CodeBlockInputColor}{RGB}{247,247,247}
+\definecolor{CodeBlockOutputBorderColor}{RGB}{247,247,247}
+\definecolor{CodeBlockOutputColor}{RGB}{252,252,252}
+\newenvironment{sphinxVerbatimInput}
+  {\colorlet{VerbatimBorderColor}{CodeBlockInputBorderColor}%
+   \colorlet{VerbatimColor}{CodeBlockInputColor}%
+   \begin{adjustwidth}{5pt}{}}
+  {\end{adjustwidth}}
+\newenvironment{sphinxVerbatimOutput}
+  {\colorlet{VerbatimBorderColor}{CodeBlockOutputBorderColor}%
+   \colorlet{VerbatimColor}{CodeBlockOutputColor}%
+   \begin{adjustwidth}{20pt}{}}
+  {\end{adjustwidth}}
+"""
+
+
+def _configure_latex(app, config) -> None:
+    """After sphinx-jupyterbook-latex's own set-up: Sphinx's ``manual`` class with the
+    cell environments, and the book's macros, in the preamble."""
+    elements = dict(config.latex_elements or {})
+    preamble = elements.get("preamble", "")
+    if config.latex_theme == "jupyterBook":
+        config.latex_theme = "manual"
+        preamble += CELL_ENVIRONMENTS
+    macros = (config.mathjax3_config or {}).get("tex", {}).get("macros", {})
+    if macros:
+        preamble += "\n% The book's macros (_config.yml: mathjax3_config.tex.macros)\n"
+        preamble += macro_preamble(macros) + "\n"
+    elements["preamble"] = preamble
+    if config.latex_engine == "xelatex":
+        elements.setdefault("fontpkg", FONTPKG)
+    config.latex_elements = elements
+
+
+def setup(app):
+    app.connect("config-inited", _configure_latex, priority=900)
+    app.add_post_transform(TaggedDisplayMath)
+    app.add_post_transform(ExerciseLabels)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
