@@ -447,8 +447,8 @@ def truth_scans(traffic, *, period=10.0, start=0.0, duration=600.0,
     TypeError
         If `traffic` is not a :class:`Traffic`.
     ValueError
-        Non-positive `period`, `duration` or `max_gap`, negative `start`, or a window
-        holding no aircraft at any scan.
+        Non-positive `period`, `duration` or `max_gap`, negative `start`, a window
+        holding no aircraft at any scan, or one whose rows would exceed the memory limit.
 
     Examples
     --------
@@ -463,7 +463,12 @@ def truth_scans(traffic, *, period=10.0, start=0.0, duration=600.0,
     start = _scalar(start, "start", positive=False)
     duration = _scalar(duration, "duration")
     max_gap = _scalar(max_gap, "max_gap")
-    times = start + period * np.arange(math.ceil(duration / period - 1e-9))
+    n_scans = math.ceil(duration / period - 1e-9)
+    check_size(8 * 8 * n_scans * len(traffic.icao24), MEMORY_LIMIT,
+               what=f"bytes of truth rows ({n_scans} scans of `duration` / `period` x "
+                    f"{len(traffic.icao24)} aircraft)",
+               alternative="a longer `period` or a shorter `duration`, in windows")
+    times = start + period * np.arange(n_scans)
     enu = geodetic_to_enu(traffic.lat, traffic.lon, traffic.alt)
     bounds = np.flatnonzero(np.diff(traffic.aircraft)) + 1
     starts = np.concatenate([[0], bounds])

@@ -236,6 +236,7 @@ def test_truth_gap_is_not_bridged(tmp_path):
     (dict(period=0.0), "`period`"), (dict(period=np.nan), "`period`"),
     (dict(start=-1.0), "`start`"), (dict(duration=-5.0), "`duration`"),
     (dict(max_gap=0.0), "`max_gap`"), (dict(start=5000.0), "`traffic`"),
+    (dict(period=1e-6, duration=3600.0), "`period`.*shorter `duration`"),
 ])
 def test_truth_bad_input(traffic, kw, match):
     with pytest.raises(ValueError, match=match):
