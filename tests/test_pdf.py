@@ -146,8 +146,9 @@ def distinctive_lines(root: Path, docnames: list[str]) -> tuple[list[str], list[
     package = "\n".join(p.read_text(encoding="utf-8")
                         for p in (root / "radarfusion_ref").glob("*.py"))
     elsewhere = "\n".join(prose) + package
-    only_hidden = sorted({h for h in hidden if h not in shown and h not in elsewhere})
-    only_shown = sorted({s for s in shown if s not in hidden and s not in elsewhere})
+    hidden_text, shown_text = "\n".join(hidden), "\n".join(shown)
+    only_hidden = sorted({h for h in hidden if h not in shown_text and h not in elsewhere})
+    only_shown = sorted({s for s in shown if s not in hidden_text and s not in elsewhere})
     return only_hidden, only_shown
 
 
@@ -215,9 +216,11 @@ def test_pdf_has_every_chapter_and_page_title(pdf_text):
     pages = [page_title(ROOT / f"{d}.md") for d in toc_docnames(ROOT)
              if (ROOT / f"{d}.md").exists()]
     assert len(pages) == len(toc_docnames(ROOT)), "a page of _toc.yml has no .md source"
-    # once in the table of contents and once as the heading itself
+    # once in the table of contents and once as the heading itself; the root page opens
+    # the book before the table of contents, so its title is printed once
     assert missing_titles(pdf_text, chapters, at_least=2) == []
-    assert missing_titles(pdf_text, pages, at_least=2) == []
+    assert missing_titles(pdf_text, pages[:1], at_least=1) == []
+    assert missing_titles(pdf_text, pages[1:], at_least=2) == []
 
 
 @pytest.mark.book
