@@ -295,3 +295,13 @@ def test_infeasible_gated_sd_names_the_source():
     for method in ("milp", "lagrangian"):
         with pytest.raises(ValueError, match=r"`cost`.*source 1"):
             asg.solve_sd(c, method=method)
+
+
+def test_sd_with_two_sources_is_the_linear_assignment():
+    c = np.random.default_rng(0).uniform(size=(6, 6))
+    r, q = linear_sum_assignment(c)
+    for method in ("milp", "lagrangian"):
+        s = asg.solve_sd(c, method=method)
+        assert s.cost == pytest.approx(c[r, q].sum(), rel=1e-12) and s.exact
+        assert np.array_equal(s.assignment[:, 1], q)
+    assert asg.solve_sd_bruteforce(c).cost == pytest.approx(c[r, q].sum(), rel=1e-12)
