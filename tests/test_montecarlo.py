@@ -159,7 +159,7 @@ def coin(params, n, rng):
 
 
 def fails_at_lam_9(params, n, rng):
-    if params["lam"] == 9.0:
+    if params["lam"] == 9.0 and params["p_lo"] == 0.01:           # grid point 2 only
         raise ZeroDivisionError("boom")
     return false_pairs(params, n, rng)
 
@@ -286,7 +286,18 @@ def test_sweep_failure_names_the_point_and_block(dask_client):
     for client in (None, dask_client):
         with pytest.raises(SweepError, match=r"grid point 2 \{'p_lo': 0.01, 'lam': 9.0\}, "
                                              r"block 0 \(trials 0..1023\): ZeroDivisionError"):
-            sweep(fails_at_lam_9, GRID, trials=2000, rng=1, block=SEED_BLOCK, client=client)
+            sweep(fails_at_lam_9, GRID, trials=SEED_BLOCK, rng=1, block=SEED_BLOCK,
+                  client=client)                               # one failing task in all
+
+
+    def fails_on_short_units(params, n, rng):
+        if n < SEED_BLOCK:
+            raise ValueError("short")
+        return rng.random(n)
+
+    with pytest.raises(SweepError, match=r"grid point 0 \{'p': 0.5\}, block 1 "
+                                         r"\(trials 1024..1999\): ValueError: short"):
+        sweep(fails_on_short_units, {"p": [0.5]}, trials=2000, rng=1, block=SEED_BLOCK)
 
 
 def test_sweep_refuses_bad_experiment_output():
