@@ -840,7 +840,9 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
     SweepError
         If the experiment raises, or returns something other than the per-trial
         arrays described above, at some grid point and block: the message names
-        both, the original exception is chained, and nothing is returned.
+        both, the original exception is chained, and nothing is returned (on a
+        cluster, when several tasks fail, the first failure to arrive is named
+        and the remaining tasks are cancelled).
 
     Notes
     -----
