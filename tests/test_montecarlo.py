@@ -409,3 +409,24 @@ def test_sweep_progress_bar_only_when_asked(capsys, monkeypatch):
     assert montecarlo._want_progress(None) is False
     monkeypatch.delenv(montecarlo.PROGRESS_ENV)
     assert montecarlo._want_progress(None) is False           # JPY_SESSION_NAME but no kernel
+
+
+def test_sweep_progress_default_is_on_in_a_live_notebook_kernel(monkeypatch):
+    """JPY_SESSION_NAME (set by a Jupyter server for a notebook's kernel) and an IPython
+    kernel shell: the default shows the bar; either one alone does not."""
+    import sys
+    import types
+
+    class ZMQInteractiveShell:                 # the class name ipykernel's shell has
+        pass
+
+    fake = types.SimpleNamespace(get_ipython=lambda: ZMQInteractiveShell())
+    monkeypatch.delenv(montecarlo.PROGRESS_ENV, raising=False)
+    monkeypatch.setitem(sys.modules, "IPython", fake)
+    monkeypatch.delenv("JPY_SESSION_NAME", raising=False)
+    assert montecarlo._want_progress(None) is False           # nbclient / a book build
+    monkeypatch.setenv("JPY_SESSION_NAME", "/home/reader/montecarlo.ipynb")
+    assert montecarlo._want_progress(None) is True             # a live notebook
+    monkeypatch.setenv(montecarlo.PROGRESS_ENV, "0")
+    assert montecarlo._want_progress(None) is False            # forced off
+    assert montecarlo._want_progress(True) is True
