@@ -846,7 +846,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
 
     Notes
     -----
-    Seed unit :math:`j` (trials :math:`jB, \\dots, (j+1)B-1`, :math:`B` =
+    Seed unit :math:`j` (trials :math:`j n_u, \\dots, (j+1) n_u - 1`, :math:`n_u` =
     :data:`SEED_BLOCK`) of grid point :math:`i` draws from
     ``Generator(PCG64(SeedSequence(entropy, spawn_key=spawn_key + (i, j))))``:
     the sequence ``root.spawn(points)[i].spawn(units)[j]`` would give, built
