@@ -19,6 +19,8 @@ What the printed book needs that the HTML pages get elsewhere:
   after the ``split``.
 
 * **Exercise references across pages** get the label Sphinx's ``{ref}`` points at.
+* **Exercises on the root page** keep their text inside their boxes.
+* **Long tables** (the notation table) wrap their cells instead of running off the page.
 * **Fonts** with every character the book prints, code outputs included.
 
 Nothing here changes the HTML build: it sets LaTeX configuration values and
@@ -107,6 +109,71 @@ class ExerciseLabels(SphinxPostTransform):
             node.parent.insert(node.parent.index(node), nodes.raw("", tex, format="latex"))
 
 
+class LongTableWidths(SphinxPostTransform):
+    """A long table (more than 30 rows, a LaTeX ``longtable``) wraps its cells in print.
+
+    Without widths, Sphinx sets a long table's columns as ``l`` (one line per cell), so
+    a wide table runs off the page. Here each column gets a width in proportion to its
+    longest cell (between 6 and 60 characters), which Sphinx turns into wrapping
+    ``\\X`` columns that share the text width.
+    """
+
+    default_priority = 200
+    formats = ("latex",)
+    LONG = 30
+
+    def run(self, **kwargs) -> None:
+        for table in list(self.document.findall(nodes.table)):
+            if "colwidths-given" in table["classes"]:
+                continue
+            groups = list(table.findall(nodes.tgroup))
+            if len(groups) != 1:
+                continue
+            rows = list(groups[0].findall(nodes.row))
+            colspecs = [c for c in groups[0].children if isinstance(c, nodes.colspec)]
+            if len(rows) <= self.LONG or not colspecs:
+                continue
+            longest = [6] * len(colspecs)
+            for row in rows:
+                for k, entry in enumerate(e for e in row.children if isinstance(e, nodes.entry)):
+                    if k < len(longest):
+                        longest[k] = max(longest[k], min(60, len(entry.astext())))
+            for spec, width in zip(colspecs, longest, strict=True):
+                spec["colwidth"] = width
+            table["classes"].append("colwidths-given")
+
+
+class ExerciseContent(SphinxPostTransform):
+    """An exercise or solution keeps its text inside its box on the root page too.
+
+    sphinx-exercise puts the text of an ``{exercise-start}`` / ``{solution-start}``
+    block in an untitled section inside the box; on the root page,
+    sphinx-jupyterbook-latex moves that page's sections (priority 700), which
+    leaves the boxes empty and their text after the page's last cell. Here such a
+    section becomes a plain container first.
+    """
+
+    default_priority = 650
+    formats = ("latex",)
+
+    def run(self, **kwargs) -> None:
+        try:
+            from sphinx_exercise.nodes import (
+                exercise_enumerable_node,
+                exercise_node,
+                solution_node,
+            )
+        except ImportError:
+            return
+        kinds = (exercise_node, exercise_enumerable_node, solution_node)
+        for box in list(self.document.findall(lambda n: isinstance(n, kinds))):
+            for child in list(box.children):
+                if isinstance(child, nodes.section) and not any(
+                        isinstance(c, nodes.title) for c in child.children):
+                    content = nodes.container("", *child.children)
+                    child.replace_self(content)
+
+
 #: The PDF's fonts: Sphinx's FreeSerif and FreeSans (Cyrillic, Greek), and DejaVu Sans
 #: Mono for code and outputs, which has the characters the book's outputs print
 #: (ᵀ, ᵃ, ✗, box drawing) that FreeMono lacks.
@@ -164,4 +231,6 @@ def setup(app):
     app.connect("config-inited", _configure_latex, priority=900)
     app.add_post_transform(TaggedDisplayMath)
     app.add_post_transform(ExerciseLabels)
+    app.add_post_transform(LongTableWidths)
+    app.add_post_transform(ExerciseContent)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
