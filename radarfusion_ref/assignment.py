@@ -1860,10 +1860,10 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
     lying in exactly one chosen group. For :math:`m = 2` it is the linear
     assignment problem; for :math:`m \\ge 3` it is NP-hard (Deb et al. 1997).
     The Lagrangian relaxation splits the candidates into independent
-    clusters, relaxes sources :math:`3..m` with multipliers :math:`\\mu`,
+    clusters, relaxes sources :math:`3..m` with multipliers :math:`y`,
     solves the remaining 2-D assignment exactly (a valid lower bound
-    :math:`q(\\mu)`), recovers a feasible grouping each iteration and moves
-    :math:`\\mu` along the subgradient; see
+    :math:`q(y)`), recovers a feasible grouping each iteration and moves
+    :math:`y` along the subgradient; see
     :func:`radarfusion_ref.grouping.group_sd`, which builds the costs from
     reports and calls this solver.
 

@@ -921,15 +921,10 @@ def _group_all(reports, x, cov, radars, opts, timings):
             # detection probability averaged over the scan's report positions: P_D inside
             # the radar's coverage, 0 outside it
             pd_ = np.clip(p_detect * cover[:, lo:hi].mean(axis=1), _MIN_PD, _MAX_PD)
-            if opts["logdet"]:
-                res = grouping.group_sd(
-                    xs, cs, method=opts["method"], p_false_reject=p_lo, p_detect=pd_[active],
-                    false_density=false_density[active], object_density=object_density)
-                g = res.groups
-            else:
-                sub = {"p_detect": pd_[active], "false_density": false_density[active],
-                       "object_density": object_density}
-                g = _group_without_logdet(xs, cs, gamma, sub, opts)
+            g = grouping.group_sd(
+                xs, cs, method=opts["method"], p_false_reject=p_lo, p_detect=pd_[active],
+                false_density=false_density[active], object_density=object_density,
+                logdet=opts["logdet"]).groups
             tg = np.full((g.shape[0], m), -1, dtype=np.int64)
             for c, i in enumerate(active):
                 ok = g[:, c] >= 0
@@ -957,56 +952,6 @@ def _group_all(reports, x, cov, radars, opts, timings):
     return group_of, allm
 
 
-def _group_without_logdet(xs, cs, gamma, det, opts, *, median=True):
-    """S-D grouping whose ML cost has ln|2 pi S| replaced by its median (the ablation).
-
-    The candidate groups and costs are those of :func:`radarfusion_ref.grouping.group_sd`
-    with the dummy index (same gate, same detection terms); only the log-determinant part
-    of each group's ML cost, :math:`\\ln|W| + \\sum_i \\ln|C_i|` with
-    :math:`W = \\sum_i C_i^{-1}`, is replaced by its median over the candidate groups of
-    the same size. The exact S-D problem is then solved by
-    :func:`radarfusion_ref.assignment.solve_sd`.
-    """
-    counts = [xi.shape[0] for xi in xs]
-    ma, d = len(xs), xs[0].shape[1]
-    gates = {(i, k): grouping._pair_statistics(xs[i], cs[i], xs[k], cs[k]) <= gamma
-             for i in range(ma) for k in range(i + 1, ma)}
-    T = grouping._gated_tuples(gates, counts, True)
-    K = T.shape[0]
-    info = np.zeros((K, d, d))
-    b = np.zeros((K, d))
-    cnt = np.sum(T >= 0, axis=1)
-    inv = [np.linalg.inv(c) for c in cs]
-    for i in range(ma):
-        p = T[:, i] >= 0
-        info[p] += inv[i][T[p, i]]
-        b[p] += np.einsum("kab,kb->ka", inv[i][T[p, i]], xs[i][T[p, i]])
-    xhat = np.linalg.solve(info, b[..., None])[..., 0]
-    q = np.zeros(K)
-    for i in range(ma):
-        p = T[:, i] >= 0
-        r = xs[i][T[p, i]] - xhat[p]
-        q[p] += np.einsum("ka,kab,kb->k", r, inv[i][T[p, i]], r)
-    ld = np.linalg.slogdet(info)[1]
-    for i in range(ma):
-        p = T[:, i] >= 0
-        ld[p] += np.linalg.slogdet(cs[i][T[p, i]])[1]
-    for k in np.unique(cnt[cnt >= 2]) if median else ():
-        sel = cnt == k
-        ld[sel] = np.median(ld[sel])                     # constant within each group size
-    pd_, rf, rt = det["p_detect"], det["false_density"], det["object_density"]
-    present = T >= 0
-    miss_others = np.array([np.sum(np.log1p(-np.delete(pd_, i))) for i in range(ma)])
-    lone = -2.0 * np.logaddexp(np.log(rf), np.log(rt) + np.log(pd_) + miss_others)
-    group = (q + ld + (cnt - 1) * d * math.log(2 * math.pi) - 2.0 * math.log(rt)
-             - 2.0 * np.where(present, np.log(pd_), 0.0).sum(axis=1)
-             - 2.0 * np.where(present, 0.0, np.log1p(-pd_)).sum(axis=1))
-    cost = np.where(cnt == 1, lone[np.argmax(present, axis=1)], group)
-    keep = np.isfinite(cost)
-    res = assignment.solve_sd(cost[keep], T[keep], counts=counts, method=opts["method"])
-    return res.assignment
-
-
 def run_pipeline(reports, radars, *, debias=True, register=True, logdet=True,
                  use_features=True, warmup=30, p_false_reject=1e-3, method="milp",
                  min_reports=2) -> PipelineResult:
@@ -1029,7 +974,8 @@ def run_pipeline(reports, radars, *, debias=True, register=True, logdet=True,
     logdet : bool, optional
         Keep the :math:`\\ln|2\\pi S|` term of the ML grouping cost (default). ``False``
         replaces it by its median over the scan's candidate groups of each size, so only
-        its variation between groups is removed.
+        its variation between groups is removed (:func:`radarfusion_ref.grouping.group_sd`
+        with ``logdet=False``).
     use_features : bool, optional
         Group on position and speed feature (4-D reports; default) or on position only.
     warmup : int, optional

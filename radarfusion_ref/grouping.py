@@ -46,6 +46,7 @@ from scipy import stats
 
 from ._validation import (
     MEMORY_LIMIT,
+    _describe,
     as_bool,
     as_choice,
     as_covariance,
@@ -700,8 +701,13 @@ def _gated_tuples(gates, counts, dummy):
     return T
 
 
-def _tuple_ml_costs(xs, cs, T, log_s2):
-    """ML cost of every candidate group (rows of T, -1 = absent), as in group_costs."""
+def _tuple_ml_costs(xs, cs, T, log_s2, logdet=True):
+    """ML cost of every candidate group (rows of T, -1 = absent), as in group_costs.
+
+    ``logdet=False``: the log-determinant part, ln|W| + sum_i ln|C_i|, is replaced by its
+    median over the candidate groups of the same size (the cost without the term, kept on
+    the same scale so that groups still compete fairly with lone reports).
+    """
     K, m = T.shape
     d = xs[0].shape[1]
     check_size(8 * K * (3 * d * d + 3 * d + 4), MEMORY_LIMIT,
@@ -728,12 +734,16 @@ def _tuple_ml_costs(xs, cs, T, log_s2):
         q[p] += np.einsum("ka,kab,kb->k", r, infos[i][j], r)
     chol = np.linalg.cholesky(W)
     ld_w = 2.0 * np.sum(np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
-    out = q + ld_w + ld + (cnt - 1) * d * log_s2
+    ld_all = ld_w + ld
+    if not logdet:
+        for k in np.unique(cnt[cnt >= 2]):
+            ld_all[cnt == k] = np.median(ld_all[cnt == k])
+    out = q + ld_all + (cnt - 1) * d * log_s2
     out[cnt == 1] = 0.0
     return out, cnt
 
 
-def _scene_candidates(xs, cs, *, cost, gamma, det):
+def _scene_candidates(xs, cs, *, cost, gamma, det, logdet=True):
     """Candidate groups of one scene (tuples, costs), gated and with the dummy index.
 
     `xs`, `cs`: per-source reports (n_i, d) and covariances (n_i, d, d);
@@ -767,7 +777,7 @@ def _scene_candidates(xs, cs, *, cost, gamma, det):
             c += v[T[:, i], T[:, k]]
         cnt = np.full(T.shape[0], m)
     else:
-        c, cnt = _tuple_ml_costs(xs_s, cs_s, T, log_s2)
+        c, cnt = _tuple_ml_costs(xs_s, cs_s, T, log_s2, logdet)
     if dummy:
         c, keep = _detection_costs(c, cnt, T, det, d)
         T, c = T[keep], c[keep]
@@ -816,7 +826,7 @@ def _groups_from_tuples(T):
 def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
              time_limit: float | None = None, method: str = "milp", gap: float = 0.01,
              max_iter: int = 100, p_false_reject: float | None = None, p_detect=None,
-             false_density=None, object_density=None) -> GroupingResult:
+             false_density=None, object_density=None, logdet: bool = True) -> GroupingResult:
     """Best grouping as an S-D assignment: exactly (HiGHS) or to a proved gap (Lagrangian).
 
     Parameters
@@ -868,6 +878,14 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         volume of the report space).
     object_density : float, optional
         Target density :math:`\\rho_T > 0` (per unit volume).
+    logdet : bool, optional
+        Keep the log-determinant term :math:`\\ln|2\\pi S|` of the ML group cost
+        (default: the full :math:`-2\\ln` likelihood). ``False`` replaces each candidate
+        group's :math:`\\ln|W| + \\sum_i \\ln|\\Sigma_i|` (:math:`W = \\sum_i \\Sigma_i^{-1}`)
+        by its median over the candidate groups of the same size: the cost of a rule that
+        ignores the term, on the same scale so that groups still compete fairly with lone
+        reports. Only for ``cost="ml"`` on candidate groups (with `p_false_reject` or
+        `p_detect`).
 
     Returns
     -------
@@ -934,15 +952,15 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
 
     *Lagrangian relaxation.* The candidate groups are split into independent
     clusters (connected reports). In each, the constraints of sources
-    :math:`3..m` get multipliers :math:`\\mu`; for each pair :math:`(j_1, j_2)`
+    :math:`3..m` get multipliers :math:`y`; for each pair :math:`(j_1, j_2)`
     the cheapest completion of reduced cost :math:`c_t - \\sum_{i\\ge 3}
-    \\mu_i(t_i)` leaves a 2-D assignment over the gated pairs, solved exactly
+    y_i(t_i)` leaves a 2-D assignment over the gated pairs, solved exactly
     (:func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`, with
     the dummy rows and columns kept sparse). Its value plus
-    :math:`\\sum \\mu` is a valid lower bound :math:`q(\\mu)` (reduced by a
+    :math:`\\sum y` is a valid lower bound :math:`q(y)` (reduced by a
     floating-point rounding allowance). A feasible grouping is recovered each
     iteration by fixing the relaxed pairs and assigning sources
-    :math:`3, \\dots, m` one at a time, and :math:`\\mu` moves along the
+    :math:`3, \\dots, m` one at a time, and :math:`y` moves along the
     subgradient with a Polyak step toward the best cost found. A relaxed
     solution that is itself feasible is optimal (gap 0).
 
@@ -979,7 +997,14 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
                              f"{p_lo.shape}")
         p_lo = float(p_lo)
     why = (f"pair gate P_lo = {p_lo:g}" if p_lo is not None else "no gate")
-    if p_detect is not None or false_density is not None or object_density is not None:
+    logdet = as_bool(logdet, "logdet")
+    with_det = p_detect is not None or false_density is not None or object_density is not None
+    if not logdet and (cost != "ml" or (p_lo is None and not with_det)):
+        raise ValueError("`logdet`=False applies to the ML cost (`cost`='ml') of candidate "
+                         "groups: give `p_false_reject` (a gate) or `p_detect` (the dummy "
+                         f"index); received cost={cost!r}, p_false_reject={p_false_reject!r}, "
+                         f"p_detect={_describe(p_detect) if p_detect is not None else None}")
+    if with_det:
         xs, cs = _ragged_iv(x, cov)
         det = _detection_iv(len(xs), p_detect, false_density, object_density)
         if cost != "ml":
@@ -988,7 +1013,7 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         d = xs[0].shape[1]
         gamma = None if p_lo is None else float(stats.chi2.isf(p_lo, d))
         counts = [xi.shape[0] for xi in xs]
-        T, c = _scene_candidates(xs, cs, cost=cost, gamma=gamma, det=det)
+        T, c = _scene_candidates(xs, cs, cost=cost, gamma=gamma, det=det, logdet=logdet)
         chosen, total, lb, hist = _solve_candidates(
             T, c, counts, dummy=True, method=method, gap=gap, max_iter=max_iter,
             time_limit=time_limit, why=why)
@@ -1024,7 +1049,8 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
                 c = _tensor(xb[b:b + 1], cov_b[None], cost).ravel()
             else:
                 T, c = _scene_candidates(list(xb[b]), list(cov_b), cost=cost,
-                                         gamma=float(stats.chi2.isf(p_lo, d)), det=None)
+                                         gamma=float(stats.chi2.isf(p_lo, d)), det=None,
+                                         logdet=logdet)
             try:
                 chosen, totals[b], lbs[b], hist = _solve_candidates(
                     T, c, [n] * m, dummy=False, method=method, gap=gap, max_iter=max_iter,

@@ -465,28 +465,6 @@ def test_ablation_logdet(coarse):
     assert nold.purity.estimate <= base.purity.estimate
 
 
-def test_logdet_ablation_costs_are_group_sds(coarse):
-    """With the ln|S| term kept, the ablation's own cost route groups exactly as group_sd."""
-    from scipy import stats
-
-    from radarfusion_ref import grouping
-
-    _, radars, rep, _ = coarse
-    x, cov = cp._convert(rep, radars, np.stack([r.enu for r in radars]), None, True)
-    vol = np.array([r.coverage_volume for r in radars])
-    det = {"p_detect": np.array([r.p_detect for r in radars]),
-           "false_density": np.array([r.clutter_rate for r in radars]) / vol,
-           "object_density": 30.0 / vol.mean()}
-    gamma = float(stats.chi2.isf(1e-3, 3))
-    for s in (0, 7):
-        rows = [np.flatnonzero((rep.scan == s) & (rep.radar == i)) for i in range(3)]
-        xs, cs = [x[r] for r in rows], [cov[r] for r in rows]
-        ours = cp._group_without_logdet(xs, cs, gamma, det, {"method": "milp"}, median=False)
-        ref = grouping.group_sd(xs, cs, p_false_reject=1e-3, **det).groups
-        key = lambda g: sorted(map(tuple, np.asarray(g).tolist()))  # noqa: E731
-        assert key(ours) == key(ref) and len(ref) > 50
-
-
 def test_pipeline_edge_models(traffic):
     """Certain detection without clutter still groups every scan; a warm-up without enough
     three-radar groups is refused by name instead of registering on a handful."""

@@ -1097,3 +1097,96 @@ def test_dummy_index_group_costs_carry_the_full_density_with_its_2pi():
         assert cost == pytest.approx(dens - 2 * np.log(prior), rel=1e-10)
         checked += 1
     assert checked > 0
+
+
+def _reference_groups(xs, cs, gamma, det, *, median):
+    """Best grouping by an independent route: every tuple enumerated, np.linalg costs.
+
+    The ML cost of a group is q + ln|W| + sum ln|C_i| (W = sum C_i^-1), in the scene's own
+    units; ``median=True`` replaces the log-determinant part by its median over candidate
+    groups of the same size. Detection terms as in the sonar paper's dummy index.
+    """
+    m, d = len(xs), xs[0].shape[1]
+    counts = [len(v) for v in xs]
+    tuples = [t for t in itertools.product(*[range(-1, n) for n in counts])
+              if any(j >= 0 for j in t)]
+    keep, qs, lds, cnt = [], [], [], []
+    for t in tuples:
+        idx = [(i, j) for i, j in enumerate(t) if j >= 0]
+        ok = all(
+            (xs[a][ja] - xs[b][jb]) @ np.linalg.solve(cs[a][ja] + cs[b][jb],
+                                                      xs[a][ja] - xs[b][jb]) <= gamma
+            for (a, ja), (b, jb) in itertools.combinations(idx, 2))
+        if not ok:
+            continue
+        inv = [np.linalg.inv(cs[i][j]) for i, j in idx]
+        W = sum(inv)
+        xhat = np.linalg.solve(W, sum(v @ xs[i][j] for v, (i, j) in zip(inv, idx, strict=True)))
+        q = sum((xs[i][j] - xhat) @ v @ (xs[i][j] - xhat) for v, (i, j) in zip(inv, idx, strict=True))
+        ld = np.linalg.slogdet(W)[1] + sum(np.linalg.slogdet(cs[i][j])[1] for i, j in idx)
+        keep.append(t), qs.append(q), lds.append(ld), cnt.append(len(idx))
+    T, q, ld, cnt = np.array(keep), np.array(qs), np.array(lds), np.array(cnt)
+    if median:
+        for k in np.unique(cnt[cnt >= 2]):
+            ld[cnt == k] = np.median(ld[cnt == k])
+    pd, rf, rt = det["p_detect"], det["false_density"], det["object_density"]
+    present = T >= 0
+    miss_others = np.array([np.sum(np.log1p(-np.delete(pd, i))) for i in range(m)])
+    lone = -2.0 * np.logaddexp(np.log(rf), np.log(rt) + np.log(pd) + miss_others)
+    group = (q + ld + (cnt - 1) * d * np.log(2 * np.pi) - 2.0 * np.log(rt)
+             - 2.0 * np.where(present, np.log(pd), 0.0).sum(axis=1)
+             - 2.0 * np.where(present, 0.0, np.log1p(-pd)).sum(axis=1))
+    cost = np.where(cnt == 1, lone[np.argmax(present, axis=1)], group)
+    from radarfusion_ref import assignment
+    return assignment.solve_sd(cost, T, counts=counts).assignment
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("logdet", [True, False])
+def test_group_sd_logdet_switch_matches_an_enumerated_reference(seed, logdet):
+    """logdet=True is the full -2 ln likelihood; False replaces ln|W| + sum ln|C_i| by its
+    median per group size — both against every tuple enumerated with np.linalg costs."""
+    rng = np.random.default_rng(seed)
+    truth = rng.uniform(0, 6, size=(4, 2))
+    xs, cs = [], []
+    for i in range(3):
+        seen = truth[rng.random(4) < 0.8]
+        A = rng.normal(size=(len(seen) + 1, 2, 2)) * 0.3
+        ci = A @ np.swapaxes(A, 1, 2) + np.diag([0.05, 0.2 * (i + 1)])  # unequal covariances
+        xi = np.vstack([seen, rng.uniform(0, 6, size=(1, 2))])
+        xs.append(xi + np.einsum("kab,kb->ka", np.linalg.cholesky(ci), rng.normal(size=(len(xi), 2))))
+        cs.append(ci)
+    det = {"p_detect": np.full(3, 0.8), "false_density": np.full(3, 0.03),
+           "object_density": 4 / 36}
+    p_lo = 1e-3
+    res = grouping.group_sd(xs, cs, p_false_reject=p_lo, logdet=logdet, **det)
+    ref = _reference_groups(xs, cs, stats.chi2.isf(p_lo, 2), det, median=not logdet)
+    key = lambda g: sorted(map(tuple, np.asarray(g).tolist()))  # noqa: E731
+    assert key(res.groups) == key(ref)
+    assert len(ref) >= 3
+
+
+def test_group_sd_logdet_switch_changes_decisions_somewhere():
+    """The switch is live: over a few unequal-covariance scenes, some grouping differs."""
+    differ = 0
+    for seed in range(12):
+        rng = np.random.default_rng(100 + seed)
+        truth = rng.uniform(0, 3, size=(5, 2))
+        xs = [truth + rng.normal(scale=s, size=truth.shape) for s in (0.05, 0.3, 0.6)]
+        cs = [np.broadcast_to(np.diag([s**2, (3 * s) ** 2]), (5, 2, 2)) * rng.uniform(
+            0.2, 5.0, size=(5, 1, 1)) for s in (0.05, 0.3, 0.6)]
+        kw = dict(p_false_reject=1e-3, p_detect=[0.9] * 3, false_density=[0.05] * 3,
+                  object_density=5 / 9)
+        a = grouping.group_sd(xs, cs, logdet=True, **kw).groups
+        b = grouping.group_sd(xs, cs, logdet=False, **kw).groups
+        differ += sorted(map(tuple, a.tolist())) != sorted(map(tuple, b.tolist()))
+    assert differ >= 1
+
+
+@pytest.mark.parametrize("kw", [dict(), dict(cost="pairwise", p_false_reject=1e-3)])
+def test_group_sd_logdet_false_is_refused_where_it_has_no_meaning(kw):
+    x = np.zeros((3, 2, 1)) + np.arange(2)[None, :, None]
+    with pytest.raises(ValueError, match="`logdet`"):
+        grouping.group_sd(x, np.ones((3, 2, 1, 1)), logdet=False, **kw)
+    with pytest.raises(TypeError, match="`logdet`"):
+        grouping.group_sd(x, np.ones((3, 2, 1, 1)), logdet="no")
