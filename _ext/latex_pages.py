@@ -19,6 +19,10 @@ What the printed book needs that the HTML pages get elsewhere:
   after the ``split``.
 
 * **Exercise references across pages** get the label Sphinx's ``{ref}`` points at.
+* **Chapter numbers as on the HTML pages**: the unnumbered parts' chapters are
+  unnumbered in print too, so chapter 1 is the fused estimate in both editions
+  (equations read (1.1) as on the HTML pages; sphinx-jupyterbook-latex numbers
+  exercises per section in print, 1.7.1).
 * **Exercises on the root page** keep their text inside their boxes.
 * **Long tables** (the notation table) wrap their cells instead of running off the page.
 * **Fonts** with every character the book prints, code outputs included.
@@ -34,6 +38,7 @@ from __future__ import annotations
 import re
 
 from docutils import nodes
+from sphinx import addnodes
 from sphinx.transforms.post_transforms import SphinxPostTransform
 
 _TAG = re.compile(r"\\tag\*?\{[^{}]*\}")
@@ -174,6 +179,36 @@ class ExerciseContent(SphinxPostTransform):
                     child.replace_self(content)
 
 
+class PartNumbering(SphinxPostTransform):
+    """Chapters are numbered in print as on the HTML pages.
+
+    The parts of ``_toc.yml`` that are not ``numbered`` ("Start here", the appendices)
+    print their chapters and sections unnumbered, and do not advance the chapter
+    counter, so the first numbered chapter is chapter 1 in both editions (LaTeX would
+    otherwise count the two "Start here" pages as chapters 1 and 2).
+    """
+
+    default_priority = 750         # after sphinx-jupyterbook-latex builds the parts (700)
+    formats = ("latex",)
+
+    def run(self, **kwargs) -> None:
+        sitemap = getattr(self.config, "external_site_map", None)
+        if sitemap is None or not getattr(self.env, "jblatex_captions_to_parts", False):
+            return
+        numbered = {t.caption: bool(t.numbered) for t in sitemap.root.subtrees if t.caption}
+        for section in list(self.document.findall(nodes.section)):
+            caption = section.get("docname")
+            if caption not in numbered or section.parent is None:
+                continue
+            anchor = section.parent.parent if isinstance(
+                section.parent, addnodes.start_of_file) else section.parent
+            if anchor is None or anchor.parent is None:
+                continue
+            depth = r"\rfSecNumDepth" if numbered[caption] else "-2"
+            raw = nodes.raw("", r"\setcounter{secnumdepth}{" + depth + "}\n", format="latex")
+            anchor.parent.insert(anchor.parent.index(anchor), raw)
+
+
 #: The PDF's fonts: Sphinx's FreeSerif and FreeSans (Cyrillic, Greek), and DejaVu Sans
 #: Mono for code and outputs, which has the characters the book's outputs print
 #: (ᵀ, ᵃ, ✗, box drawing) that FreeMono lacks.
@@ -191,6 +226,7 @@ FONTPKG = r"""
 #: ``jupyterBook.cls``, whose other packages the book does not use, ``bbm`` among them,
 #: which Debian ships only in texlive-fonts-extra).
 CELL_ENVIRONMENTS = r"""
+\AtBeginDocument{\edef\rfSecNumDepth{\number\value{secnumdepth}}}
 \usepackage[strict]{changepage}
 \definecolor{CodeBlockInputBorderColor}{RGB}{204,204,204}
 \definecolor{CodeBlockInputColor}{RGB}{247,247,247}
@@ -233,4 +269,5 @@ def setup(app):
     app.add_post_transform(ExerciseLabels)
     app.add_post_transform(LongTableWidths)
     app.add_post_transform(ExerciseContent)
+    app.add_post_transform(PartNumbering)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

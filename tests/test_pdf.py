@@ -220,6 +220,8 @@ def test_pdf_has_every_chapter_and_page_title(pdf_text):
     # once in the table of contents and once as the heading itself; the root page opens
     # the book before the table of contents, so its title is printed once
     assert missing_titles(pdf_text, chapters, at_least=2) == []
+    # numbered as on the HTML pages and in the catalog (the table of contents' "1 Title")
+    assert missing_titles(pdf_text, [f"{c.number} {c.title}" for c in CHAPTERS]) == []
     assert missing_titles(pdf_text, pages[:1], at_least=1) == []
     assert missing_titles(pdf_text, pages[1:], at_least=2) == []
 
