@@ -540,27 +540,18 @@ def _associate_sparse(cost, threshold, miss_cost) -> Association:
 def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
     """The joint maximum-likelihood association: an exact linear assignment.
 
+    The solver behind :func:`radarfusion_ref.association.associate_joint`, which
+    documents the arguments, the three problems it solves (complete, gated, with a
+    non-assignment cost), the sparse route and the errors: they are the same here.
+
     Parameters
     ----------
     cost : array_like, shape (..., n1, n2), or scipy.sparse matrix (n1, n2)
-        Pair costs (proximity measures :math:`\\kappa_{ij}` or negative
-        log-likelihoods); ``+inf`` forbids a pair; rectangular allowed.
-        Leading axes are a batch (solved one matrix at a time). A
-        ``scipy.sparse`` array or matrix holds the *gated* pairs only: a stored
-        entry (an explicit 0 included) is an allowed pair, a missing entry a
-        forbidden one (what ``+inf`` is in a dense matrix); it is solved by a
-        sparse assignment (see Notes), in memory and time that grow with the
-        stored pairs instead of :math:`n_1 n_2`
-        (:func:`radarfusion_ref.gating.gate_sparse_2d` builds such a matrix).
+        Pair costs; ``+inf`` (dense) or a missing entry (sparse) forbids a pair.
     threshold : float, optional
-        Gate :math:`\\gamma > 0`: a pair is allowed only if its cost is
-        strictly below it, as in :func:`radarfusion_ref.association.associate_pointwise` and
-        :func:`radarfusion_ref.gating.in_gate`. None or ``+inf``: no gate.
+        Gate: a pair is allowed only if its cost is strictly below it.
     miss_cost : float, optional
-        Cost charged for *each* report left unassigned, row or column alike
-        (the convention of MATLAB's ``assignmunkres(cost, costOfNonAssignment)``);
-        a pair is then used only if its cost is below ``2 * miss_cost``.
-        ``+inf`` is the same as None.
+        Cost charged for each report left unassigned.
 
     Returns
     -------
@@ -568,56 +559,8 @@ def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
 
     Raises
     ------
-    ValueError
-        For NaN or ``-inf`` costs, an empty matrix, a threshold ≤ 0, a NaN
-        / ``-inf`` miss cost, or a total cost beyond the float range (costs up
-        to the float maximum are solved exactly; only a *sum* that cannot be
-        represented is refused); for a sparse `cost`, also a stored NaN or
-        infinite entry (leave a forbidden pair out instead) or a matrix that
-        is not 2-D.
-    TypeError
-        For a sparse `cost` that does not hold real numbers.
-
-    Notes
-    -----
-    By eqs. (5)–(6) the likelihood of a joint hypothesis :math:`H` (a pairing
-    :math:`\\pi`) is the product of the pointwise likelihood measures, so its
-    negative logarithm is :math:`\\tfrac12\\sum_j \\kappa_{j\\pi(j)}` plus a constant,
-    and the ML hypothesis solves
-
-    .. math::
-
-        \\hat\\pi = \\arg\\min_{\\pi} \\sum_{i} c_{i\\pi(i)},
-
-    a linear assignment problem (:func:`scipy.optimize.linear_sum_assignment`,
-    :math:`O(n^3)`, instead of enumerating :math:`n!` hypotheses).
-
-    * No `threshold`, no `miss_cost`: a complete assignment of
-      :math:`\\min(n_1, n_2)` pairs of smallest total cost.
-    * `threshold` only: the largest number of pairs within the gate, and among
-      those the smallest total cost (the :math:`\\text{miss\\_cost}\\to\\infty`
-      limit). All pairs gated out: no pairs, no error.
-    * `miss_cost` :math:`c_0`: the partial assignment minimising
-      :math:`\\sum_{\\text{pairs}} c_{ij} + c_0\\,(\\#\\text{unassigned rows} +
-      \\#\\text{unassigned columns})`. This equals the standard augmented
-      :math:`(n_1+n_2)` square problem with dummy rows and columns; it is
-      solved exactly, without the augmentation, as one rectangular assignment
-      of :math:`\\min(c_{ij} - 2c_0, 0)`.
-    * Sparse `cost`: the same three problems on the stored pairs, as one
-      full matching of the :math:`n_1` rows into the :math:`n_2` columns plus
-      one private "unassigned" column per row — pair weight
-      :math:`c_{ij} - 2c_0` (pairs with :math:`c_{ij} \\ge 2c_0` are left out),
-      unassigned weight 0; without `miss_cost`, an unassigned weight larger than
-      any saving among pairs, so the largest number of pairs comes first — by
-      :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching` (LAPJVsp).
-      Decisions equal the dense solver's on the same problem (``+inf`` where
-      nothing is stored); gating plus assignment of :math:`10^4` reports per
-      radar takes well under a second (``benchmarks/bench_association.py``).
-
-    References
-    ----------
-    Grachov & Korneev (2010), eqs. (5)–(6) and the joint proximity measure
-    :math:`\\kappa_n^* = \\sum_j \\kappa_j^*`; Crouse (2016).
+    ValueError, TypeError
+        As :func:`radarfusion_ref.association.associate_joint`.
 
     Examples
     --------
