@@ -257,8 +257,22 @@ def _as_miss_cost(miss_cost, name: str = "miss_cost") -> float | None:
 
 
 # --------------------------------------------------------------------------- 2-D results
+class _Exact:
+    """The shared part of the exact 2-D results: no iterations, a proved optimum."""
+
+    @property
+    def history(self) -> None:
+        """None: the 2-D solvers are not iterative."""
+        return None
+
+    @property
+    def exact(self) -> bool:
+        """True: a proved optimum (or an exact ranking)."""
+        return True
+
+
 @dataclass(frozen=True)
-class Association:
+class Association(_Exact):
     """Association decisions for one cost matrix or a batch of them.
 
     Attributes
@@ -341,15 +355,6 @@ class Association:
         """0.0: the 2-D solvers are exact."""
         return 0.0 if np.ndim(self.total_cost) == 0 else np.zeros(np.shape(self.total_cost))
 
-    @property
-    def history(self) -> None:
-        """None: the 2-D solvers are not iterative."""
-        return None
-
-    @property
-    def exact(self) -> bool:
-        """True: a proved optimum."""
-        return True
 
 
 def _inverse(row_to_col: np.ndarray, n2: int) -> np.ndarray:
@@ -660,19 +665,9 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
 
     Raises
     ------
-    ValueError
-        As :func:`solve_2d`; and, before anything is allocated, if
-        there are more than ``MAX_HYPOTHESES`` complete hypotheses
-        (:math:`n > 10`), more than ``MAX_PARTIAL_MATCHINGS`` partial ones
-        (gate / miss cost / forbidden pairs, e.g. :math:`8 \\times 8`), or more
-        than ``MAX_SCORED_HYPOTHESES`` over the whole batch. The message names
-        the scalable alternative, :func:`solve_2d`.
-
-    Notes
-    -----
-    Grachov & Korneev's "optimal algorithm": full enumeration of the
-    hypotheses :math:`H_n` and choice of the most plausible one, eq. (6).
-    Among hypotheses of equal cost the first enumerated is returned.
+    ValueError, TypeError
+        As :func:`radarfusion_ref.association.associate_bruteforce`, which also gives
+        the enumeration limits.
 
     Examples
     --------
@@ -748,7 +743,7 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
 
 # --------------------------------------------------------------------------- 2-D k best (Murty)
 @dataclass(frozen=True)
-class KBestAssignments:
+class KBestAssignments(_Exact):
     """The best joint hypotheses in order of increasing cost.
 
     Attributes
@@ -795,15 +790,6 @@ class KBestAssignments:
         """Zeros: the ranking is exact."""
         return np.zeros(self.costs.shape)
 
-    @property
-    def history(self) -> None:
-        """None: no iterations to report."""
-        return None
-
-    @property
-    def exact(self) -> bool:
-        """True: an exact ranking."""
-        return True
 
 
 def _reduced_costs(m: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -868,42 +854,10 @@ def k_best_2d(cost, k) -> KBestAssignments:
 
     Raises
     ------
-    ValueError
-        For NaN or ``-inf`` costs, an empty matrix, ``k < 1``, ``k >
-        MAX_K_BEST``, a planned working memory (about ``_MURTY_BYTES_PER_NODE
-        * k * n**2`` bytes) above ``MEMORY_LIMIT``, or a hypothesis total
-        beyond the float range.
-    TypeError
-        If `k` is not an integer.
-
-    Notes
-    -----
-    Murty's partitioning: after the best remaining solution :math:`\\pi` of a
-    sub-problem (some pairs fixed, some forbidden) is output, its free rows
-    :math:`r_1, \\dots, r_q` give :math:`q` disjoint children — child
-    :math:`t` fixes :math:`r_1 \\dots r_{t-1}` to their columns in
-    :math:`\\pi` and forbids :math:`(r_t, \\pi(r_t))`. Their union is every
-    solution of the parent apart from :math:`\\pi`, so taking the best child
-    solution overall, repeatedly, ranks all assignments exactly.
-
-    Work is saved as in Miller, Stone & Cox (1997): with dual potentials of
-    the parent's optimum (reduced costs :math:`\\bar c \\ge 0`), child
-    :math:`t` costs at least
-
-    .. math::
-
-        C(\\pi) + \\min_{j \\ne \\pi(r_t)} \\bar c_{r_t j}
-               + \\min_{i \\ne r_t} \\bar c_{i \\pi(r_t)},
-
-    so children enter the queue with this bound and are solved
-    (:func:`scipy.optimize.linear_sum_assignment` on the child's reduced
-    matrix) only when the bound reaches the front. A rectangular problem is
-    padded with zero-cost dummy rows, and only real rows are partitioned, so
-    every assignment of the real rows appears once.
-
-    References
-    ----------
-    Murty (1968); Miller, Stone & Cox (1997).
+    ValueError, TypeError
+        As :func:`radarfusion_ref.association.k_best_assignments`, which also
+        documents the algorithm (Murty's partitioning with the Miller, Stone & Cox
+        bound).
 
     Examples
     --------

@@ -1260,6 +1260,23 @@ class Evaluation:
         return out
 
 
+def _errors_against_truth(truth, scan, aircraft, position, covariance):
+    """Estimates of known aircraft against the truth of their scan.
+
+    Returns the truth rows, the position errors and the NEES summary ``(mean, low, high,
+    N)``, where ``[low, high]`` is the central 95 % range of the mean of ``N`` χ²₃ values
+    (what a consistent covariance gives).
+    """
+    base = len(truth.icao24) + 1
+    tkey = truth.scan.astype(np.int64) * base + truth.aircraft
+    ti = np.searchsorted(tkey, np.asarray(scan, dtype=np.int64) * base + aircraft)
+    err = position - truth.position[ti]
+    nees = np.einsum("ka,ka->k", err, np.linalg.solve(covariance, err[..., None])[..., 0])
+    N = nees.size
+    return ti, err, (float(nees.mean()), float(stats.chi2.ppf(0.025, 3 * N) / N),
+                     float(stats.chi2.ppf(0.975, 3 * N) / N), N)
+
+
 def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
     """Score a pipeline run against the truth: GOSPA per scan, association, NEES, recognition.
 
@@ -1344,15 +1361,9 @@ def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
     completeness = proportion(int(ok.sum()), uk.size) if uk.size else None
     # NEES and recognition on pure objects
     if pure.any():
-        tkey = truth.scan.astype(np.int64) * (len(truth.icao24) + 1) + truth.aircraft
-        okey = result.scan[pure].astype(np.int64) * (len(truth.icao24) + 1) + first[pure]
-        ti = np.searchsorted(tkey, okey)
-        err = result.position[pure] - truth.position[ti]
-        nees = np.einsum("ka,ka->k", err,
-                         np.linalg.solve(result.covariance[pure], err[..., None])[..., 0])
-        N = nees.size
-        nees_t = (float(nees.mean()), float(stats.chi2.ppf(0.025, 3 * N) / N),
-                  float(stats.chi2.ppf(0.975, 3 * N) / N), N)
+        ti, _, nees_t = _errors_against_truth(truth, result.scan[pure], first[pure],
+                                              result.position[pure], result.covariance[pure])
+        N = nees_t[3]
         correct = result.speed_class[pure] == truth.speed_class[ti]
         recognition = proportion(int(correct.sum()), N)
     else:
@@ -1699,16 +1710,8 @@ def evaluate_tracks(tracks, truth, radars, *, c=2000.0, p=2.0, min_radars=2) -> 
     ok = tracks.source >= 0
     nees_t, rmse = None, None
     if ok.any():
-        base = len(truth.icao24) + 1
-        tkey = truth.scan.astype(np.int64) * base + truth.aircraft
-        okey = tracks.scan[ok] * base + tracks.source[ok]
-        ti = np.searchsorted(tkey, okey)
-        err = tracks.position[ok] - truth.position[ti]
-        nees = np.einsum("ka,ka->k", err,
-                         np.linalg.solve(tracks.covariance[ok], err[..., None])[..., 0])
-        N = nees.size
-        nees_t = (float(nees.mean()), float(stats.chi2.ppf(0.025, 3 * N) / N),
-                  float(stats.chi2.ppf(0.975, 3 * N) / N), N)
+        _, err, nees_t = _errors_against_truth(truth, tracks.scan[ok], tracks.source[ok],
+                                               tracks.position[ok], tracks.covariance[ok])
         rmse = float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
     return TrackEvaluation(gospa=parts[:, 0], localisation=parts[:, 1], missed=parts[:, 2],
                            false=parts[:, 3], c=c, p=p, nees=nees_t, rmse=rmse,
