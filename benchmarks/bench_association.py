@@ -32,8 +32,9 @@ import tracemalloc
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from radarfusion_ref import association, gating, scenes
-from radarfusion_ref._validation import MEMORY_LIMIT
+from radarfusion_ref import association, gating
+from radarfusion_ref.engine import scenes
+from radarfusion_ref.engine._validation import MEMORY_LIMIT
 
 P_LO = 0.01
 SIGMA = 0.3

@@ -7,7 +7,7 @@ modern-conversions page): a target at range 100 (range error 1), azimuth 0.6 and
 elevation 0.2 or 0.4 rad, with equal azimuth and elevation errors swept over the page's
 nine values, and every 3-D conversion method's NEES per trial
 (:func:`radarfusion_ref.conversion.spherical_monte_carlo`, about 45 ms per seed unit of
-1024 trials on one core). It runs through :func:`radarfusion_ref.montecarlo.sweep`:
+1024 trials on one core). It runs through :func:`radarfusion_ref.engine.montecarlo.sweep`:
 
 * in this process (``client=None``), the baseline;
 * on ``LocalCluster(n_workers=W, threads_per_worker=1)`` for each W of ``--workers``
@@ -35,7 +35,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from radarfusion_ref import conversion as cv  # noqa: E402
-from radarfusion_ref.montecarlo import SEED_BLOCK, sweep  # noqa: E402
+from radarfusion_ref.engine.montecarlo import SEED_BLOCK, sweep  # noqa: E402
 
 R, SIGMA_R, BETA = 100.0, 1.0, 0.6
 SIGMA_GRID = [0.01, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5]      # the page's SB_GRID

@@ -27,8 +27,8 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
 * :func:`non_assignment_cost` — the non-assignment cost implied by the
   likelihood ratio (detection probabilities, false-report densities);
 * :func:`two_radar_clutter_scene` — the shared scene simulator
-  (:func:`radarfusion_ref.scenes.two_radar_scene`) with missed detections and
-  false reports added (it lives in :mod:`radarfusion_ref.scenes`);
+  (:func:`radarfusion_ref.engine.scenes.two_radar_scene`) with missed detections and
+  false reports added (it lives in :mod:`radarfusion_ref.engine.scenes`);
 * :func:`compare_decisions` — the Monte-Carlo decision-level comparison of the
   three procedures used by the chapter;
 * :func:`decision_outcome` and :func:`calibrate_gate` — every rule's decisions
@@ -36,14 +36,14 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   puts a rule at a given false-accept or false-reject rate (the fair
   comparison of the rules at the same error rate).
 
-The solvers themselves live in :mod:`radarfusion_ref.assignment` (the home of
+The solvers themselves live in :mod:`radarfusion_ref.engine.assignment` (the home of
 the 2-D and S-D assignment solvers): :func:`associate_joint`,
 :func:`associate_bruteforce` and :func:`k_best_assignments` call
-:func:`radarfusion_ref.assignment.solve_2d`,
-:func:`radarfusion_ref.assignment.solve_2d_bruteforce` and
-:func:`radarfusion_ref.assignment.k_best_2d`; their results,
-:class:`radarfusion_ref.assignment.Association` and
-:class:`radarfusion_ref.assignment.KBestAssignments`, are importable from here
+:func:`radarfusion_ref.engine.assignment.solve_2d`,
+:func:`radarfusion_ref.engine.assignment.solve_2d_bruteforce` and
+:func:`radarfusion_ref.engine.assignment.k_best_2d`; their results,
+:class:`radarfusion_ref.engine.assignment.Association` and
+:class:`radarfusion_ref.engine.assignment.KBestAssignments`, are importable from here
 too and share the vocabulary ``assignment``, ``cost``, ``lower_bound``,
 ``gap``, ``history``, ``exact``.
 
@@ -69,8 +69,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import assignment, scenes
-from ._validation import (
+from .engine import assignment, scenes
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_bool,
@@ -81,7 +81,7 @@ from ._validation import (
     as_probability,
     broadcast,
 )
-from .assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
+from .engine.assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
     _BLOCK_BYTES,
     MAX_HYPOTHESES,
     MAX_K_BEST,
@@ -99,8 +99,8 @@ from .assignment import (  # noqa: F401  (re-exported: the solvers' home is assi
     _make_result,
     _scaled,
 )
-from .errors import RadarFusionWarning
-from .montecarlo import Proportion, proportion
+from .engine.errors import RadarFusionWarning
+from .engine.montecarlo import Proportion, proportion
 from .proximity import mahalanobis_sq
 
 __all__ = [
@@ -691,7 +691,7 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
 
 # --------------------------------------------------------------------------- scenes
 #: The two-radar scene with misses and false reports; its home is
-#: :mod:`radarfusion_ref.scenes` (the same function and class, under their names here).
+#: :mod:`radarfusion_ref.engine.scenes` (the same function and class, under their names here).
 ClutterScene = scenes.ClutterScene
 two_radar_clutter_scene = scenes.two_radar_clutter_scene
 
@@ -881,7 +881,7 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     Returns
     -------
     DecisionComparison
-        Each field a :class:`~radarfusion_ref.montecarlo.Proportion` carrying
+        Each field a :class:`~radarfusion_ref.engine.montecarlo.Proportion` carrying
         its trial count and 95 % Wilson interval.
 
     Raises

@@ -64,17 +64,9 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from . import (
-    assignment,
-    conversion,
-    features,
-    fusion,
-    gating,
-    grouping,
-    registration,
-    trackfusion,
-)
-from ._validation import (
+from . import conversion, features, fusion, gating, grouping, registration, trackfusion
+from .engine import assignment
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_bool,
@@ -85,7 +77,7 @@ from ._validation import (
     as_rng,
     check_size,
 )
-from .montecarlo import Proportion, proportion
+from .engine.montecarlo import Proportion, proportion
 
 __all__ = [
     "DATA_FILE",
@@ -1466,7 +1458,7 @@ def track_fusion(result, *, period=10.0, q=10.0, rule="ci", confirm=2, max_misse
     -----
     Each scan: the fused track of every live track is predicted over the period
     by the constant-velocity model and linked to the scan's objects by an exact gated
-    assignment (:func:`radarfusion_ref.assignment.solve_2d`): pairs whose Mahalanobis
+    assignment (:func:`radarfusion_ref.engine.assignment.solve_2d`): pairs whose Mahalanobis
     statistic passes the gate cost :math:`\\kappa + \\ln|2\\pi S|` (the full negative
     log-likelihood, so that a young, uncertain track cannot take a confident track's
     object), and the link takes as many gated pairs as possible. A linked track updates the

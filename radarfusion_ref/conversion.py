@@ -88,7 +88,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_choice,
@@ -100,8 +100,8 @@ from ._validation import (
     broadcast,
     check_size,
 )
-from .errors import RadarFusionWarning
-from .montecarlo import MeanEstimate, mean
+from .engine.errors import RadarFusionWarning
+from .engine.montecarlo import MeanEstimate, mean
 
 __all__ = [
     "ALL_METHODS",
@@ -151,7 +151,7 @@ SIGMA_BETA_MAX = 0.5
 
 #: Largest number of batch elements (broadcast inputs × trials) one call works on at once:
 #: about 256 bytes of working memory each, so one call stays within
-#: :data:`radarfusion_ref._validation.MEMORY_LIMIT` (1 GiB).
+#: :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (1 GiB).
 MAX_BATCH = MEMORY_LIMIT // 256
 
 #: Lerro & Bar-Shalom's rule of thumb (as usually quoted): the linearized

@@ -23,7 +23,7 @@ density (Grachov & Korneev 2010, eq. (8), corrected — see the chapter)
 * :func:`combined_proximity` — the coordinate + feature proximity measure (12)
   (vector coordinates allowed), for both feature observation models;
 * :func:`typed_scene` — two-radar scenes of typed objects (builds on
-  :func:`radarfusion_ref.scenes.two_radar_scene`);
+  :func:`radarfusion_ref.engine.scenes.two_radar_scene`);
 * :func:`association_costs` — the :math:`n \\times n` cost matrices of a scene;
 * :func:`triune` — the association – estimation – recognition outcome of a
   given association, with accuracy, RMSE and a confusion matrix;
@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import expit, logsumexp
 
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_choice,
@@ -61,15 +61,15 @@ from ._validation import (
     check_size,
     unwrap,
 )
-from .fusion import fuse
-from .montecarlo import MeanEstimate, Proportion, mean, proportion
-from .proximity import mahalanobis_sq
-from .scenes import (  # the scene simulator lives in scenes; re-exported under its name here
+from .engine.montecarlo import MeanEstimate, Proportion, mean, proportion
+from .engine.scenes import (  # the scene simulator lives in scenes; re-exported under its name here
     FEATURE_MODELS,
     TypedScene,
     _types_iv,
     typed_scene,
 )
+from .fusion import fuse
+from .proximity import mahalanobis_sq
 
 __all__ = [
     "FEATURE_MODELS",
@@ -99,7 +99,7 @@ _LOG_2PI = np.log(2.0 * np.pi)
 MAX_BINS = 10_000
 
 #: Working arrays of one type posterior, each of the output's size (for the
-#: memory limit :data:`radarfusion_ref._validation.MEMORY_LIMIT`).
+#: memory limit :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`).
 _WORK_ARRAYS = 24
 
 

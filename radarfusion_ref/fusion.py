@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_covariance,

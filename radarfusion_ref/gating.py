@@ -53,7 +53,7 @@ All functions broadcast over their array arguments.
   :func:`gate_pairwise_2d` refuse a `chunk_size` above :data:`MAX_CHUNK`
   before allocating their work buffers; the pairwise kernels also refuse a
   call whose result and per-report copies exceed
-  :data:`radarfusion_ref._validation.MEMORY_LIMIT`, and covariances that are
+  :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`, and covariances that are
   singular to working precision (determinant at most 1e-12 of the product of
   the variances, where :math:`\\kappa` would have no correct digit left).
 
@@ -71,7 +71,7 @@ import math
 import numpy as np
 from scipy import optimize, special, stats
 
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_covariance,
@@ -901,7 +901,7 @@ def pairwise_mahalanobis_2d(x1, x2, cov1, cov2, *, chunk_size=_PAIR_CHUNK,
         not symmetric, not positive definite or singular to working precision
         (no reports on one side is allowed: the result is empty),
         `chunk_size` is outside [1, :data:`MAX_CHUNK`], the result would exceed
-        :data:`radarfusion_ref._validation.MEMORY_LIMIT` (both checked before
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (both checked before
         any allocation that grows with the pairs), or a :math:`\\kappa`
         overflows the largest double.
     TypeError
@@ -1037,7 +1037,7 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
         If the shapes are not ``(n1, 2)``, ``(n2, 2)``, ``(2, 2)``, an entry is
         not finite, `cov` is not symmetric positive definite, the whitened
         coordinates overflow, or the candidate pairs would exceed
-        :data:`radarfusion_ref._validation.MEMORY_LIMIT` (counted before they
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (counted before they
         are listed).
     TypeError
         If an argument is not numeric.

@@ -15,7 +15,7 @@ reports into ``n`` groups holding one report of each source. This module
 * scores the ``(n!)**m`` binding hypotheses — the paper's hypotheses I–IV for
   two sources and two tracks — by the paper's product of independent
   densities or by the exact likelihood (:func:`binding_costs`);
-* simulates scenes (:func:`grouping_scene`, from :mod:`radarfusion_ref.scenes`).
+* simulates scenes (:func:`grouping_scene`, from :mod:`radarfusion_ref.engine.scenes`).
 
 Arrays follow one convention: ``x[..., i, j, :]`` is report ``j`` of source
 ``i`` (shape ``(..., m, n, d)``) and ``cov[..., i, j, :, :]`` its error
@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_bool,
@@ -56,7 +56,7 @@ from ._validation import (
     as_probability,
     check_size,
 )
-from .assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
+from .engine.assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
     _HIGHS_COST_SCALE,
     _condition_costs,
     _gap_of,
@@ -65,7 +65,7 @@ from .assignment import (  # noqa: F401  (re-exported: the solvers' home is assi
     _sd_solve,
     _solve_candidates,
 )
-from .scenes import GroupingScene, _grouping_scene  # the simulator's home is scenes
+from .engine.scenes import GroupingScene, _grouping_scene  # the simulator's home is scenes
 
 __all__ = [
     "PAPER_HYPOTHESES",
@@ -151,7 +151,7 @@ class GroupingResult:
         ``None`` otherwise.
     assignment, exact
         (properties) with `cost`, `lower_bound`, `gap` and `history`, the
-        :class:`radarfusion_ref.assignment.AssignmentResult` vocabulary shared
+        :class:`radarfusion_ref.engine.assignment.AssignmentResult` vocabulary shared
         with the 2-D results: ``assignment`` is `groups`; ``exact`` is whether
         the gap is 0 (every batch entry).
 
@@ -1241,7 +1241,7 @@ def grouping_scene(n_targets: int, n_sources: int, *, spacing: float = 1.0,
                    rng=None) -> GroupingScene:
     """Draw `trials` scenes of `n_targets` targets reported by `n_sources` sources.
 
-    :func:`radarfusion_ref.scenes.grouping_scene` under this chapter's name for
+    :func:`radarfusion_ref.engine.scenes.grouping_scene` under this chapter's name for
     its first argument (the same draws for the same seed).
 
     Parameters
@@ -1249,7 +1249,7 @@ def grouping_scene(n_targets: int, n_sources: int, *, spacing: float = 1.0,
     n_targets : int
         Number of targets ``n`` (every source reports every target once).
     n_sources, spacing, layout, cov, track_cov, trials, rng
-        As in :func:`radarfusion_ref.scenes.grouping_scene`.
+        As in :func:`radarfusion_ref.engine.scenes.grouping_scene`.
 
     Returns
     -------
@@ -1258,7 +1258,7 @@ def grouping_scene(n_targets: int, n_sources: int, *, spacing: float = 1.0,
     Raises
     ------
     ValueError, TypeError
-        As :func:`radarfusion_ref.scenes.grouping_scene`, naming `n_targets`.
+        As :func:`radarfusion_ref.engine.scenes.grouping_scene`, naming `n_targets`.
 
     Examples
     --------

@@ -46,7 +46,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import special, stats
 
-from ._validation import (
+from .engine._validation import (
     as_choice,
     as_covariance,
     as_float_array,

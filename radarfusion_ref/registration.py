@@ -55,7 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import association, conversion, gating
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_choice,
@@ -66,8 +66,8 @@ from ._validation import (
     as_rng,
     check_size,
 )
-from .errors import RadarFusionWarning
-from .montecarlo import proportion
+from .engine.errors import RadarFusionWarning
+from .engine.montecarlo import proportion
 from .proximity import mahalanobis_sq
 
 __all__ = [
@@ -1171,7 +1171,7 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
     on_failure : {"warn", "raise"}, optional
         On non-convergence (no repeat within `max_iter` passes, a cycle, or
         too few pairs to estimate the biases): warn with
-        :class:`~radarfusion_ref.errors.RadarFusionWarning` and return the
+        :class:`~radarfusion_ref.engine.errors.RadarFusionWarning` and return the
         last pass (``converged=False``), or raise :class:`RegistrationError`.
         Both carry the iteration history.
 

@@ -34,7 +34,7 @@ by radar 1 compared with every report of radar 2:
 * :func:`radar2_position`, :func:`paper_geometry`, :func:`polar_from` — the
   geometry;
 * :func:`simulate_polar` — noisy polar reports of both radars, vectorized over
-  trials (:func:`radarfusion_ref.scenes.simulate_polar`, under its name here);
+  trials (:func:`radarfusion_ref.engine.scenes.simulate_polar`, under its name here);
 * :func:`to_common_frame` — conversion to Cartesian in radar 1's frame;
 * :func:`pair_statistic` — :math:`\\kappa` for every pair, by a hand-written batched
   2×2 Cholesky factorisation (and :math:`\\ln\\det`);
@@ -66,7 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import conversion, gating
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_bool,
@@ -80,8 +80,8 @@ from ._validation import (
     broadcast,
     check_size,
 )
-from .montecarlo import Proportion, proportion
-from .scenes import PolarReports, simulate_polar  # the simulator's home is scenes
+from .engine.montecarlo import Proportion, proportion
+from .engine.scenes import PolarReports, simulate_polar  # the simulator's home is scenes
 
 __all__ = [
     "CORRECT",
@@ -408,7 +408,7 @@ def paper_geometry(offset_range=0.0, offset_cross=0.0, *, range1=PAPER["range1"]
 
 
 # --------------------------------------------------------------------------- simulation
-# PolarReports and simulate_polar live in radarfusion_ref.scenes (imported above).
+# PolarReports and simulate_polar live in radarfusion_ref.engine.scenes (imported above).
 def _as_geometry(geometry) -> Geometry:
     if not isinstance(geometry, Geometry):
         raise TypeError("`geometry` must be a radarfusion_ref.separated.Geometry (see "
@@ -613,8 +613,8 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False,
     ------
     ValueError
         If shapes do not match, entries are not finite, a covariance is not
-        symmetric or not positive definite (:func:`radarfusion_ref._validation.as_covariance`),
-        the sums are too many for :data:`radarfusion_ref._validation.MEMORY_LIMIT`,
+        symmetric or not positive definite (:func:`radarfusion_ref.engine._validation.as_covariance`),
+        the sums are too many for :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`,
         or a summed covariance is numerically singular.
     TypeError
         If an argument is not numeric.
@@ -768,7 +768,7 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
         If `statistic` is not square with finite entries >= 0, ``n!`` exceeds
         :data:`MAX_JOINT_PAIRINGS` (``n`` > 7: use
         :func:`radarfusion_ref.association.associate_joint`), the work exceeds
-        :data:`radarfusion_ref._validation.MEMORY_LIMIT`, `logdet` has another
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`, `logdet` has another
         shape or non-finite entries, or `threshold` is not positive.
 
     Notes
@@ -950,7 +950,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     chunk_size : int, optional
         Trials per vectorized chunk (memory ~ 1.5 kB per trial for two
         targets); the working memory of one chunk must stay within
-        :data:`radarfusion_ref._validation.MEMORY_LIMIT`. It changes speed and
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`. It changes speed and
         memory only, never the result.
 
     Returns

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg
 
-from ._validation import (
+from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_choice,

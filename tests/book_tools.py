@@ -17,7 +17,7 @@ from pathlib import Path
 
 import nbformat
 
-from radarfusion_ref.checks import LOG_ENV as CHECK_LOG_ENV
+from radarfusion_ref.kit.checks import LOG_ENV as CHECK_LOG_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_DIR = ROOT / "_build"
@@ -80,7 +80,7 @@ def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = 
     ----------
     check_log : Path, optional
         File in which the kernel's passing checks are recorded, one line each
-        (``radarfusion_ref.checks.LOG_ENV``).
+        (``radarfusion_ref.kit.checks.LOG_ENV``).
     preamble : str, optional
         Code run in the kernel before the chapter's first cell (used by the
         mutation tests); the notebook is then not cached.

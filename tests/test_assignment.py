@@ -1,4 +1,4 @@
-"""Tests of radarfusion_ref.assignment (the 2-D and S-D assignment solvers).
+"""Tests of radarfusion_ref.engine.assignment (the 2-D and S-D assignment solvers).
 
 Reference values come from independent routes:
 
@@ -24,8 +24,8 @@ from hypothesis import strategies as st
 from scipy import sparse
 from scipy.optimize import linear_sum_assignment
 
-from radarfusion_ref import assignment as asg
 from radarfusion_ref import association, grouping
+from radarfusion_ref.engine import assignment as asg
 
 
 # ---------------------------------------------------------------- independent references

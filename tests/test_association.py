@@ -21,9 +21,9 @@ from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
 from radarfusion_ref import association as A
-from radarfusion_ref import scenes
-from radarfusion_ref.errors import RadarFusionWarning
-from radarfusion_ref.montecarlo import binomial_tolerance
+from radarfusion_ref.engine import scenes
+from radarfusion_ref.engine.errors import RadarFusionWarning
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -632,7 +632,7 @@ def test_property_proximity_matrix(n1, n2, d, s1, s2):
     assert k.shape == (n1, n2) and np.all(k >= 0)
 
 
-@pytest.mark.filterwarnings("ignore::radarfusion_ref.errors.RadarFusionWarning")
+@pytest.mark.filterwarnings("ignore::radarfusion_ref.engine.errors.RadarFusionWarning")
 @given(st.floats(0.05, 1.0), st.floats(0.05, 1.0), st.floats(0.0, 5.0), st.floats(0.0, 5.0),
        st.floats(1e-3, 1e3), st.floats(1e-4, 1e2))
 def test_property_non_assignment_cost_is_finite_and_matches_the_formula(p1, p2, f1, f2, rho, s):
@@ -736,7 +736,7 @@ def test_a_total_beyond_the_float_range_is_refused_not_inf():
             call()
 
 
-@pytest.mark.filterwarnings("ignore::radarfusion_ref.errors.RadarFusionWarning")
+@pytest.mark.filterwarnings("ignore::radarfusion_ref.engine.errors.RadarFusionWarning")
 def test_non_assignment_cost_extremes_against_mpmath():
     mp = pytest.importorskip("mpmath")
     mp.mp.dps = 50

@@ -7,7 +7,7 @@ import re
 import pytest
 from book_tools import ROOT, is_notebook, notebook_docnames, toc_docnames
 
-from radarfusion_ref import catalog
+from radarfusion_ref.kit import catalog
 
 # a chapter is book/NN_<stem>; its sub-pages book/NN_<stem>_<topic> are sections of it
 CHAPTER_DOCS = [d for d in notebook_docnames() if re.search(r"/\d\d_[a-z]+$", d)]
@@ -59,7 +59,7 @@ def test_no_global_numpy_random_state():
     pattern = re.compile(r"np\.random\.(seed|rand|randn|randint|choice|normal|uniform|shuffle"
                          r"|permutation|random_sample)\(")
     offenders = []
-    for path in [*ROOT.glob("radarfusion_ref/*.py"), *ROOT.glob("book/*.md"),
+    for path in [*ROOT.rglob("radarfusion_ref/**/*.py"), *ROOT.glob("book/*.md"),
                  *ROOT.glob("benchmarks/*.py")]:
         for i, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             if pattern.search(line):
@@ -68,7 +68,7 @@ def test_no_global_numpy_random_state():
 
 
 def test_no_assert_for_validation_in_the_package():
-    offenders = [f"{p.name}:{i}" for p in ROOT.glob("radarfusion_ref/*.py")
+    offenders = [f"{p.name}:{i}" for p in ROOT.rglob("radarfusion_ref/**/*.py")
                  for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
                  if re.match(r"\s*assert\s", line)]
     assert not offenders, offenders
@@ -108,7 +108,7 @@ def test_every_erratum_has_printed_corrected_and_evidence(chapter):
 
 
 def test_every_module_has_an_api_page():
-    modules = {p.stem for p in ROOT.glob("radarfusion_ref/*.py") if not p.stem.startswith("_")}
+    modules = {p.stem for p in ROOT.rglob("radarfusion_ref/**/*.py") if not p.stem.startswith("_")}
     pages = {p.stem for p in (ROOT / "book" / "api").glob("*.md")} - {"index"}
     assert modules == pages
     listed = set(toc_docnames())
@@ -131,7 +131,8 @@ def test_every_literalinclude_pattern_is_in_its_source():
             opts = dict(re.findall(r":([\w-]+):\s*(.*)", m.group(2)))
             source = path.read_text(encoding="utf-8")
             if "pyobject" in opts:
-                obj = importlib.import_module(f"radarfusion_ref.{path.stem}")
+                dotted = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+                obj = importlib.import_module(dotted)
                 for part in opts["pyobject"].split("."):
                     obj = getattr(obj, part)
                 source = inspect.getsource(obj)

@@ -97,7 +97,7 @@ def test_no_thebe_and_no_script_address_on_the_network(built_book):
 def test_exercises_and_equations_are_numbered_per_chapter(built_book):
     """Exercise numbers restart in every chapter (1.1, 1.2, ...; 2.1, ...), and so do the
     labelled equations."""
-    from radarfusion_ref import catalog
+    from radarfusion_ref.kit import catalog
 
     main = {c.docname: c.number for c in catalog.CHAPTERS}
     for docname in toc_docnames():
@@ -117,7 +117,7 @@ def test_exercises_and_equations_are_numbered_per_chapter(built_book):
 
 
 def test_players_have_enough_frames(built_book):
-    from radarfusion_ref.interactive import MIN_FRAMES
+    from radarfusion_ref.kit.interactive import MIN_FRAMES
 
     short = {}
     for page in html_pages():

@@ -13,7 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from radarfusion_ref import capstone as cp
-from radarfusion_ref import montecarlo
+from radarfusion_ref.engine import montecarlo
+from radarfusion_ref.kit import checks
 
 SHA256 = "38fc29bbf0e2d67c7a4ef42723f0390d35c5eeedb581225e8db94d4322f89ba4"
 SIZE = 155_801
@@ -258,11 +259,11 @@ def test_simulator_statistics(traffic):
         cov_i = cp._coverage_count(truth.position, [rad]) > 0
         mine = (rep.radar == i) & (rep.source >= 0)
         detected = np.isin(tkey[cov_i], rep.scan[mine] * 1000 + rep.source[mine])
-        montecarlo.require(montecarlo.proportion(int(detected.sum()), detected.size),
+        checks.require(montecarlo.proportion(int(detected.sum()), detected.size),
                            rad.p_detect, f"P_D of {rad.name}")
         n_false = np.bincount(rep.scan[(rep.radar == i) & (rep.source < 0)],
                               minlength=truth.n_scans)
-        montecarlo.require(montecarlo.mean(n_false.astype(float)), rad.clutter_rate,
+        checks.require(montecarlo.mean(n_false.astype(float)), rad.clutter_rate,
                            f"clutter rate of {rad.name}")
         # residuals against the true (biased) polar coordinates
         k = np.searchsorted(tkey, rep.scan[mine] * 1000 + rep.source[mine])
@@ -275,8 +276,8 @@ def test_simulator_statistics(traffic):
         for name, resid, sig in (("range", dr, rad.sigma_r), ("azimuth", db, rad.sigma_beta),
                                  ("elevation", de, rad.sigma_epsilon),
                                  ("feature", df, rad.sigma_feature)):
-            montecarlo.require(montecarlo.mean(resid / sig), 0.0, f"{name} mean of {rad.name}")
-            montecarlo.require(montecarlo.mean((resid / sig) ** 2), 1.0,
+            checks.require(montecarlo.mean(resid / sig), 0.0, f"{name} mean of {rad.name}")
+            checks.require(montecarlo.mean((resid / sig) ** 2), 1.0,
                                f"{name} variance of {rad.name}")
     assert covered.any() and not covered.all()     # the coverage limit bites
 

@@ -8,11 +8,18 @@ import sympy as sp
 from hypothesis import given
 from hypothesis import strategies as st
 
-from radarfusion_ref import checks
-from radarfusion_ref.checks import CheckError, check_close, check_equal, check_true
-from radarfusion_ref.montecarlo import MonteCarloCheckError, mean, proportion, require
-from radarfusion_ref.symbolic import SymbolicCheckError, check_zero
-from radarfusion_ref.symbolic import check_close as symbolic_close
+from radarfusion_ref.engine.montecarlo import mean, proportion
+from radarfusion_ref.kit import checks
+from radarfusion_ref.kit.checks import (
+    CheckError,
+    MonteCarloCheckError,
+    check_close,
+    check_equal,
+    check_true,
+    require,
+)
+from radarfusion_ref.kit.symbolic import SymbolicCheckError, check_zero
+from radarfusion_ref.kit.symbolic import check_close as symbolic_close
 
 VACUOUS = [None, np.nan, [1.0, np.nan], np.inf, [-np.inf], [], np.zeros((0, 3)), "1.0",
            [True, False]]

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 from radarfusion_ref import conversion as cv
-from radarfusion_ref.errors import RadarFusionWarning
+from radarfusion_ref.engine.errors import RadarFusionWarning
 
 ALL = (*cv.METHODS, "measurement_conditioned")     # every method that needs no prior
 

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from scipy import integrate, stats
 
 from radarfusion_ref import features as F
-from radarfusion_ref.montecarlo import binomial_tolerance
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
 
 finite = st.floats(-50, 50, allow_nan=False)
 pos = st.floats(0.05, 20, allow_nan=False)

@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 from scipy import optimize, stats
 
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
 from radarfusion_ref.fusion import (
     FusedEstimate,
     GaussianFusion,
@@ -32,7 +33,6 @@ from radarfusion_ref.fusion import (
     sample_reports,
     sample_reports_gaussian,
 )
-from radarfusion_ref.montecarlo import binomial_tolerance
 
 ROOT = Path(__file__).resolve().parents[1]
 

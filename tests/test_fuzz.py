@@ -7,8 +7,8 @@ the other required arguments receive the same kind of garbage. The call must
 raise :class:`ValueError` or :class:`TypeError` (never a raw ``LinAlgError``,
 ``IndexError``, ``AttributeError`` …, never a result), and the message must
 name, in backticks, one of the function's public arguments. The check helpers
-(:mod:`radarfusion_ref.checks`, :mod:`radarfusion_ref.symbolic`) may also fail
-with their :class:`~radarfusion_ref.checks.CheckError`: failing is their job.
+(:mod:`radarfusion_ref.kit.checks`, :mod:`radarfusion_ref.kit.symbolic`) may also fail
+with their :class:`~radarfusion_ref.kit.checks.CheckError`: failing is their job.
 
 Empty arrays are not garbage here: for element-wise functions an empty input
 has an empty answer. Where a result is undefined on empty input, the module's
@@ -32,7 +32,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import radarfusion_ref
-from radarfusion_ref.checks import CheckError
+from radarfusion_ref.kit.checks import CheckError
 
 #: Functions that take no data (styles, ledgers) or whose arguments are callables and
 #: drawing targets checked in their own test files.
@@ -46,21 +46,28 @@ SKIP = {
 }
 
 
+def _short(module_name: str) -> str:
+    """``radarfusion_ref.engine.montecarlo`` -> ``montecarlo``: the name without its layer."""
+    parts = module_name.split(".")[1:]
+    return ".".join(parts[1:] if parts[0] in ("engine", "kit") else parts)
+
+
 def public_functions():
     out = []
-    for info in pkgutil.iter_modules(radarfusion_ref.__path__):
-        if info.name.startswith("_"):
+    for info in pkgutil.walk_packages(radarfusion_ref.__path__, "radarfusion_ref."):
+        if any(part.startswith("_") for part in info.name.split(".")):
             continue
-        module = importlib.import_module(f"radarfusion_ref.{info.name}")
+        module = importlib.import_module(info.name)
+        short = _short(info.name)
         for name in getattr(module, "__all__", []):
             obj = getattr(module, name)
-            if not inspect.isfunction(obj) or f"{info.name}.{name}" in SKIP:
+            if not inspect.isfunction(obj) or f"{short}.{name}" in SKIP:
                 continue
             params = [p for p in inspect.signature(obj).parameters.values()
                       if p.default is inspect.Parameter.empty
                       and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
             if params:
-                out.append((f"{info.name}.{name}", obj, params))
+                out.append((f"{short}.{name}", obj, params))
     return out
 
 
@@ -113,7 +120,7 @@ def test_garbage_is_refused_by_name(qualname, fn, params, data):
 
 def test_the_net_covers_the_package():
     """Every module's public functions are in the net (or deliberately skipped)."""
-    modules = {q.split(".")[0] for q, _, _ in FUNCTIONS}
+    modules = {q.rsplit(".", 1)[0] for q, _, _ in FUNCTIONS}
     assert len(FUNCTIONS) >= 60, len(FUNCTIONS)
     assert {"fusion", "proximity", "gating", "association", "features", "conversion",
             "separated", "grouping", "checks", "montecarlo", "scenes",

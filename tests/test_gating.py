@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from scipy import integrate, special, stats
 
 from radarfusion_ref import gating
-from radarfusion_ref.montecarlo import binomial_tolerance
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
 
 probs = st.floats(min_value=1e-6, max_value=0.5)
 dofs = st.integers(min_value=1, max_value=30)

@@ -23,7 +23,7 @@ from scipy import integrate, stats
 from scipy.optimize import linear_sum_assignment, linprog
 
 from radarfusion_ref import grouping
-from radarfusion_ref.montecarlo import binomial_tolerance
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
 
 
 def rand_spd(rng, shape, d, *, floor=0.2):
@@ -1137,7 +1137,7 @@ def _reference_groups(xs, cs, gamma, det, *, median):
              - 2.0 * np.where(present, np.log(pd), 0.0).sum(axis=1)
              - 2.0 * np.where(present, 0.0, np.log1p(-pd)).sum(axis=1))
     cost = np.where(cnt == 1, lone[np.argmax(present, axis=1)], group)
-    from radarfusion_ref import assignment
+    from radarfusion_ref.engine import assignment
     return assignment.solve_sd(cost, T, counts=counts).assignment
 
 

@@ -17,9 +17,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from radarfusion_ref import interactive
-from radarfusion_ref.errors import RadarFusionWarning
-from radarfusion_ref.interactive import MIN_FRAMES, PLAYER_DPI, controls, slider, sweep_player
+from radarfusion_ref.engine.errors import RadarFusionWarning
+from radarfusion_ref.kit import interactive
+from radarfusion_ref.kit.interactive import MIN_FRAMES, PLAYER_DPI, controls, slider, sweep_player
 
 
 def _frames(html: str) -> list[bytes]:

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from radarfusion_ref.montecarlo import binomial_tolerance, mean, proportion
+from radarfusion_ref.engine.montecarlo import binomial_tolerance, mean, proportion
 
 
 @settings(max_examples=60, deadline=None)
@@ -106,7 +106,7 @@ def test_mean_agrees_and_require():
     m = mean(np.array([1.0, 2.0, 3.0, 4.0]))    # 2.5, standard error 0.6455
     assert m.agrees(2.5 + 3 * 0.6455)
     assert not m.agrees(2.5 + 6 * 0.6455)
-    from radarfusion_ref.montecarlo import MonteCarloCheckError, require
+    from radarfusion_ref.kit.checks import MonteCarloCheckError, require
 
     require(m, 2.0, "close")
     with pytest.raises(MonteCarloCheckError, match="far: Monte Carlo"):
@@ -125,14 +125,16 @@ def test_format_for_prose():
 # sweep: a grid of experiments in seed units, here or on a Dask cluster
 # ---------------------------------------------------------------------------
 
-from radarfusion_ref import gating, montecarlo  # noqa: E402
-from radarfusion_ref.montecarlo import (  # noqa: E402
+from radarfusion_ref import gating  # noqa: E402
+from radarfusion_ref.engine import montecarlo  # noqa: E402
+from radarfusion_ref.engine.montecarlo import (  # noqa: E402
     SEED_BLOCK,
     SweepError,
     SweepResult,
-    require,
     sweep,
 )
+from radarfusion_ref.kit import checks  # noqa: E402
+from radarfusion_ref.kit.checks import require  # noqa: E402
 
 # Chapter 3's false-pair experiment: two radars report two different objects whose
 # separation has noncentrality lambda in S = Sigma_1 + Sigma_2; the 2-D gate accepts
@@ -258,7 +260,7 @@ def test_sweep_agrees_with_the_closed_form(local_sweep):
     exact = np.where(lam == 0, 1 - p_lo, gating.p_false_accept(lam, 2, p_lo))
     require(proportion(acc, None), exact, "sweep: false pairs pass the 2-D gate at P_fa")
     # and a wrong closed form (P_lo swapped between rows) is caught
-    with pytest.raises(montecarlo.MonteCarloCheckError):
+    with pytest.raises(checks.MonteCarloCheckError):
         require(proportion(acc, None), exact[::-1], "rows swapped")
 
 

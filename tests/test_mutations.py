@@ -3,7 +3,7 @@
 Each entry perturbs one package function slightly (a variance scaled by 1 %, a
 sign flipped) in the chapter's kernel, before the chapter's first cell, and
 replaces it everywhere the package refers to it. The chapter must then fail
-*at one of its own checks* — a :class:`radarfusion_ref.checks.CheckError` —
+*at one of its own checks* — a :class:`radarfusion_ref.kit.checks.CheckError` —
 not at some unrelated error. This proves that the chapter's verification,
 hidden from the page, is live.
 """
@@ -101,7 +101,7 @@ MUTATIONS = {
                 return dataclasses.replace(r, total=r.total * 1.01)
             return g
         """),
-    "book/montecarlo": ("radarfusion_ref.montecarlo", "_unit_rng", """
+    "book/montecarlo": ("radarfusion_ref.engine.montecarlo", "_unit_rng", """
         def wrap(f):
             @functools.wraps(f)
             def g(entropy, spawn_key, pool_size, point, unit):

@@ -28,7 +28,7 @@ from pathlib import Path
 import pytest
 from book_tools import BUILD_DIR, CACHE_DIR, ROOT, toc_docnames
 
-from radarfusion_ref.catalog import CHAPTERS
+from radarfusion_ref.kit.catalog import CHAPTERS
 
 #: What the PDF build needs on the machine (Debian: texlive-xetex, texlive-latex-extra,
 #: latexmk, fonts-freefont-otf, poppler-utils; see .ci/run).

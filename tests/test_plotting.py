@@ -11,7 +11,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from radarfusion_ref.plotting import plot_covariance_ellipse, plot_reports
+from radarfusion_ref.kit.plotting import plot_covariance_ellipse, plot_reports
 
 
 @settings(max_examples=30, deadline=None)
@@ -51,7 +51,7 @@ def test_wrong_pairs_are_drawn_red():
 
 
 def test_plot_groups_marks_wrong_groups():
-    from radarfusion_ref.plotting import plot_groups
+    from radarfusion_ref.kit.plotting import plot_groups
 
     x = np.zeros((3, 2, 2))
     x[:, 1] = 1.0
@@ -66,7 +66,7 @@ def test_plot_groups_marks_wrong_groups():
 
 
 def test_plot_scene_draws_sites_reports_ellipses_truth():
-    from radarfusion_ref.plotting import plot_scene
+    from radarfusion_ref.kit.plotting import plot_scene
 
     fig, ax = plt.subplots()
     truth = np.array([[4.0, 5.0], [6.0, 5.5]])
@@ -84,8 +84,8 @@ def test_plot_scene_draws_sites_reports_ellipses_truth():
 
 
 def test_plot_scene_accepts_a_simulated_scene_in_one_and_two_dimensions():
-    from radarfusion_ref.plotting import plot_scene
-    from radarfusion_ref.scenes import two_radar_scene
+    from radarfusion_ref.engine.scenes import two_radar_scene
+    from radarfusion_ref.kit.plotting import plot_scene
 
     fig, (ax1, ax2) = plt.subplots(1, 2)
     plot_scene(ax1, scene=two_radar_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.2, rng=1))
@@ -100,9 +100,9 @@ def test_plot_scene_accepts_a_simulated_scene_in_one_and_two_dimensions():
 
 from hypothesis import HealthCheck  # noqa: E402
 
-from radarfusion_ref import plotting  # noqa: E402
-from radarfusion_ref.montecarlo import mean as mc_mean  # noqa: E402
-from radarfusion_ref.montecarlo import proportion  # noqa: E402
+from radarfusion_ref.engine.montecarlo import mean as mc_mean  # noqa: E402
+from radarfusion_ref.engine.montecarlo import proportion  # noqa: E402
+from radarfusion_ref.kit import plotting  # noqa: E402
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ from scipy import integrate, stats
 from scipy.spatial import distance
 
 from radarfusion_ref import proximity as px
-from radarfusion_ref.montecarlo import binomial_tolerance
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
 
 coords = st.floats(min_value=-1e3, max_value=1e3)
 variances = st.floats(min_value=1e-3, max_value=1e3)

@@ -22,7 +22,7 @@ from scipy import stats
 
 from radarfusion_ref import association, gating
 from radarfusion_ref import registration as rg
-from radarfusion_ref.errors import RadarFusionWarning
+from radarfusion_ref.engine.errors import RadarFusionWarning
 
 SITES = np.array([[0.0, 0.0], [30.0, 0.0]])
 SPREAD = np.array([[0.0, 60.0], [30.0, 70.0], [-20.0, 50.0], [10.0, 80.0], [45.0, 55.0],

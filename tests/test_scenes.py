@@ -1,4 +1,4 @@
-"""The scene simulators of :mod:`radarfusion_ref.scenes`.
+"""The scene simulators of :mod:`radarfusion_ref.engine.scenes`.
 
 Three kinds of test:
 
@@ -10,7 +10,7 @@ Three kinds of test:
   ``separated.simulate_polar``; never regenerate it from this module);
 * statistics — noise covariances, detection probabilities, false-report counts
   and positions, type frequencies, against their exact values by Monte Carlo
-  with confidence intervals (``montecarlo.require``, 5 standard errors);
+  with confidence intervals (``checks.require``, 5 standard errors);
 * the conventions — one argument order, one vocabulary, trial axis first,
   bad input refused by name.
 """
@@ -26,16 +26,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from radarfusion_ref import association, features, grouping, scenes, separated
-from radarfusion_ref._validation import MEMORY_LIMIT
-from radarfusion_ref.montecarlo import (
-    MonteCarloCheckError,
-    binomial_tolerance,
-    mean,
-    proportion,
-    require,
-)
-from radarfusion_ref.scenes import nearest_neighbour_pairing, two_radar_scene
+from radarfusion_ref import association, features, grouping, separated
+from radarfusion_ref.engine import scenes
+from radarfusion_ref.engine._validation import MEMORY_LIMIT
+from radarfusion_ref.engine.montecarlo import binomial_tolerance, mean, proportion
+from radarfusion_ref.engine.scenes import nearest_neighbour_pairing, two_radar_scene
+from radarfusion_ref.kit.checks import MonteCarloCheckError, require
 
 
 def test_errors_have_the_stated_variances():
@@ -110,7 +106,7 @@ def test_nearest_neighbour_dimension_mismatch():
 @settings(max_examples=30, deadline=None)
 @given(angle=st.floats(-4, 4), a=st.floats(0.1, 5), b=st.floats(0.1, 5))
 def test_ellipse_covariance_has_the_stated_axes(angle, a, b):
-    from radarfusion_ref.scenes import ellipse_covariance
+    from radarfusion_ref.engine.scenes import ellipse_covariance
 
     cov = ellipse_covariance(angle, a, b)
     u = np.array([np.cos(angle), np.sin(angle)])          # the major-axis direction

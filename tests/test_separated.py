@@ -27,7 +27,7 @@ from scipy import stats
 
 from radarfusion_ref import conversion
 from radarfusion_ref import separated as sep
-from radarfusion_ref.montecarlo import binomial_tolerance
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
 
 DEG = math.pi / 180
 P = sep.PAPER

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from radarfusion_ref.symbolic import SymbolicCheckError, check_close, check_zero
+from radarfusion_ref.kit.symbolic import SymbolicCheckError, check_close, check_zero
 
 
 def test_check_zero_accepts_identities_and_rejects_others():

@@ -13,7 +13,7 @@ import pytest
 from book_metrics import html_metrics, page_metrics, source_metrics
 from book_tools import ROOT, notebook_docnames
 
-from radarfusion_ref import catalog
+from radarfusion_ref.kit import catalog
 
 MAX_VISIBLE_CHECKS = 3
 MAX_CHECK_SHARE = 0.20

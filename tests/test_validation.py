@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from radarfusion_ref import _validation as v
+from radarfusion_ref.engine import _validation as v
 
 
 def test_float_array_accepts_numbers_and_lists():

@@ -73,7 +73,7 @@ def check_zero(label: str, expr, *, quiet: bool = False):
     >>> check_zero("wrong", a - b, quiet=True)
     Traceback (most recent call last):
     ...
-    radarfusion_ref.symbolic.SymbolicCheckError: symbolic check failed: wrong (a - b != 0)
+    radarfusion_ref.kit.symbolic.SymbolicCheckError: symbolic check failed: wrong (a - b != 0)
     """
     import sympy as sp
 
@@ -125,7 +125,7 @@ def check_close(derived, package, *, what: str = "derivation and package", rtol:
     SymbolicCheckError
         With the largest discrepancy, if they disagree, or if either side is
         empty, non-finite or of another shape (see
-        :func:`radarfusion_ref.checks.check_close`).
+        :func:`radarfusion_ref.kit.checks.check_close`).
 
     Examples
     --------

@@ -7,8 +7,8 @@ is never weaker than it looks:
   package, a closed form and a simulation) agree within a stated tolerance;
 * :func:`check_equal` — two decisions (assignments, labels, counts) are identical;
 * :func:`check_true` — a stated property holds for every entry;
-* :func:`radarfusion_ref.symbolic.check_zero` and
-  :func:`radarfusion_ref.montecarlo.require` (symbolic identities and
+* :func:`radarfusion_ref.kit.symbolic.check_zero` and
+  :func:`radarfusion_ref.kit.checks.require` (symbolic identities and
   Monte-Carlo tolerances) record themselves here as well.
 
 Each helper refuses what would let it pass vacuously — ``None``, NaN or inf,
@@ -30,10 +30,11 @@ from collections import Counter
 
 import numpy as np
 
-from ._validation import _describe
+from ..engine._validation import _describe
+from ..engine.montecarlo import MeanEstimate, Proportion
 
 __all__ = ["CheckError", "check_close", "check_equal", "check_true", "passed", "summary",
-           "LOG_ENV"]
+           "require", "MonteCarloCheckError", "LOG_ENV"]
 
 #: Environment variable naming the ledger file of passing checks.
 LOG_ENV = "RADARFUSION_CHECK_LOG"
@@ -166,7 +167,7 @@ def check_close(value, reference, *, what: str, rtol: float = 1e-9, atol: float 
     >>> check_close([1.0, float("nan")], [1.0, 2.0], what="two routes")
     Traceback (most recent call last):
     ...
-    radarfusion_ref.checks.CheckError: two routes: `value` has 1 non-finite entries: array [ 1. nan] with shape (2,)
+    radarfusion_ref.kit.checks.CheckError: two routes: `value` has 1 non-finite entries: array [ 1. nan] with shape (2,)
     """
     return _check_close(value, reference, what=what, rtol=rtol, atol=atol)
 
@@ -227,7 +228,7 @@ def check_equal(value, reference, *, what: str) -> str:
     >>> check_equal([0, 2, 1], [0, 1, 2], what="assignment")
     Traceback (most recent call last):
     ...
-    radarfusion_ref.checks.CheckError: assignment: differ at 2 of 3 entries (first at index (1,): 2 against 1)
+    radarfusion_ref.kit.checks.CheckError: assignment: differ at 2 of 3 entries (first at index (1,): 2 against 1)
     """
     what = _as_what(what)
     arrays = []
@@ -309,3 +310,57 @@ def check_true(condition, *, what: str) -> str:
         raise CheckError(f"{what}: false at {int(np.count_nonzero(~arr))} of {arr.size} entries")
     _record("property", what)
     return f"{what}: holds" if arr.ndim == 0 else f"{what}: holds on {arr.size} entries"
+
+
+class MonteCarloCheckError(CheckError):
+    """A Monte-Carlo estimate contradicts the exact value it was meant to confirm."""
+
+
+def require(estimate: Proportion | MeanEstimate, exact, what: str, *,
+            sigmas: float = 5.0) -> None:
+    """Stop (raise) if a Monte-Carlo estimate contradicts the exact value it checks.
+
+    The book calls this after every Monte-Carlo check, so the executed book
+    fails when a claim breaks. The tolerance is generous — `sigmas` standard
+    errors (default 5; a 95 % interval is about 2) — so a correct claim fails
+    by bad luck with probability below about 6e-7 per comparison.
+
+    Parameters
+    ----------
+    estimate : Proportion or MeanEstimate
+    exact : float or array_like
+        The value the estimate should agree with (broadcast against it).
+    what : str
+        What is being checked, for the error message.
+    sigmas : float, optional
+        Tolerance in standard errors.
+
+    Raises
+    ------
+    MonteCarloCheckError
+        If any entry disagrees.
+    TypeError
+        If `estimate` is not a :class:`Proportion` or :class:`MeanEstimate`.
+
+    Examples
+    --------
+    >>> from radarfusion_ref.engine.montecarlo import proportion
+    >>> require(proportion(480, 1000), 0.5, "a fair coin")
+    >>> require(proportion(400, 1000), 0.5, "a fair coin")
+    Traceback (most recent call last):
+    ...
+    radarfusion_ref.kit.checks.MonteCarloCheckError: a fair coin: Monte Carlo 0.4000 [0.3700, 0.4307] (n=1000, 95% Wilson) disagrees with the exact value 0.5 (5 standard errors)
+    """
+    if not isinstance(estimate, (Proportion, MeanEstimate)):
+        raise TypeError("`estimate` must be a Proportion or a MeanEstimate; received "
+                        f"{type(estimate).__name__}")
+    if not isinstance(what, str) or not what.strip():
+        raise TypeError(f"`what` must be a non-empty string; received {_describe(what)}")
+    if not np.all(np.isfinite(np.asarray(estimate.estimate, dtype=float))):
+        raise MonteCarloCheckError(f"{what}: the Monte-Carlo estimate is not finite: {estimate}")
+    if not estimate.agrees(exact, sigmas=sigmas):
+        raise MonteCarloCheckError(
+            f"{what}: Monte Carlo {estimate} disagrees with the exact value "
+            f"{np.round(exact, 6)} ({sigmas:g} standard errors)"
+        )
+    _record("monte-carlo", what)

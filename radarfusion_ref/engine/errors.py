@@ -6,7 +6,7 @@ run too short for its own confidence interval, ...) is reported with
 package's warnings::
 
     import warnings
-    from radarfusion_ref.errors import RadarFusionWarning
+    from radarfusion_ref.engine.errors import RadarFusionWarning
     warnings.simplefilter("error", RadarFusionWarning)
 """
 

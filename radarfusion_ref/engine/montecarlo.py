@@ -49,15 +49,10 @@ from ._validation import (
     check_size,
     unwrap,
 )
-from .checks import CheckError, _record
 
 __all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance",
-           "require", "MonteCarloCheckError", "sweep", "SweepResult", "SweepError",
+           "sweep", "SweepResult", "SweepError",
            "SEED_BLOCK", "DEFAULT_BLOCK", "MAX_POINTS", "PROGRESS_ENV"]
-
-
-class MonteCarloCheckError(CheckError):
-    """A Monte-Carlo estimate contradicts the exact value it was meant to confirm."""
 
 
 def _as_sigmas(sigmas) -> float:
@@ -346,55 +341,6 @@ def binomial_tolerance(p, trials, *, sigmas: float = 5.0):
     n = as_int(trials, "trials", minimum=1)
     tol = _as_sigmas(sigmas) * np.sqrt(p * (1 - p) / n)
     return float(tol) if np.ndim(tol) == 0 else tol
-
-
-def require(estimate: Proportion | MeanEstimate, exact, what: str, *,
-            sigmas: float = 5.0) -> None:
-    """Stop (raise) if a Monte-Carlo estimate contradicts the exact value it checks.
-
-    The book calls this after every Monte-Carlo check, so the executed book
-    fails when a claim breaks. The tolerance is generous — `sigmas` standard
-    errors (default 5; a 95 % interval is about 2) — so a correct claim fails
-    by bad luck with probability below about 6e-7 per comparison.
-
-    Parameters
-    ----------
-    estimate : Proportion or MeanEstimate
-    exact : float or array_like
-        The value the estimate should agree with (broadcast against it).
-    what : str
-        What is being checked, for the error message.
-    sigmas : float, optional
-        Tolerance in standard errors.
-
-    Raises
-    ------
-    MonteCarloCheckError
-        If any entry disagrees.
-    TypeError
-        If `estimate` is not a :class:`Proportion` or :class:`MeanEstimate`.
-
-    Examples
-    --------
-    >>> require(proportion(480, 1000), 0.5, "a fair coin")
-    >>> require(proportion(400, 1000), 0.5, "a fair coin")
-    Traceback (most recent call last):
-    ...
-    radarfusion_ref.montecarlo.MonteCarloCheckError: a fair coin: Monte Carlo 0.4000 [0.3700, 0.4307] (n=1000, 95% Wilson) disagrees with the exact value 0.5 (5 standard errors)
-    """
-    if not isinstance(estimate, (Proportion, MeanEstimate)):
-        raise TypeError("`estimate` must be a Proportion or a MeanEstimate; received "
-                        f"{type(estimate).__name__}")
-    if not isinstance(what, str) or not what.strip():
-        raise TypeError(f"`what` must be a non-empty string; received {_describe(what)}")
-    if not np.all(np.isfinite(np.asarray(estimate.estimate, dtype=float))):
-        raise MonteCarloCheckError(f"{what}: the Monte-Carlo estimate is not finite: {estimate}")
-    if not estimate.agrees(exact, sigmas=sigmas):
-        raise MonteCarloCheckError(
-            f"{what}: Monte Carlo {estimate} disagrees with the exact value "
-            f"{np.round(exact, 6)} ({sigmas:g} standard errors)"
-        )
-    _record("monte-carlo", what)
 
 
 # ----------------------------------------------------------------------------
@@ -835,7 +781,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
         multiple of :data:`SEED_BLOCK`; `client` is closed, cannot reach its
         scheduler or has no workers; or the outputs (points × trials × bytes
         per trial, known after the first task) would exceed
-        :data:`~radarfusion_ref._validation.MEMORY_LIMIT` — refused before they
+        :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` — refused before they
         are allocated.
     SweepError
         If the experiment raises, or returns something other than the per-trial

@@ -13,8 +13,8 @@ from contextlib import contextmanager
 import matplotlib as mpl
 import numpy as np
 
-from ._validation import _describe, as_covariance, as_float_array, as_int, as_positive
-from .montecarlo import MeanEstimate, Proportion
+from ..engine._validation import _describe, as_covariance, as_float_array, as_int, as_positive
+from ..engine.montecarlo import MeanEstimate, Proportion
 
 __all__ = [
     "BOOK_STYLE",
@@ -131,7 +131,7 @@ def plot_proportion(ax, x, p: Proportion, *, label=None, color=None, theory=None
     x : array_like
         Abscissae, one per entry of ``p.estimate``.
     p : Proportion
-        Vector-valued result of :func:`radarfusion_ref.montecarlo.proportion`.
+        Vector-valued result of :func:`radarfusion_ref.engine.montecarlo.proportion`.
     label, color : optional
         Legend label (the trial count is appended) and colour.
     theory : array_like, optional
@@ -145,7 +145,7 @@ def plot_proportion(ax, x, p: Proportion, *, label=None, color=None, theory=None
         If `x` or `theory` do not have one finite entry per estimate.
     """
     ax = _as_axes(ax)
-    p = _as_result(p, Proportion, "p", "radarfusion_ref.montecarlo.proportion")
+    p = _as_result(p, Proportion, "p", "radarfusion_ref.engine.montecarlo.proportion")
     x = _abscissae(x, p.estimate)
     if theory is not None:
         theory = _abscissae(theory, p.estimate, "theory")
@@ -167,7 +167,7 @@ def plot_mean(ax, x, m: MeanEstimate, *, label=None, color=None):
     x : array_like
         Abscissae, one per entry of ``m.estimate``.
     m : MeanEstimate
-        Result of :func:`radarfusion_ref.montecarlo.mean`.
+        Result of :func:`radarfusion_ref.engine.montecarlo.mean`.
     label, color : optional
         Legend label (the sample count is appended) and colour.
 
@@ -179,7 +179,7 @@ def plot_mean(ax, x, m: MeanEstimate, *, label=None, color=None):
         If `x` does not have one finite entry per estimate.
     """
     ax = _as_axes(ax)
-    m = _as_result(m, MeanEstimate, "m", "radarfusion_ref.montecarlo.mean")
+    m = _as_result(m, MeanEstimate, "m", "radarfusion_ref.engine.montecarlo.mean")
     x = _abscissae(x, m.estimate)
     color = _color(color, "color") or SENSOR_COLORS["mc"]
     err = np.vstack([np.asarray(m.estimate) - m.low, np.asarray(m.high) - m.estimate])
@@ -336,7 +336,7 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
         Draw a legend inside the axes (default ``True``).
     colors : sequence, optional
         One colour per source (the book's radar colours by default).
-    scene : radarfusion_ref.scenes.TwoRadarScene, optional
+    scene : radarfusion_ref.engine.scenes.TwoRadarScene, optional
         Shortcut: draw trial `trial` of a simulated scene (its two sources'
         reports, their ``sigma**2 I`` covariances and the truth). Cannot be
         combined with `reports`, `covariances` or `truth`.
@@ -368,13 +368,13 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
     2
     >>> plt.close(fig)
     """
-    from .scenes import TwoRadarScene
+    from ..engine.scenes import TwoRadarScene
 
     ax = _as_axes(ax)
     n_sigma = float(_as_scalar(as_positive(n_sigma, "n_sigma"), "n_sigma"))
     if scene is not None:
         if not isinstance(scene, TwoRadarScene):
-            raise TypeError("`scene` must be a radarfusion_ref.scenes.TwoRadarScene; "
+            raise TypeError("`scene` must be a radarfusion_ref.engine.scenes.TwoRadarScene; "
                             f"received {_describe(scene)}")
         if len(reports) or len(covariances) or truth is not None:
             raise ValueError("`scene` cannot be combined with `reports`, `covariances` or "

@@ -50,7 +50,7 @@ derives from :class:`Scene`, which reads ``trials``, ``n_objects`` and
 ``dim`` off ``truth``.
 
 *Size.* Scenes are drawn in memory; a request beyond
-:data:`radarfusion_ref._validation.MEMORY_LIMIT` is refused before anything is
+:data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` is refused before anything is
 allocated (draw the trials in batches from generators spawned from one
 :class:`numpy.random.SeedSequence`).
 
@@ -88,7 +88,7 @@ from ._validation import (
 )
 
 if TYPE_CHECKING:                      # pragma: no cover
-    from .separated import Geometry
+    from ..separated import Geometry
 
 __all__ = [
     "Scene",
@@ -423,7 +423,7 @@ class GroupingScene(Scene):
     def true_hypothesis(self) -> np.ndarray:
         """Per trial, the index of the true binding in
         :func:`radarfusion_ref.grouping.binding_hypotheses` order."""
-        from .grouping import binding_hypotheses  # grouping imports this module
+        from ..grouping import binding_hypotheses  # grouping imports this module
 
         m, n = self.owner.shape[-2:]
         hyp = binding_hypotheses(n, m)                # (H, m, n)
@@ -505,7 +505,7 @@ def two_radar_scene(n_objects: int, *, spacing: float, layout: str = "line", sig
     ValueError
         A count below 1, a `spacing` or sigma that is not a positive finite
         number, an unknown `layout`, or a scene beyond
-        :data:`radarfusion_ref._validation.MEMORY_LIMIT`.
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`.
     TypeError
         A count that is not an integer, or an `rng` that is not a seed or a
         Generator.
@@ -585,7 +585,7 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, layout: str = "li
     ValueError
         As :func:`two_radar_scene`; a detection probability outside [0, 1], a
         negative or non-finite false-report density, or false reports beyond
-        :data:`radarfusion_ref._validation.MEMORY_LIMIT` (checked on the
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (checked on the
         expected count before any draw, and on the drawn count before the
         positions are allocated).
 
@@ -834,7 +834,7 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
         A count below 1, a non-positive `spacing` or one of the wrong length,
         a `cov` or `track_cov` that does not broadcast to its shape or is not
         symmetric positive definite, an unknown `layout`, or scenes beyond
-        :data:`radarfusion_ref._validation.MEMORY_LIMIT`.
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`.
     TypeError
         A count that is not an integer, or an `rng` that is not a seed or a
         Generator.
@@ -877,7 +877,7 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     trials : int, optional
         Number of independent trials, at most
         :data:`radarfusion_ref.separated.MAX_TRIALS` and such that the reports
-        fit in :data:`radarfusion_ref._validation.MEMORY_LIMIT` (about 5
+        fit in :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (about 5
         million trials of two targets; run several calls for more).
     rng : None, int, numpy.random.SeedSequence or numpy.random.Generator, optional
         Source of randomness (SPEC 7). Draws are made per block of
@@ -925,7 +925,7 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     >>> rep.r1.shape, rep.trials
     ((3, 2), 3)
     """
-    from . import separated as sep  # the geometry and the block draws live there
+    from .. import separated as sep  # the geometry and the block draws live there
 
     geo = sep._as_geometry(geometry)
     sr, sb = sep._as_sigmas(sigma_r, sigma_beta, geo)

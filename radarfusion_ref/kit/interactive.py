@@ -33,8 +33,8 @@ import matplotlib as mpl
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ._validation import _describe, as_float_array, as_int
-from .errors import RadarFusionWarning
+from ..engine._validation import _describe, as_float_array, as_int
+from ..engine.errors import RadarFusionWarning
 
 __all__ = ["controls", "sweep_player", "slider", "MIN_FRAMES", "PLAYER_DPI", "PRINT_DPI",
            "Player"]
@@ -340,7 +340,7 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
     values : sequence
         The swept values, one frame each; at least :data:`MIN_FRAMES` (24) for
         a sweep a reader can explore (fewer warn with
-        :class:`~radarfusion_ref.errors.RadarFusionWarning`).
+        :class:`~radarfusion_ref.engine.errors.RadarFusionWarning`).
     fig : matplotlib.figure.Figure, optional
         Figure to draw into (a new one in the book's style by default).
     interval : int, optional

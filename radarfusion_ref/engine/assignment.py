@@ -182,7 +182,7 @@ _BLOCK_BYTES = 1 << 25
 
 # --------------------------------------------------------------------------- 2-D validation
 def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
-    """:func:`radarfusion_ref._validation.check_size`, with the public argument named in the message."""
+    """:func:`radarfusion_ref.engine._validation.check_size`, with the public argument named in the message."""
     try:
         return check_size(requested, limit, what=what, alternative=alternative)
     except ValueError as exc:
