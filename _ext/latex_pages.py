@@ -1,10 +1,10 @@
-"""Sphinx extension of the radarfusion book: the PDF edition (LaTeX builder only).
+r"""Sphinx extension of the radarfusion book: the PDF edition (LaTeX builder only).
 
 What the printed book needs that the HTML pages get elsewhere:
 
-* **Macros.** The book's TeX macros (``\\E``, ``\\Var``, ``\\Cov``, ``\\T``) are
+* **Macros.** The book's TeX macros (``\E``, ``\Var``, ``\Cov``, ``\T``) are
   defined once, for MathJax, in ``_config.yml`` (``mathjax3_config.tex.macros``).
-  Here the same definitions become ``\\newcommand``\\ s in the LaTeX preamble, so
+  Here the same definitions become ``\newcommand``\ s in the LaTeX preamble, so
   the two editions cannot drift apart.
 * **A class that Debian's TeX Live has.** sphinx-jupyterbook-latex (which turns the
   parts of ``_toc.yml`` into LaTeX parts and leaves out what ``hide-input``,
@@ -14,7 +14,7 @@ What the printed book needs that the HTML pages get elsewhere:
   additions but the two environments its code cells are wrapped in, so the
   book's PDF uses Sphinx's ``manual`` class with those two environments.
 
-* **Equations tagged by hand.** ``\\tag`` inside the ``split`` Sphinx wraps display
+* **Equations tagged by hand.** ``\tag`` inside the ``split`` Sphinx wraps display
   math in is an error in LaTeX (MathJax accepts it); such an equation's tag is moved
   after the ``split``.
 
@@ -45,10 +45,10 @@ _TAG = re.compile(r"\\tag\*?\{[^{}]*\}")
 
 
 def macro_preamble(macros: dict) -> str:
-    """``\\newcommand`` lines for MathJax macros (``name: body`` or ``name: [body, n]``).
+    r"""``\newcommand`` lines for MathJax macros (``name: body`` or ``name: [body, n]``).
 
-    A name LaTeX already defines is redefined (``\\providecommand`` then
-    ``\\renewcommand``), so the printed macro is the book's, not a package's.
+    A name LaTeX already defines is redefined (``\providecommand`` then
+    ``\renewcommand``), so the printed macro is the book's, not a package's.
     """
     lines = []
     for name, body in macros.items():
@@ -61,10 +61,10 @@ def macro_preamble(macros: dict) -> str:
 
 
 class TaggedDisplayMath(SphinxPostTransform):
-    """A display equation numbered by hand (``$$ ... \\tag{1} $$``) keeps its tag in print.
+    r"""A display equation numbered by hand (``$$ ... \tag{1} $$``) keeps its tag in print.
 
     Sphinx wraps every display equation in ``split``, where amsmath forbids
-    ``\\tag`` (MathJax allows it); the tag is moved after the ``split``.
+    ``\tag`` (MathJax allows it); the tag is moved after the ``split``.
     """
 
     default_priority = 200
@@ -115,12 +115,12 @@ class ExerciseLabels(SphinxPostTransform):
 
 
 class LongTableWidths(SphinxPostTransform):
-    """A long table (more than 30 rows, a LaTeX ``longtable``) wraps its cells in print.
+    r"""A long table (more than 30 rows, a LaTeX ``longtable``) wraps its cells in print.
 
     Without widths, Sphinx sets a long table's columns as ``l`` (one line per cell), so
     a wide table runs off the page. Here each column gets a width in proportion to its
     longest cell (between 6 and 60 characters), which Sphinx turns into wrapping
-    ``\\X`` columns that share the text width.
+    ``\X`` columns that share the text width.
     """
 
     default_priority = 200

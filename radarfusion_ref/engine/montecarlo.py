@@ -203,7 +203,7 @@ class MeanEstimate:
 
 def proportion(successes, trials, *, confidence: float = 0.95,
                method: str = "wilson") -> Proportion:
-    """Estimate a probability from Monte-Carlo counts, with a confidence interval.
+    r"""Estimate a probability from Monte-Carlo counts, with a confidence interval.
 
     Parameters
     ----------
@@ -230,15 +230,15 @@ def proportion(successes, trials, *, confidence: float = 0.95,
 
     Notes
     -----
-    With :math:`\\hat p = k/n` and :math:`z = \\Phi^{-1}((1+c)/2)` the Wilson
+    With :math:`\hat p = k/n` and :math:`z = \Phi^{-1}((1+c)/2)` the Wilson
     interval is
 
     .. math::
 
-        \\frac{\\hat p + z^2/(2n) \\pm z\\sqrt{\\hat p(1-\\hat p)/n + z^2/(4n^2)}}{1 + z^2/n}.
+        \frac{\hat p + z^2/(2n) \pm z\sqrt{\hat p(1-\hat p)/n + z^2/(4n^2)}}{1 + z^2/n}.
 
     The Clopper–Pearson limits are beta quantiles,
-    :math:`B^{-1}(\\alpha/2; k, n-k+1)` and :math:`B^{-1}(1-\\alpha/2; k+1, n-k)`.
+    :math:`B^{-1}(\alpha/2; k, n-k+1)` and :math:`B^{-1}(1-\alpha/2; k+1, n-k)`.
 
     Examples
     --------
@@ -326,9 +326,9 @@ def mean(samples, *, axis: int = -1, confidence: float = 0.95) -> MeanEstimate:
 
 
 def binomial_tolerance(p, trials, *, sigmas: float = 5.0):
-    """Tolerance for comparing a Monte-Carlo proportion with its exact value.
+    r"""Tolerance for comparing a Monte-Carlo proportion with its exact value.
 
-    ``sigmas`` standard errors of a binomial proportion, :math:`s\\sqrt{p(1-p)/n}`;
+    ``sigmas`` standard errors of a binomial proportion, :math:`s\sqrt{p(1-p)/n}`;
     statistical tests use it so a correct implementation fails with
     probability below about 6e-7 (at 5 sigma) while a wrong one is caught.
 
@@ -714,7 +714,7 @@ def _as_client(client):
 
 def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_BLOCK,
           client=None, progress: bool | None = None) -> SweepResult:
-    """Run a vectorized experiment over a parameter grid, here or on a Dask cluster.
+    r"""Run a vectorized experiment over a parameter grid, here or on a Dask cluster.
 
     The trials of each grid point are cut into seed units of :data:`SEED_BLOCK`
     trials, each with its own generator spawned from one root
@@ -792,7 +792,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
 
     Notes
     -----
-    Seed unit :math:`j` (trials :math:`j n_u, \\dots, (j+1) n_u - 1`, :math:`n_u` =
+    Seed unit :math:`j` (trials :math:`j n_u, \dots, (j+1) n_u - 1`, :math:`n_u` =
     :data:`SEED_BLOCK`) of grid point :math:`i` draws from
     ``Generator(PCG64(SeedSequence(entropy, spawn_key=spawn_key + (i, j))))``:
     the sequence ``root.spawn(points)[i].spawn(units)[j]`` would give, built

@@ -1,4 +1,4 @@
-"""Checks that can fail: the executed book's proof that derivation and package agree.
+r"""Checks that can fail: the executed book's proof that derivation and package agree.
 
 Every check in a chapter goes through one of these helpers, so that a check
 is never weaker than it looks:
@@ -19,7 +19,7 @@ message in the build log.
 
 Every passing check is counted (:func:`passed`). When the environment variable
 ``RADARFUSION_CHECK_LOG`` names a file, each passing check also appends one
-line ``<kind>\\t<what>`` to it; the test suite uses that ledger to prove that
+line ``<kind>\t<what>`` to it; the test suite uses that ledger to prove that
 hiding a check from the page never skipped its execution.
 """
 
