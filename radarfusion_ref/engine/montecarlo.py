@@ -538,7 +538,8 @@ def _as_grid(grid):
             raise ValueError("`grid` must hold at least one point; received an empty sequence")
         check_size(len(grid), MAX_POINTS, what="grid points",
                    alternative="several sweeps over slices of the grid")
-        points, names = [], None
+        rows: list[dict] = []
+        first: tuple | None = None
         for k, point in enumerate(grid):
             if not isinstance(point, Mapping) or not point:
                 raise TypeError(f"`grid` point {k} must be a non-empty dict of parameters; "
@@ -547,13 +548,13 @@ def _as_grid(grid):
             if any(not isinstance(n, str) or not n for n in keys):
                 raise TypeError(f"`grid` point {k} must have str parameter names; "
                                 f"received {keys!r}")
-            if names is None:
-                names = keys
-            elif set(keys) != set(names):
-                raise ValueError(f"`grid` point {k} has parameters {keys}, point 0 has {names}; "
+            if first is None:
+                first = keys
+            elif set(keys) != set(first):
+                raise ValueError(f"`grid` point {k} has parameters {keys}, point 0 has {first}; "
                                  "every point needs the same names")
-            points.append({n: _grid_value(point[n], f"point {k}, {n!r},") for n in names})
-        return tuple(points), names, None
+            rows.append({n: _grid_value(point[n], f"point {k}, {n!r},") for n in first})
+        return tuple(rows), first, None
     raise TypeError("`grid` must be a mapping of parameter names to 1-D sequences of values, "
                     f"or a sequence of dicts; received {_describe(grid)}")
 
