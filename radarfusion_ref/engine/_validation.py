@@ -8,6 +8,7 @@ their entry point; nothing deeper in the package re-validates.
 
 from __future__ import annotations
 
+import contextlib
 import numbers
 from collections.abc import Sequence
 
@@ -214,19 +215,100 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
     return out
 
 
+#: The positive-definiteness rule's tolerance: every pivot of the LDL^T factorisation of a
+#: covariance's correlation matrix (each variable's variance given the preceding ones, as a
+#: fraction of its own variance) must exceed this. Closed under sums: if ``A`` and ``B``
+#: pass, ``A + B`` passes (a conditional variance of a sum is at least the sum of theirs).
+SINGULAR_RTOL = 1e-12
+#: Relative tolerance of the symmetry test, against the largest entry of each matrix.
+_SYMMETRY_RTOL = 1e-9
+
+
+def _symmetric_mask(arr: np.ndarray) -> np.ndarray:
+    """Per matrix of a ``(..., k, k)`` stack: symmetric to :data:`_SYMMETRY_RTOL` (False for NaN)."""
+    k = arr.shape[-1]
+    with np.errstate(invalid="ignore"):
+        if k > 4:
+            scale = np.max(np.abs(arr), axis=(-2, -1))
+            asym = np.max(np.abs(arr - np.swapaxes(arr, -1, -2)), axis=(-2, -1))
+        else:                                       # entry by entry: fast for many small matrices
+            scale = np.abs(arr[..., 0, 0])
+            asym = np.zeros(arr.shape[:-2])
+            for i in range(k):
+                for j in range(k):
+                    scale = np.maximum(scale, np.abs(arr[..., i, j]))
+                    if j < i:
+                        asym = np.maximum(asym, np.abs(arr[..., i, j] - arr[..., j, i]))
+        return asym <= _SYMMETRY_RTOL * np.maximum(scale, np.finfo(float).tiny)
+
+
+def _pd_mask(arr: np.ndarray) -> np.ndarray:
+    """The one positive-definiteness rule, per matrix of a ``(..., k, k)`` stack (lower triangle).
+
+    Positive variances, and every pivot of the LDL^T factorisation of the
+    correlation matrix ``R = D^-1/2 C D^-1/2`` above :data:`SINGULAR_RTOL`
+    (False for NaN). Scale-free: it does not change when a coordinate changes unit.
+    """
+    k = arr.shape[-1]
+    with np.errstate(all="ignore"):
+        var = [arr[..., i, i] for i in range(k)]
+        ok = np.ones(arr.shape[:-2], dtype=bool)
+        for v in var:
+            ok &= v > 0
+        root = [np.sqrt(np.where(v > 0, v, 1.0)) for v in var]
+        if k > 8:                                   # LAPACK: pivots are diag(L)^2
+            r = arr / np.stack(root, -1)[..., :, None] / np.stack(root, -1)[..., None, :]
+            flat = r.reshape(-1, k, k)
+            piv = np.zeros((flat.shape[0], k))
+            for i, m in enumerate(flat):
+                with contextlib.suppress(np.linalg.LinAlgError):
+                    piv[i] = np.diagonal(np.linalg.cholesky(m)) ** 2
+            return ok & np.all(piv.reshape(*arr.shape[:-2], k) > SINGULAR_RTOL, axis=-1)
+        low = [[arr[..., i, j] / (root[i] * root[j]) for j in range(i)] for i in range(k)]
+        piv = []                                    # D_j; low[i][j] becomes L_ij D_j
+        for j in range(k):
+            d = 1.0
+            for m in range(j):
+                d = d - low[j][m] * (low[j][m] / piv[m])
+            piv.append(d)
+            if j:
+                ok &= d > SINGULAR_RTOL
+            for i in range(j + 1, k):
+                for m in range(j):
+                    low[i][j] = low[i][j] - low[i][m] * (low[j][m] / piv[m])
+    return ok
+
+
+def _refuse_covariance(arr: np.ndarray, name: str) -> None:
+    """Raise the one message of each rule a covariance stack breaks (symmetry, then definiteness)."""
+    sym = _symmetric_mask(arr)
+    if not np.all(sym):
+        raise ValueError(f"`{name}` must be symmetric; received {_describe(arr)}")
+    pd = _pd_mask(arr)
+    if not np.all(pd):
+        bad = int(pd.size - np.count_nonzero(pd))
+        raise ValueError(
+            f"`{name}` must be positive definite and not singular to working precision "
+            f"(every pivot of its correlation matrix above {SINGULAR_RTOL:g}); "
+            f"{bad} of {pd.size} matrices are not: {_describe(arr)}")
+
+
 def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
     """Stack of symmetric positive-definite matrices with shape ``(..., d, d)``.
 
-    Symmetry is checked to a relative tolerance; positive definiteness by an
-    attempted Cholesky factorisation, so a singular or indefinite matrix is
-    reported instead of producing NaN later.
+    Symmetry is checked to a relative tolerance (1e-9 of the largest entry);
+    positive definiteness by the package's one rule
+    (:func:`radarfusion_ref.engine.linalg.is_positive_definite`): every pivot of
+    the LDL^T factorisation of the correlation matrix above :data:`SINGULAR_RTOL`,
+    so a singular or indefinite matrix is reported instead of producing NaN later.
 
     Examples
     --------
     >>> as_covariance([[1.0, 0.0], [0.0, -1.0]], "cov")
     Traceback (most recent call last):
     ...
-    ValueError: `cov` must be positive definite; 1 of 1 matrices are not (Cholesky failed)
+    ValueError: `cov` must be positive definite and not singular to working precision (every pivot of its correlation matrix above 1e-12); 1 of 1 matrices are not: array [[ 1.  0.]
+     [ 0. -1.]] with shape (2, 2)
     """
     arr = as_float_array(value, name, ndim_min=2)
     if arr.shape[-1] != arr.shape[-2]:
@@ -235,24 +317,8 @@ def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
         raise ValueError(
             f"`{name}` must have shape (..., {dim}, {dim}); received shape {arr.shape}"
         )
-    scale = np.max(np.abs(arr), axis=(-2, -1), keepdims=True)
-    asym = np.abs(arr - np.swapaxes(arr, -1, -2))
-    if np.any(asym > 1e-9 * np.maximum(scale, np.finfo(float).tiny)):
-        raise ValueError(f"`{name}` must be symmetric; received {_describe(arr)}")
-    flat = arr.reshape(-1, arr.shape[-1], arr.shape[-1])
-    try:
-        np.linalg.cholesky(flat)
-    except np.linalg.LinAlgError:
-        bad = 0
-        for m in flat:
-            try:
-                np.linalg.cholesky(m)
-            except np.linalg.LinAlgError:
-                bad += 1
-        raise ValueError(
-            f"`{name}` must be positive definite; {bad} of {len(flat)} matrices are not "
-            "(Cholesky failed)"
-        ) from None
+    if not (np.all(_symmetric_mask(arr)) and np.all(_pd_mask(arr))):
+        _refuse_covariance(arr, name)
     return arr
 
 
