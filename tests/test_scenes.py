@@ -144,13 +144,13 @@ GOLDEN_CASES = [
     ("group_uniform_tracks", "grouping_scene", (3, 2),
      dict(cov=COV3[:2], spacing=[1.0, 3.0], layout="uniform", track_cov=np.eye(2) * 0.5,
           trials=4, rng=42)),
-    ("polar_small", "simulate_polar", (separated.paper_geometry(0.0, -5.0),),
+    ("polar_small", "polar_scene", (separated.paper_geometry(0.0, -5.0),),
      dict(sigma_r=0.1, sigma_beta=np.deg2rad(1.0), trials=4, rng=51)),
 ]
 #: Each simulator under its old name (the chapters call these).
 OLD_HOMES = {
     "two_radar_scene": scenes, "two_radar_clutter_scene": association,
-    "typed_scene": features, "grouping_scene": grouping, "simulate_polar": separated,
+    "typed_scene": features, "grouping_scene": grouping, "polar_scene": separated,
 }
 
 
@@ -180,9 +180,9 @@ def test_same_seed_same_draws_as_before_the_move(key, name, counts, kwargs, home
 
 def test_polar_draws_across_a_block_boundary_are_unchanged():
     assert separated.BLOCK_TRIALS < 70_000
-    rep = scenes.simulate_polar(separated.paper_geometry(2.0, 3.0), sigma_r=0.2,
-                                sigma_beta=0.01, trials=70_000,
-                                rng=np.random.SeedSequence(52))
+    rep = scenes.polar_scene(separated.paper_geometry(2.0, 3.0), sigma_r=0.2,
+                             sigma_beta=0.01, trials=70_000,
+                             rng=np.random.SeedSequence(52))
     rows = np.r_[0:3, 65534:65538, 69997:70000]
     for field, want in _golden("polar_blocks").items():
         np.testing.assert_array_equal(getattr(rep, field)[rows], want)
@@ -192,7 +192,7 @@ def test_the_old_names_are_the_scenes_functions():
     assert features.typed_scene is scenes.typed_scene
     assert features.TypedScene is scenes.TypedScene
     assert features.FEATURE_MODELS is scenes.FEATURE_MODELS
-    assert separated.simulate_polar is scenes.simulate_polar
+    assert separated.polar_scene is scenes.polar_scene
     assert separated.PolarReports is scenes.PolarReports
     assert grouping.GroupingScene is scenes.GroupingScene
     assert association.two_radar_clutter_scene is scenes.two_radar_clutter_scene
@@ -305,7 +305,7 @@ def test_grouping_scene_report_and_track_covariances():
 
 def test_polar_errors_by_monte_carlo():
     geo = separated.paper_geometry(0.0, -5.0)
-    rep = scenes.simulate_polar(geo, sigma_r=0.1, sigma_beta=0.01, trials=20_000, rng=11)
+    rep = scenes.polar_scene(geo, sigma_r=0.1, sigma_beta=0.01, trials=20_000, rng=11)
     (r1, b1), (r2, b2) = geo.polar1, geo.polar2
     for got, true, sig, what in ((rep.r1, r1, 0.1, "r1"), (rep.beta1, b1, 0.01, "beta1"),
                                  (rep.r2, r2, 0.1, "r2"), (rep.beta2, b2, 0.01, "beta2")):
@@ -330,7 +330,7 @@ CANONICAL_ORDER = [
     "track_cov", "trials", "dim", "rng",
 ]
 SIMULATORS = ["two_radar_scene", "two_radar_clutter_scene", "typed_scene", "grouping_scene",
-              "simulate_polar"]
+              "polar_scene"]
 
 
 @pytest.mark.parametrize("name", SIMULATORS)
@@ -371,7 +371,7 @@ BASE = {
     "typed_scene": ((3,), dict(spacing=1.0, sigma1=0.1, sigma2=0.1, type_means=[0.0, 1.0],
                                type_vars=[1.0, 1.0], feature_sigma1=0.1, feature_sigma2=0.1)),
     "grouping_scene": ((3, 2), dict(cov=np.eye(2)[None, None])),
-    "simulate_polar": ((GEO,), dict(sigma_r=0.1, sigma_beta=0.01)),
+    "polar_scene": ((GEO,), dict(sigma_r=0.1, sigma_beta=0.01)),
 }
 BAD = [
     ("two_radar_scene", "n_objects", 0, ValueError),
@@ -420,11 +420,11 @@ BAD = [
     ("grouping_scene", "track_cov", np.eye(3), ValueError),
     ("grouping_scene", "layout", "grid", ValueError),
     ("grouping_scene", "trials", 0, ValueError),
-    ("simulate_polar", "geometry", "paper", TypeError),
-    ("simulate_polar", "sigma_r", -0.1, ValueError),
-    ("simulate_polar", "sigma_beta", 1.0, ValueError),
-    ("simulate_polar", "trials", 0, ValueError),
-    ("simulate_polar", "rng", "seed", TypeError),
+    ("polar_scene", "geometry", "paper", TypeError),
+    ("polar_scene", "sigma_r", -0.1, ValueError),
+    ("polar_scene", "sigma_beta", 1.0, ValueError),
+    ("polar_scene", "trials", 0, ValueError),
+    ("polar_scene", "rng", "seed", TypeError),
 ]
 
 
@@ -450,8 +450,8 @@ def test_bad_input_is_refused_by_name(name, arg, value, exc):
                                             false_density1=1e9, trials=10), "false_density1"),
     (lambda: scenes.grouping_scene(1000, 10, cov=np.eye(2)[None, None], trials=10**5),
      "trials"),
-    (lambda: scenes.simulate_polar(GEO, sigma_r=0.1, sigma_beta=0.01, trials=5 * 10**7),
-     "trials"),
+    (lambda: scenes.polar_scene(GEO, sigma_r=0.1, sigma_beta=0.01, trials=5 * 10**7),
+  "trials"),
 ])
 def test_memory_is_refused_before_allocation(call, name):
     with pytest.raises(ValueError, match=f"`{name}`") as info:
@@ -472,7 +472,7 @@ def test_the_shared_vocabulary_agrees_across_results():
     np.testing.assert_array_equal(typed.truth, typed.coords.truth)
     grp = scenes.grouping_scene(4, 3, cov=np.eye(2)[None, None], trials=2, rng=13)
     assert (grp.n_objects, grp.n_sources, grp.dim, grp.trials) == (4, 3, 2, 2)
-    rep = scenes.simulate_polar(GEO, sigma_r=0.1, sigma_beta=0.01, trials=3, rng=13)
+    rep = scenes.polar_scene(GEO, sigma_r=0.1, sigma_beta=0.01, trials=3, rng=13)
     np.testing.assert_array_equal(rep.truth[2], GEO.targets)
     assert (rep.n_objects, rep.dim) == (2, 2)
 

@@ -12,13 +12,13 @@ Every chapter that needs reports to associate, group or fuse draws them here.
   feature reports (chapter 5);
 * :func:`grouping_scene` → :class:`GroupingScene`: n objects, m sources,
   general report covariances (chapter 8);
-* :func:`simulate_polar` → :class:`PolarReports`: a given geometry, two
+* :func:`polar_scene` → :class:`PolarReports`: a given geometry, two
   separated radars measuring range and azimuth (chapter 7).
 
 .. rubric:: One convention for all of them
 
 *Arguments.* The counts that size the scene are positional: ``n_objects``
-(then ``n_sources`` for :func:`grouping_scene`); :func:`simulate_polar`, whose
+(then ``n_sources`` for :func:`grouping_scene`); :func:`polar_scene`, whose
 objects sit at given places, takes a ``geometry`` instead. Everything else is
 keyword-only and, in every signature and docstring, comes in one order:
 
@@ -54,23 +54,20 @@ derives from :class:`Scene`, which reads ``trials``, ``n_objects`` and
 allocated (draw the trials in batches from generators spawned from one
 :class:`numpy.random.SeedSequence`).
 
-The chapters' modules keep their names for these simulators:
-:func:`radarfusion_ref.association.two_radar_clutter_scene`,
-:func:`radarfusion_ref.features.typed_scene` and
-:func:`radarfusion_ref.separated.simulate_polar` are this module's functions
-(and classes) under those names; :func:`radarfusion_ref.grouping.grouping_scene`
-is a thin wrapper that names its first argument ``n_targets``. The same seed
-gives the same scenes through either name.
+The geometry of :func:`polar_scene` (two radars, targets at given places) is
+:mod:`radarfusion_ref.engine.geometry`.
 
-Also here: :func:`nearest_neighbour_pairing` (the naive rule the book starts
-from) and :func:`ellipse_covariance` (a 2-D covariance from its ellipse).
+Also here: :func:`binding_hypotheses` (every binding of m sources' reports to n
+tracks, in the order of :meth:`GroupingScene.true_hypothesis`),
+:func:`nearest_neighbour_pairing` (the naive rule the book starts from) and
+:func:`ellipse_covariance` (a 2-D covariance from its ellipse).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -86,9 +83,14 @@ from ._validation import (
     as_rng,
     check_size,
 )
-
-if TYPE_CHECKING:                      # pragma: no cover
-    from ..separated import Geometry
+from .geometry import (
+    MAX_TRIALS,
+    Geometry,
+    _as_geometry,
+    _normal_blocks,
+    _polar_sigmas_iv,
+    _root_seed,
+)
 
 __all__ = [
     "Scene",
@@ -99,11 +101,13 @@ __all__ = [
     "PolarReports",
     "FEATURE_MODELS",
     "LAYOUTS",
+    "MAX_BINDING_HYPOTHESES",
     "two_radar_scene",
     "two_radar_clutter_scene",
     "typed_scene",
     "grouping_scene",
-    "simulate_polar",
+    "polar_scene",
+    "binding_hypotheses",
     "nearest_neighbour_pairing",
     "ellipse_covariance",
 ]
@@ -114,6 +118,9 @@ LAYOUTS = ("line", "uniform")
 #: measure one feature value per object (model 1); ``"spread"`` — each radar
 #: measures its own draw from the type density (model 2).
 FEATURE_MODELS = ("shared", "spread")
+#: Largest number of binding hypotheses :math:`(n!)^m` that :func:`binding_hypotheses`
+#: enumerates (``(n, m) = (6, 2)`` is 518 400).
+MAX_BINDING_HYPOTHESES = 10**6
 #: Working copies of the report arrays :func:`two_radar_clutter_scene` makes
 #: (its memory check counts them).
 _SCENE_COPIES = 6
@@ -287,7 +294,7 @@ class ClutterScene(Scene):
 
     @property
     def object_density(self) -> float:
-        """Objects per unit volume, :math:`\\rho_T = n / \\text{volume}`."""
+        r"""Objects per unit volume, :math:`\rho_T = n / \text{volume}`."""
         return self.truth.shape[1] / self.volume
 
     @property
@@ -421,10 +428,7 @@ class GroupingScene(Scene):
         return np.all(g == self.true_groups, axis=(-2, -1))
 
     def true_hypothesis(self) -> np.ndarray:
-        """Per trial, the index of the true binding in
-        :func:`radarfusion_ref.grouping.binding_hypotheses` order."""
-        from ..grouping import binding_hypotheses  # grouping imports this module
-
+        """Per trial, the index of the true binding in :func:`binding_hypotheses` order."""
         m, n = self.owner.shape[-2:]
         hyp = binding_hypotheses(n, m)                # (H, m, n)
         match = np.all(hyp[None] == self.true_binding[:, None], axis=(-2, -1))
@@ -444,7 +448,7 @@ class PolarReports(Scene):
         The same for radar 2, in radar 2's own polar frame.
     sigma_r, sigma_beta : float
         Measurement error standard deviations (km, rad), equal for both radars.
-    geometry : radarfusion_ref.separated.Geometry
+    geometry : radarfusion_ref.engine.geometry.Geometry
         The scene that produced the reports.
     """
 
@@ -555,12 +559,12 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, layout: str = "li
                             p_detect1: float = 1.0, p_detect2: float = 1.0,
                             false_density1: float = 0.0, false_density2: float = 0.0,
                             trials: int = 1, dim: int = 1, rng=None) -> ClutterScene:
-    """The two-radar scene with missed detections and false reports.
+    r"""The two-radar scene with missed detections and false reports.
 
     Draws :func:`two_radar_scene`, then lets radar :math:`r` keep each
     object's report with probability :math:`P_{D,r}` and add a Poisson number
     of false reports, uniform over the surveillance box, with density
-    :math:`\\rho_{F,r}`; both lists are then shuffled.
+    :math:`\rho_{F,r}`; both lists are then shuffled.
 
     Parameters
     ----------
@@ -661,11 +665,11 @@ def typed_scene(n_objects: int, *, spacing: float, layout: str = "line", sigma1:
                 sigma2: float, type_means, type_vars, priors=None, feature_sigma1: float,
                 feature_sigma2: float, model: str = "shared", trials: int = 1, dim: int = 1,
                 rng=None) -> TypedScene:
-    """Draw `trials` scenes of `n_objects` typed objects seen by two radars.
+    r"""Draw `trials` scenes of `n_objects` typed objects seen by two radars.
 
     Positions and coordinate reports come from :func:`two_radar_scene` (same
-    arguments); then each object gets a type :math:`k \\sim p`, a feature value
-    :math:`\\Pi \\sim \\mathcal N(\\Pi_k, \\sigma_{\\Pi k}^2)` and a feature report from
+    arguments); then each object gets a type :math:`k \sim p`, a feature value
+    :math:`\Pi \sim \mathcal N(\Pi_k, \sigma_{\Pi k}^2)` and a feature report from
     each radar.
 
     Parameters
@@ -675,11 +679,11 @@ def typed_scene(n_objects: int, *, spacing: float, layout: str = "line", sigma1:
     spacing, layout, sigma1, sigma2 :
         As in :func:`two_radar_scene`.
     type_means, type_vars : array_like, shape (K,)
-        Type densities (8): means :math:`\\Pi_k` and variances :math:`\\sigma_{\\Pi k}^2`.
+        Type densities (8): means :math:`\Pi_k` and variances :math:`\sigma_{\Pi k}^2`.
     priors : array_like, shape (K,), optional
         Type probabilities (default uniform).
     feature_sigma1, feature_sigma2 : float
-        Feature error standard deviations :math:`\\sigma_{\\Pi1}, \\sigma_{\\Pi2}`.
+        Feature error standard deviations :math:`\sigma_{\Pi1}, \sigma_{\Pi2}`.
     model : {"shared", "spread"}, optional
         Model 1: both radars measure the same value; model 2: each radar
         measures its own draw from the type density (:data:`FEATURE_MODELS`).
@@ -858,30 +862,30 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
                            track_cov=track_cov, trials=trials, rng=rng, count_name="n_objects")
 
 
-def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
+def polar_scene(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
                    rng=None) -> PolarReports:
-    """Draw independent Gaussian polar measurements of every target by both radars.
+    r"""Draw independent Gaussian polar measurements of every target by both radars.
 
     The objects sit where `geometry` puts them (no `n_objects`, `spacing` or
-    `layout`); :func:`radarfusion_ref.separated.simulate_polar` is this function.
+    `layout`).
 
     Parameters
     ----------
-    geometry : radarfusion_ref.separated.Geometry
+    geometry : radarfusion_ref.engine.geometry.Geometry
         Radars and targets.
     sigma_r : float
-        Range error standard deviation :math:`\\sigma_r` (km).
+        Range error standard deviation :math:`\sigma_r` (km).
     sigma_beta : float
-        Azimuth error standard deviation :math:`\\sigma_\\beta` (rad), at most
-        :data:`radarfusion_ref.conversion.SIGMA_BETA_MAX`.
+        Azimuth error standard deviation :math:`\sigma_\beta` (rad), at most
+        :data:`radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`.
     trials : int, optional
         Number of independent trials, at most
-        :data:`radarfusion_ref.separated.MAX_TRIALS` and such that the reports
+        :data:`radarfusion_ref.engine.geometry.MAX_TRIALS` and such that the reports
         fit in :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (about 5
         million trials of two targets; run several calls for more).
     rng : None, int, numpy.random.SeedSequence or numpy.random.Generator, optional
         Source of randomness (SPEC 7). Draws are made per block of
-        :data:`radarfusion_ref.separated.BLOCK_TRIALS` trials from spawned seed
+        :data:`radarfusion_ref.engine.geometry.BLOCK_TRIALS` trials from spawned seed
         sequences, exactly as in
         :func:`radarfusion_ref.separated.association_experiment`: the same seed
         gives the same reports there and here.
@@ -894,23 +898,23 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     ------
     ValueError
         If a sigma is not positive, `sigma_beta` exceeds
-        :data:`radarfusion_ref.conversion.SIGMA_BETA_MAX`, `sigma_r` is not
+        :data:`radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`, `sigma_r` is not
         below a tenth of the shortest range, or `trials` is below 1 or above
         its limit.
     TypeError
-        If `geometry` is not a :class:`radarfusion_ref.separated.Geometry`.
+        If `geometry` is not a :class:`radarfusion_ref.engine.geometry.Geometry`.
 
     Notes
     -----
     .. math::
 
-        \\hat r_{kj} = r_{kj} + \\sigma_r \\xi, \\quad
-        \\hat\\beta_{kj} = \\beta_{kj} + \\sigma_\\beta \\eta, \\quad
-        \\xi, \\eta \\sim \\mathcal N(0, 1)
+        \hat r_{kj} = r_{kj} + \sigma_r \xi, \quad
+        \hat\beta_{kj} = \beta_{kj} + \sigma_\beta \eta, \quad
+        \xi, \eta \sim \mathcal N(0, 1)
 
     independently for radar :math:`k`, target :math:`j` and trial. The
     standard normals are drawn per block as arrays of shape ``(4, n, L)`` in
-    the order :math:`\\hat r_1, \\hat\\beta_1, \\hat r_2, \\hat\\beta_2` (the
+    the order :math:`\hat r_1, \hat\beta_1, \hat r_2, \hat\beta_2` (the
     attributes are transposed views of them).
 
     References
@@ -919,30 +923,71 @@ def simulate_polar(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
 
     Examples
     --------
-    >>> from radarfusion_ref.separated import paper_geometry
-    >>> rep = simulate_polar(paper_geometry(0.0, -5.0), sigma_r=0.1,
-    ...                      sigma_beta=np.deg2rad(1.0), trials=3, rng=1)
+    >>> from radarfusion_ref.engine.geometry import Geometry
+    >>> geo = Geometry(30.0, 0.0, [[106.0, 106.0], [109.6, 102.5]])
+    >>> rep = polar_scene(geo, sigma_r=0.1, sigma_beta=np.deg2rad(1.0), trials=3, rng=1)
     >>> rep.r1.shape, rep.trials
     ((3, 2), 3)
     """
-    from .. import separated as sep  # the geometry and the block draws live there
-
-    geo = sep._as_geometry(geometry)
-    sr, sb = sep._as_sigmas(sigma_r, sigma_beta, geo)
+    geo = _as_geometry(geometry)
+    sr, sb = _polar_sigmas_iv(sigma_r, sigma_beta, geo)
     n = as_int(trials, "trials", minimum=1)
-    check_size(n, sep.MAX_TRIALS, what="trials (`trials`)",
+    check_size(n, MAX_TRIALS, what="trials (`trials`)",
                alternative="several calls with spawned seeds")
     n_t = geo.targets.shape[0]
     check_size(8 * 8 * n_t * n, MEMORY_LIMIT, what="bytes of polar reports for `trials`",
                alternative="association_experiment (chunked) or several smaller calls")
-    root = sep._root_seed(rng)
+    root = _root_seed(rng)
     (r1, b1), (r2, b2) = geo.polar1, geo.polar2
-    z = np.concatenate(list(sep._normal_blocks(root, n_t, n)), axis=-1)   # trial axis last
+    z = np.concatenate(list(_normal_blocks(root, n_t, n)), axis=-1)   # trial axis last
     r1 = r1[:, None] + sr * z[0]
     b1 = b1[:, None] + sb * z[1]
     r2 = r2[:, None] + sr * z[2]
     b2 = b2[:, None] + sb * z[3]
     return PolarReports(r1.T, b1.T, r2.T, b2.T, sr, sb, geo)
+
+
+def binding_hypotheses(n_targets: int, n_sources: int) -> np.ndarray:
+    """All ways to bind every source's reports one-to-one to `n_targets` fused tracks.
+
+    Parameters
+    ----------
+    n_targets : int
+        Number of tracks (= reports per source), ``>= 1``.
+    n_sources : int
+        Number of sources, ``>= 1``.
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (H, m, n)
+        ``hyp[h, i, p]``: index of the report of source ``i`` bound to track
+        ``p`` under hypothesis ``h``; :math:`H = (n!)^m`, in
+        :func:`itertools.product` order of the sources' permutations (the order
+        of :meth:`GroupingScene.true_hypothesis`).
+
+    Raises
+    ------
+    ValueError
+        If :math:`(n!)^m` exceeds :data:`MAX_BINDING_HYPOTHESES` (checked before
+        anything is built; the scalable route is the exact ML binding as a
+        grouping of ``m + 1`` sources with the tracks as source 0,
+        :func:`radarfusion_ref.grouping.group_sd`).
+
+    Examples
+    --------
+    >>> binding_hypotheses(2, 2).shape
+    (4, 2, 2)
+    >>> binding_hypotheses(2, 2)[1].tolist()    # the paper's hypothesis IV
+    [[0, 1], [1, 0]]
+    """
+    n = as_int(n_targets, "n_targets", minimum=1)
+    m = as_int(n_sources, "n_sources", minimum=1)
+    check_size(math.factorial(n) ** m, MAX_BINDING_HYPOTHESES,
+               what=f"binding hypotheses (n!)**m (`n_targets` n = {n}, `n_sources` m = {m})",
+               alternative="group_sd on the m + 1 sources with the tracks as source 0 "
+                           "(the exact ML binding, without enumeration)")
+    perms = np.array(list(itertools.permutations(range(n))), dtype=np.int64).reshape(-1, n)
+    return np.array([np.stack(p) for p in itertools.product(perms, repeat=m)])
 
 
 # ----------------------------------------------------------------------------- helpers for callers
@@ -987,7 +1032,7 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
 
 
 def ellipse_covariance(angle, major, minor) -> np.ndarray:
-    """2-D covariance whose 1-sigma ellipse has semi-axes `major`, `minor`, rotated by `angle`.
+    r"""2-D covariance whose 1-sigma ellipse has semi-axes `major`, `minor`, rotated by `angle`.
 
     Parameters
     ----------
@@ -999,7 +1044,7 @@ def ellipse_covariance(angle, major, minor) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (2, 2)
-        :math:`R(\\theta)\\,\\mathrm{diag}(a^2, b^2)\\,R(\\theta)^\\mathsf{T}`.
+        :math:`R(\theta)\,\mathrm{diag}(a^2, b^2)\,R(\theta)^\mathsf{T}`.
 
     Examples
     --------
