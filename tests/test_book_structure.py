@@ -20,7 +20,9 @@ def test_catalog_matches_the_table_of_contents():
 @pytest.mark.parametrize("chapter", catalog.CHAPTERS, ids=lambda c: c.stem)
 def test_chapter_module_and_tests_exist(chapter):
     assert (ROOT / f"{chapter.docname}.md").exists()
-    assert (ROOT / "radarfusion_ref" / f"{chapter.stem}.py").exists(), chapter.module
+    package = ROOT / "radarfusion_ref"
+    assert ((package / f"{chapter.stem}.py").exists()
+            or (package / chapter.stem / "__init__.py").exists()), chapter.module
     assert (ROOT / "tests" / f"test_{chapter.stem}.py").exists()
     assert (ROOT / "book" / "errata" / f"{chapter.stem}.md").exists()
 
@@ -107,12 +109,46 @@ def test_every_erratum_has_printed_corrected_and_evidence(chapter):
         assert "{ref}" in evidence, f"{title}: evidence links no executed cell"
 
 
+def _api_units() -> dict[str, list[str]]:
+    """Each public module or subpackage directly under the package, the engine or the kit.
+
+    Maps its API page's stem to the dotted modules that page must document: the module
+    itself, or a subpackage's public submodules (the subpackage itself when all of them are
+    private).
+    """
+    units: dict[str, list[str]] = {}
+    for layer in ("radarfusion_ref", "radarfusion_ref/engine", "radarfusion_ref/kit"):
+        for path in sorted((ROOT / layer).iterdir()):
+            if path.name.startswith("_") or path.name in ("engine", "kit"):
+                continue
+            dotted = f"{layer.replace('/', '.')}.{path.stem}"
+            if path.suffix == ".py":
+                documented = [dotted]
+            elif (path / "__init__.py").exists():
+                subs = sorted(f"{dotted}.{p.stem}" for p in path.glob("*.py")
+                              if not p.name.startswith("_"))
+                documented = subs or [dotted]
+            else:
+                continue
+            assert path.stem not in units, f"two API units named {path.stem}"
+            units[path.stem] = documented
+    return units
+
+
 def test_every_module_has_an_api_page():
-    modules = {p.stem for p in ROOT.rglob("radarfusion_ref/**/*.py") if not p.stem.startswith("_")}
+    """One API page per public module or subpackage of the chapter, engine and kit layers."""
+    units = _api_units()
+    assert {"fusion", "montecarlo", "checks"} <= set(units), "the walk found all three layers"
     pages = {p.stem for p in (ROOT / "book" / "api").glob("*.md")} - {"index"}
-    assert modules == pages
+    assert set(units) == pages
     listed = set(toc_docnames())
-    assert {f"book/api/{m}" for m in modules} <= listed
+    assert {f"book/api/{m}" for m in units} <= listed
+    undocumented = []
+    for stem, modules in units.items():
+        text = (ROOT / "book" / "api" / f"{stem}.md").read_text(encoding="utf-8")
+        shown = set(re.findall(r"^\.\. automodule:: (\S+)", text, flags=re.M))
+        undocumented += [f"{stem}.md: {m}" for m in modules if m not in shown]
+    assert not undocumented, undocumented
 
 
 def test_every_literalinclude_pattern_is_in_its_source():
