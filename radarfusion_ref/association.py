@@ -1,9 +1,9 @@
-"""Pointwise and joint association of two radars' reports.
+r"""Pointwise and joint association of two radars' reports.
 
 Two radars report on the same objects; the fusion centre must decide which
 report of radar 1 and which report of radar 2 belong to one object. The input
 of every function here is a **cost matrix** ``cost[..., i, j]`` — the proximity
-measure :math:`\\kappa_{ij}` (or any negative log-likelihood) of pairing report
+measure :math:`\kappa_{ij}` (or any negative log-likelihood) of pairing report
 ``i`` of radar 1 with report ``j`` of radar 2. ``+inf`` marks a forbidden pair;
 NaN and ``-inf`` are refused.
 
@@ -11,7 +11,7 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
 
 * :func:`associate_pointwise` — the paper's simplified pointwise rule: scan the
   :math:`n^2` pairwise hypotheses :math:`G_k`, accept the first one whose
-  :math:`\\kappa` is below the gate, remove both reports, go on
+  :math:`\kappa` is below the gate, remove both reports, go on
   (``order="scan"``); or the greedy best-first variant (``order="best_first"``);
 * :func:`associate_joint` — the joint maximum-likelihood hypothesis
   :math:`H_n`: the complete pairing with the smallest summed cost, a linear
@@ -43,9 +43,9 @@ the 2-D and S-D assignment solvers): :func:`associate_joint`,
 :func:`radarfusion_ref.engine.assignment.solve_2d_bruteforce` and
 :func:`radarfusion_ref.engine.assignment.k_best_2d`; their results,
 :class:`radarfusion_ref.engine.assignment.Association` and
-:class:`radarfusion_ref.engine.assignment.KBestAssignments`, are importable from here
-too and share the vocabulary ``assignment``, ``cost``, ``lower_bound``,
-``gap``, ``history``, ``exact``.
+:class:`radarfusion_ref.engine.assignment.KBestAssignments` (import them from there),
+share the vocabulary ``cost``, ``lower_bound``, ``gap``, ``history``, ``exact``
+with the decisions in ``row_to_col``.
 
 .. rubric:: References
 
@@ -81,34 +81,27 @@ from .engine._validation import (
     as_probability,
     broadcast,
 )
-from .engine.assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
-    _BLOCK_BYTES,
+from .engine.assignment import (
     MAX_HYPOTHESES,
-    MAX_K_BEST,
-    MAX_PARTIAL_MATCHINGS,
-    MAX_SCORED_HYPOTHESES,
     Association,
     KBestAssignments,
+)
+from .engine.assignment._checks import (
     _as_cost,
-    _as_miss_cost,
     _as_threshold,
     _exponents,
-    _injections,
-    _inverse,
     _limit,
-    _make_result,
     _scaled,
 )
+from .engine.assignment._two_d import _BLOCK_BYTES, _injections, _make_result
 from .engine.errors import RadarFusionWarning
+from .engine.linalg import mahalanobis_sq_pairwise
 from .engine.montecarlo import Proportion, proportion
-from .proximity import mahalanobis_sq
 
 __all__ = [
-    "Association",
     "ClutterScene",
     "DecisionComparison",
     "DecisionOutcome",
-    "KBestAssignments",
     "all_correct",
     "associate_bruteforce",
     "associate_joint",
@@ -157,15 +150,15 @@ def _as_decisions(value, name: str) -> np.ndarray:
 
 # --------------------------------------------------------------------------- pointwise
 def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Association:
-    """The paper's simplified pointwise association, or its greedy best-first variant.
+    r"""The paper's simplified pointwise association, or its greedy best-first variant.
 
     Parameters
     ----------
     cost : array_like, shape (..., n1, n2)
-        Proximity measures :math:`\\kappa_{ij}`; ``+inf`` forbids a pair.
+        Proximity measures :math:`\kappa_{ij}`; ``+inf`` forbids a pair.
         Leading axes are a batch, processed vectorized.
     threshold : float or None
-        The gate :math:`\\gamma > 0` (the paper's :math:`\\kappa_{\\text{th}}`):
+        The gate :math:`\gamma > 0` (the paper's :math:`\kappa_{\text{th}}`):
         a pair is acceptable only if its cost is strictly below it. None or
         ``+inf``: no gate (the same meaning as in :func:`associate_joint`).
     order : {"scan", "best_first"}, optional
@@ -179,7 +172,7 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
     Returns
     -------
     Association
-        ``total_cost`` is the sum of the accepted pairs' costs.
+        ``cost`` is the sum of the accepted pairs' costs.
 
     Raises
     ------
@@ -191,7 +184,7 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
     -----
     The paper replaces the full search over pairwise hypotheses :math:`G_k`
     by "accepting the first plausible hypothesis with
-    :math:`\\kappa_k^* < \\kappa_{\\text{th}}` (the book's :math:`\\gamma`), then excluding the associated
+    :math:`\kappa_k^* < \kappa_{\text{th}}` (the book's :math:`\gamma`), then excluding the associated
     measurements and continuing the check". The result depends on the order
     of the lists, which carries no information; ``"best_first"`` removes that
     arbitrariness. Neither is the joint maximum-likelihood decision
@@ -244,12 +237,12 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
 
 # --------------------------------------------------------------------------- joint (exact)
 def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
-    """The joint maximum-likelihood association: an exact linear assignment.
+    r"""The joint maximum-likelihood association: an exact linear assignment.
 
     Parameters
     ----------
     cost : array_like, shape (..., n1, n2), or scipy.sparse matrix (n1, n2)
-        Pair costs (proximity measures :math:`\\kappa_{ij}` or negative
+        Pair costs (proximity measures :math:`\kappa_{ij}` or negative
         log-likelihoods); ``+inf`` forbids a pair; rectangular allowed.
         Leading axes are a batch (solved one matrix at a time). A
         ``scipy.sparse`` array or matrix holds the *gated* pairs only: a stored
@@ -259,7 +252,7 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
         stored pairs instead of :math:`n_1 n_2`
         (:func:`radarfusion_ref.gating.gate_sparse_2d` builds such a matrix).
     threshold : float, optional
-        Gate :math:`\\gamma > 0`: a pair is allowed only if its cost is
+        Gate :math:`\gamma > 0`: a pair is allowed only if its cost is
         strictly below it, as in :func:`associate_pointwise` and
         :func:`radarfusion_ref.gating.in_gate`. None or ``+inf``: no gate.
     miss_cost : float, optional
@@ -287,32 +280,32 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     Notes
     -----
     By eqs. (5)–(6) the likelihood of a joint hypothesis :math:`H` (a pairing
-    :math:`\\pi`) is the product of the pointwise likelihood measures, so its
-    negative logarithm is :math:`\\tfrac12\\sum_j \\kappa_{j\\pi(j)}` plus a constant,
+    :math:`\pi`) is the product of the pointwise likelihood measures, so its
+    negative logarithm is :math:`\tfrac12\sum_j \kappa_{j\pi(j)}` plus a constant,
     and the ML hypothesis solves
 
     .. math::
 
-        \\hat\\pi = \\arg\\min_{\\pi} \\sum_{i} c_{i\\pi(i)},
+        \hat\pi = \arg\min_{\pi} \sum_{i} c_{i\pi(i)},
 
     a linear assignment problem (:func:`scipy.optimize.linear_sum_assignment`,
     :math:`O(n^3)`, instead of enumerating :math:`n!` hypotheses).
 
     * No `threshold`, no `miss_cost`: a complete assignment of
-      :math:`\\min(n_1, n_2)` pairs of smallest total cost.
+      :math:`\min(n_1, n_2)` pairs of smallest total cost.
     * `threshold` only: the largest number of pairs within the gate, and among
-      those the smallest total cost (the :math:`\\text{miss\\_cost}\\to\\infty`
+      those the smallest total cost (the :math:`\text{miss\_cost}\to\infty`
       limit). All pairs gated out: no pairs, no error.
     * `miss_cost` :math:`c_0`: the partial assignment minimising
-      :math:`\\sum_{\\text{pairs}} c_{ij} + c_0\\,(\\#\\text{unassigned rows} +
-      \\#\\text{unassigned columns})`. This equals the standard augmented
+      :math:`\sum_{\text{pairs}} c_{ij} + c_0\,(\#\text{unassigned rows} +
+      \#\text{unassigned columns})`. This equals the standard augmented
       :math:`(n_1+n_2)` square problem with dummy rows and columns; it is
       solved exactly, without the augmentation, as one rectangular assignment
-      of :math:`\\min(c_{ij} - 2c_0, 0)`.
+      of :math:`\min(c_{ij} - 2c_0, 0)`.
     * Sparse `cost`: the same three problems on the stored pairs, as one
       full matching of the :math:`n_1` rows into the :math:`n_2` columns plus
       one private "unassigned" column per row — pair weight
-      :math:`c_{ij} - 2c_0` (pairs with :math:`c_{ij} \\ge 2c_0` are left out),
+      :math:`c_{ij} - 2c_0` (pairs with :math:`c_{ij} \ge 2c_0` are left out),
       unassigned weight 0; without `miss_cost`, an unassigned weight larger than
       any saving among pairs, so the largest number of pairs comes first — by
       :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching` (LAPJVsp).
@@ -323,16 +316,16 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     References
     ----------
     Grachov & Korneev (2010), eqs. (5)–(6) and the joint proximity measure
-    :math:`\\kappa_n^* = \\sum_j \\kappa_j^*`; Crouse (2016).
+    :math:`\kappa_n^* = \sum_j \kappa_j^*`; Crouse (2016).
 
     Examples
     --------
     >>> c = [[0.5, 0.1], [0.2, 3.0]]
     >>> r = associate_joint(c)
-    >>> r.pairs.tolist(), r.total_cost
+    >>> r.pairs.tolist(), r.cost
     ([[0, 1], [1, 0]], 0.30000000000000004)
     >>> r = associate_joint([[1.0, 9.0], [9.0, 9.0]], miss_cost=2.0)
-    >>> r.pairs.tolist(), r.unassigned_rows.tolist(), r.unassigned_cols.tolist(), r.total_cost
+    >>> r.pairs.tolist(), r.unassigned_rows.tolist(), r.unassigned_cols.tolist(), r.cost
     ([[0, 0]], [1], [1], 5.0)
     >>> associate_joint([[5.0, 6.0]], threshold=1.0).n_assigned
     0
@@ -346,7 +339,7 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
 
 # --------------------------------------------------------------------------- brute force
 def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
-    """The joint ML association by enumerating every joint hypothesis.
+    r"""The joint ML association by enumerating every joint hypothesis.
 
     The reference route for :func:`associate_joint`: the same problem (same
     arguments, same meaning), solved by scoring every hypothesis. Square
@@ -368,10 +361,13 @@ def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association
     ------
     ValueError
         As :func:`associate_joint`; and, before anything is allocated, if
-        there are more than ``MAX_HYPOTHESES`` complete hypotheses
-        (:math:`n > 10`), more than ``MAX_PARTIAL_MATCHINGS`` partial ones
-        (gate / miss cost / forbidden pairs, e.g. :math:`8 \\times 8`), or more
-        than ``MAX_SCORED_HYPOTHESES`` over the whole batch. The message names
+        there are more than
+        :data:`~radarfusion_ref.engine.assignment.MAX_HYPOTHESES` complete
+        hypotheses (:math:`n > 10`), more than
+        :data:`~radarfusion_ref.engine.assignment.MAX_PARTIAL_MATCHINGS` partial
+        ones (gate / miss cost / forbidden pairs, e.g. :math:`8 \times 8`), or
+        more than :data:`~radarfusion_ref.engine.assignment.MAX_SCORED_HYPOTHESES`
+        over the whole batch. The message names
         the scalable alternative, :func:`associate_joint`.
 
     Notes
@@ -390,7 +386,7 @@ def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association
 
 # --------------------------------------------------------------------------- Murty k-best
 def k_best_assignments(cost, k) -> KBestAssignments:
-    """Rank the `k` best complete assignments (joint hypotheses): Murty's algorithm.
+    r"""Rank the `k` best complete assignments (joint hypotheses): Murty's algorithm.
 
     Parameters
     ----------
@@ -408,8 +404,8 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     Raises
     ------
     ValueError
-        For NaN or ``-inf`` costs, an empty matrix, ``k < 1``, ``k >
-        MAX_K_BEST``, a planned working memory (about ``_MURTY_BYTES_PER_NODE
+        For NaN or ``-inf`` costs, an empty matrix, ``k < 1``, ``k >``
+        :data:`~radarfusion_ref.engine.assignment.MAX_K_BEST`, a planned working memory (about ``_MURTY_BYTES_PER_NODE
         * k * n**2`` bytes) above ``MEMORY_LIMIT``, or a hypothesis total
         beyond the float range.
     TypeError
@@ -417,22 +413,22 @@ def k_best_assignments(cost, k) -> KBestAssignments:
 
     Notes
     -----
-    Murty's partitioning: after the best remaining solution :math:`\\pi` of a
+    Murty's partitioning: after the best remaining solution :math:`\pi` of a
     sub-problem (some pairs fixed, some forbidden) is output, its free rows
-    :math:`r_1, \\dots, r_q` give :math:`q` disjoint children — child
-    :math:`t` fixes :math:`r_1 \\dots r_{t-1}` to their columns in
-    :math:`\\pi` and forbids :math:`(r_t, \\pi(r_t))`. Their union is every
-    solution of the parent apart from :math:`\\pi`, so taking the best child
+    :math:`r_1, \dots, r_q` give :math:`q` disjoint children — child
+    :math:`t` fixes :math:`r_1 \dots r_{t-1}` to their columns in
+    :math:`\pi` and forbids :math:`(r_t, \pi(r_t))`. Their union is every
+    solution of the parent apart from :math:`\pi`, so taking the best child
     solution overall, repeatedly, ranks all assignments exactly.
 
     Work is saved as in Miller, Stone & Cox (1997): with dual potentials of
-    the parent's optimum (reduced costs :math:`\\bar c \\ge 0`), child
+    the parent's optimum (reduced costs :math:`\bar c \ge 0`), child
     :math:`t` costs at least
 
     .. math::
 
-        C(\\pi) + \\min_{j \\ne \\pi(r_t)} \\bar c_{r_t j}
-               + \\min_{i \\ne r_t} \\bar c_{i \\pi(r_t)},
+        C(\pi) + \min_{j \ne \pi(r_t)} \bar c_{r_t j}
+               + \min_{i \ne r_t} \bar c_{i \pi(r_t)},
 
     so children enter the queue with this bound and are solved
     (:func:`scipy.optimize.linear_sum_assignment` on the child's reduced
@@ -447,7 +443,7 @@ def k_best_assignments(cost, k) -> KBestAssignments:
     Examples
     --------
     >>> r = k_best_assignments([[1.0, 2.0], [2.0, 5.0]], 5)
-    >>> r.assignments.tolist(), r.costs.tolist()
+    >>> r.row_to_col.tolist(), r.cost.tolist()
     ([[1, 0], [0, 1]], [4.0, 6.0])
     """
     return assignment.k_best_2d(cost, k)
@@ -455,14 +451,14 @@ def k_best_assignments(cost, k) -> KBestAssignments:
 
 # --------------------------------------------------------------------------- marginals
 def association_probabilities(cost, *, k=None) -> np.ndarray:
-    """Marginal probabilities that report ``i`` of radar 1 and ``j`` of radar 2 match.
+    r"""Marginal probabilities that report ``i`` of radar 1 and ``j`` of radar 2 match.
 
     Parameters
     ----------
     cost : array_like, shape (n1, n2)
         **Negative log-likelihoods** of the pairs (for the proximity measure,
-        :math:`\\kappa/2`), so a joint hypothesis :math:`\\pi` has likelihood
-        proportional to :math:`\\exp(-\\sum_i c_{i\\pi(i)})`; ``+inf`` forbids.
+        :math:`\kappa/2`), so a joint hypothesis :math:`\pi` has likelihood
+        proportional to :math:`\exp(-\sum_i c_{i\pi(i)})`; ``+inf`` forbids.
     k : int, optional
         None (default): exact, by enumerating every complete assignment (small
         matrices only). An integer: the approximation from the `k` best
@@ -471,13 +467,13 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (n1, n2)
-        :math:`P(i \\leftrightarrow j)`; rows (of the shorter side) sum to 1.
+        :math:`P(i \leftrightarrow j)`; rows (of the shorter side) sum to 1.
 
     Raises
     ------
     ValueError
         For invalid costs, ``k < 1``, no feasible assignment, or, before
-        anything is allocated, more than ``MAX_HYPOTHESES`` hypotheses to
+        anything is allocated, more than :data:`~radarfusion_ref.engine.assignment.MAX_HYPOTHESES` hypotheses to
         enumerate exactly (the message points to the `k`-best route) or a `k`
         beyond the limits of :func:`k_best_assignments`.
 
@@ -487,11 +483,11 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
 
     .. math::
 
-        P(i \\leftrightarrow j) = \\frac{\\sum_{\\pi:\\,\\pi(i) = j} e^{-C(\\pi)}}
-                                       {\\sum_{\\pi} e^{-C(\\pi)}},
+        P(i \leftrightarrow j) = \frac{\sum_{\pi:\,\pi(i) = j} e^{-C(\pi)}}
+                                       {\sum_{\pi} e^{-C(\pi)}},
 
     computed with the log-sum-exp shift so nothing underflows. Truncating the
-    sums to the :math:`k` best :math:`\\pi` is the usual approximation; it is
+    sums to the :math:`k` best :math:`\pi` is the usual approximation; it is
     exact when the neglected hypotheses carry negligible weight.
 
     Examples
@@ -531,7 +527,7 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
                 p[i] += np.bincount(h[:, i], weights=wts, minlength=b)
     else:
         kb = k_best_assignments(ws, k)          # rows = the shorter side; scaled: same ranking
-        assign, costs = kb.assignments, kb.costs
+        assign, costs = kb.row_to_col, kb.cost
         finite = np.isfinite(costs)
         if not finite.any():
             raise ValueError("`cost` admits no feasible complete assignment (every hypothesis "
@@ -548,36 +544,36 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
 # --------------------------------------------------------------------------- non-assignment cost
 def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
                         object_density, innovation_cov=None, logdet: bool = False):
-    """Per-report non-assignment cost (in proximity units) from the likelihood ratio.
+    r"""Per-report non-assignment cost (in proximity units) from the likelihood ratio.
 
     Parameters
     ----------
     p_detect1, p_detect2 : float or array_like
         Detection probabilities :math:`P_{D,1}, P_{D,2}` of the two radars, in (0, 1].
     false_density1, false_density2 : float or array_like
-        False-report densities :math:`\\rho_{F,1}, \\rho_{F,2}` (expected false
+        False-report densities :math:`\rho_{F,1}, \rho_{F,2}` (expected false
         reports per unit volume of the measurement space), ≥ 0.
     object_density : float or array_like
-        Density :math:`\\rho_T > 0` of objects (per unit volume).
+        Density :math:`\rho_T > 0` of objects (per unit volume).
     innovation_cov : float or array_like, shape (..., d, d) or scalar
-        :math:`S = \\Sigma_1 + \\Sigma_2`, the covariance of the difference of
+        :math:`S = \Sigma_1 + \Sigma_2`, the covariance of the difference of
         two reports of one object (a scalar is a 1-D variance). Symmetric
         positive definite; variances from 1e-300 to 1e300 are handled.
         Required with ``logdet=False``; optional with ``logdet=True`` (then
         only validated and broadcast: the pair costs carry the determinant).
     logdet : bool, optional
         False (default): the cost for a matrix of proximity measures
-        :math:`\\kappa_{ij}` (``proximity_matrix(...)``), which holds
-        :math:`-\\tfrac12\\ln\\det(2\\pi S)` for the one `innovation_cov`. True:
-        the cost for a matrix of full ML costs :math:`\\kappa_{ij} +
-        \\ln\\det(2\\pi S_{ij})` (``proximity_matrix(..., logdet=True)``), right when
+        :math:`\kappa_{ij}` (``proximity_matrix(...)``), which holds
+        :math:`-\tfrac12\ln\det(2\pi S)` for the one `innovation_cov`. True:
+        the cost for a matrix of full ML costs :math:`\kappa_{ij} +
+        \ln\det(2\pi S_{ij})` (``proximity_matrix(..., logdet=True)``), right when
         :math:`S_{ij}` differs from pair to pair.
 
     Returns
     -------
     float or numpy.ndarray
         The cost :math:`c_0` to pass as ``miss_cost`` to :func:`associate_joint`
-        with a cost matrix of proximity measures :math:`\\kappa_{ij}`; ``+inf``
+        with a cost matrix of proximity measures :math:`\kappa_{ij}`; ``+inf``
         when no report can be left unassigned (both radars detect everything
         and report nothing false). Array arguments broadcast together.
 
@@ -592,34 +588,34 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     Warns
     -----
     RadarFusionWarning
-        If :math:`c_0 \\le 0`: no pair with :math:`\\kappa \\ge 0` can beat
+        If :math:`c_0 \le 0`: no pair with :math:`\kappa \ge 0` can beat
         leaving both reports unassigned. (``logdet=False`` only: the full
         costs of ``logdet=True`` may be negative).
 
     Notes
     -----
-    Objects form a Poisson field of density :math:`\\rho_T`; radar :math:`r`
+    Objects form a Poisson field of density :math:`\rho_T`; radar :math:`r`
     detects each with probability :math:`P_{D,r}` and adds false reports of
-    density :math:`\\rho_{F,r}`. Integrating the unknown position out, a pair
-    :math:`(i, j)` contributes :math:`\\rho_T P_{D,1} P_{D,2}\\, \\mathcal N(\\hat x_{1i} -
-    \\hat x_{2j}; 0, S)` to the likelihood of a hypothesis and an unpaired
-    report :math:`u_r = \\rho_{F,r} + \\rho_T P_{D,r} (1 - P_{D,\\bar r})` (a false
+    density :math:`\rho_{F,r}`. Integrating the unknown position out, a pair
+    :math:`(i, j)` contributes :math:`\rho_T P_{D,1} P_{D,2}\, \mathcal N(\hat x_{1i} -
+    \hat x_{2j}; 0, S)` to the likelihood of a hypothesis and an unpaired
+    report :math:`u_r = \rho_{F,r} + \rho_T P_{D,r} (1 - P_{D,\bar r})` (a false
     report, or an object the other radar missed). Pairing beats leaving both
     reports unpaired iff
 
     .. math::
 
-        \\kappa_{ij} < 2\\ln\\frac{\\rho_T P_{D,1} P_{D,2}}{u_1 u_2} - \\ln\\det(2\\pi S)
+        \kappa_{ij} < 2\ln\frac{\rho_T P_{D,1} P_{D,2}}{u_1 u_2} - \ln\det(2\pi S)
         = 2c_0,
 
-    and, with ``logdet=True``, :math:`c_0 = \\ln(\\rho_T P_{D,1} P_{D,2}/(u_1 u_2))`
-    against the costs :math:`\\kappa_{ij} + \\ln\\det(2\\pi S_{ij})`,
+    and, with ``logdet=True``, :math:`c_0 = \ln(\rho_T P_{D,1} P_{D,2}/(u_1 u_2))`
+    against the costs :math:`\kappa_{ij} + \ln\det(2\pi S_{ij})`,
 
     and with cost :math:`c_0` per unassigned report the assignment cost
-    :math:`\\sum \\kappa + c_0\\,(\\#\\text{unassigned})` is, up to a constant,
-    :math:`-2\\ln` of the hypothesis likelihood (the book's eq.
+    :math:`\sum \kappa + c_0\,(\#\text{unassigned})` is, up to a constant,
+    :math:`-2\ln` of the hypothesis likelihood (the book's eq.
     ``eq-non-assignment-cost``). Everything is computed in the log domain
-    (:func:`numpy.logaddexp` for :math:`\\ln u_r`, :math:`\\ln\\det S` through
+    (:func:`numpy.logaddexp` for :math:`\ln u_r`, :math:`\ln\det S` through
     the correlation matrix), so no density or variance in the float range
     overflows or underflows.
 
@@ -697,32 +693,32 @@ two_radar_clutter_scene = scenes.two_radar_clutter_scene
 
 
 def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False) -> np.ndarray:
-    """All pairwise proximity measures :math:`\\kappa_{ij}` (or full ML costs) of two report lists.
+    r"""All pairwise proximity measures :math:`\kappa_{ij}` (or full ML costs) of two report lists.
 
-    A thin wrapper that broadcasts :func:`radarfusion_ref.proximity.mahalanobis_sq`
-    over every (radar-1, radar-2) pair.
+    A thin wrapper around :func:`radarfusion_ref.engine.linalg.mahalanobis_sq_pairwise`
+    (every (radar-1, radar-2) pair).
 
     Parameters
     ----------
     reports1, reports2 : array_like, shape (..., n1, d) and (..., n2, d)
     sigma1, sigma2 : float or array_like, shape (..., n1) and (..., n2)
         Per-coordinate error standard deviations: one number per radar, or one
-        per report (each report's covariance is :math:`\\sigma^2 I`); arrays
+        per report (each report's covariance is :math:`\sigma^2 I`); arrays
         broadcast against the reports' leading axes.
     logdet : bool, optional
-        False (default): the proximity measure :math:`\\kappa_{ij}` alone.
+        False (default): the proximity measure :math:`\kappa_{ij}` alone.
         True: the full maximum-likelihood cost
-        :math:`c_{ij} = \\kappa_{ij} + \\ln\\det(2\\pi S_{ij})`, :math:`-2\\ln` of the
-        likelihood :math:`\\mathcal N(\\hat x_{1i} - \\hat x_{2j}; 0, S_{ij})` of the pair
-        with the object's position integrated out, :math:`S_{ij} = (\\sigma_{1i}^2 +
-        \\sigma_{2j}^2) I`. Pass it with ``non_assignment_cost(..., logdet=True)``.
+        :math:`c_{ij} = \kappa_{ij} + \ln\det(2\pi S_{ij})`, :math:`-2\ln` of the
+        likelihood :math:`\mathcal N(\hat x_{1i} - \hat x_{2j}; 0, S_{ij})` of the pair
+        with the object's position integrated out, :math:`S_{ij} = (\sigma_{1i}^2 +
+        \sigma_{2j}^2) I`. Pass it with ``non_assignment_cost(..., logdet=True)``.
 
     Returns
     -------
     numpy.ndarray, shape (..., n1, n2)
-        :math:`\\kappa_{ij} = \\lVert \\hat x_{1i} - \\hat x_{2j}\\rVert^2 /
-        (\\sigma_{1i}^2 + \\sigma_{2j}^2)` — the exponent of eq. (7) (times −2) — plus
-        :math:`d\\ln(2\\pi(\\sigma_{1i}^2 + \\sigma_{2j}^2))` with ``logdet=True``.
+        :math:`\kappa_{ij} = \lVert \hat x_{1i} - \hat x_{2j}\rVert^2 /
+        (\sigma_{1i}^2 + \sigma_{2j}^2)` — the exponent of eq. (7) (times −2) — plus
+        :math:`d\ln(2\pi(\sigma_{1i}^2 + \sigma_{2j}^2))` with ``logdet=True``.
 
     Raises
     ------
@@ -740,7 +736,7 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
     compares with leaving its reports unassigned. With one variance per report
     it is not a sum of a row term and a column term, and it can change the
     joint decision (the book's page on the full ML cost). It is computed in the log
-    domain, :math:`\\ln(\\sigma_1^2 + \\sigma_2^2)` by :func:`numpy.logaddexp`, so
+    domain, :math:`\ln(\sigma_1^2 + \sigma_2^2)` by :func:`numpy.logaddexp`, so
     no variance in the float range overflows.
 
     Examples
@@ -785,7 +781,7 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
     eye = np.eye(d)
     if not per_report:
         v1, v2 = float(sd1) ** 2, float(sd2) ** 2
-        out = mahalanobis_sq(r1[..., :, None, :], r2[..., None, :, :], v1 * eye, v2 * eye)
+        out = mahalanobis_sq_pairwise(r1, r2, v1 * eye, v2 * eye)
     else:
         v1, v2 = np.square(np.atleast_1d(sd1)), np.square(np.atleast_1d(sd2))
         if not (np.all(np.isfinite(v1)) and np.all(v1 > 0) and np.all(np.isfinite(v2))
@@ -793,9 +789,9 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
             raise ValueError("`sigma1` and `sigma2` must have squares within the float range "
                              f"(1e-154 < sigma < 1e154); received {_describe(sd1)} and "
                              f"{_describe(sd2)}")
-        c1 = v1[..., :, None, None, None] * eye               # (..., n1, 1, d, d)
-        c2 = v2[..., None, :, None, None] * eye               # (..., 1, n2, d, d)
-        out = mahalanobis_sq(r1[..., :, None, :], r2[..., None, :, :], c1, c2)
+        c1 = v1[..., :, None, None] * eye                     # (..., n1, d, d)
+        c2 = v2[..., :, None, None] * eye                     # (..., n2, d, d)
+        out = mahalanobis_sq_pairwise(r1, r2, c1, c2)
     out = np.asarray(out, dtype=float)
     if with_logdet:
         # ln det(2 pi S) = d (ln 2 pi + ln(s1^2 + s2^2)), ln(s1^2 + s2^2) by logaddexp
@@ -840,7 +836,7 @@ def all_correct(decided, truth) -> np.ndarray:
 
 @dataclass(frozen=True)
 class DecisionComparison:
-    """Probability that every pairing is correct, for three procedures.
+    r"""Probability that every pairing is correct, for three procedures.
 
     Attributes
     ----------
@@ -850,7 +846,7 @@ class DecisionComparison:
         Greedy best-first with the same gate.
     joint : Proportion
         Joint ML (:func:`associate_joint`), followed by the paper's joint
-        test (:math:`\\kappa_n^* < \\gamma_n`, the :math:`\\chi^2_n` gate; rejection counts as
+        test (:math:`\kappa_n^* < \gamma_n`, the :math:`\chi^2_n` gate; rejection counts as
         a wrong decision).
     joint_ml : Proportion
         Joint ML alone (no test).
@@ -863,7 +859,7 @@ class DecisionComparison:
 
 
 def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionComparison:
-    """Monte-Carlo decision-level comparison of pointwise, greedy and joint association.
+    r"""Monte-Carlo decision-level comparison of pointwise, greedy and joint association.
 
     Parameters
     ----------
@@ -872,10 +868,10 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     truth : array_like of int, shape (trials, n)
         Correct ``row_to_col`` of each scene.
     threshold : float or None
-        Pointwise gate :math:`\\gamma` (1 hypothesis, e.g.
+        Pointwise gate :math:`\gamma` (1 hypothesis, e.g.
         ``gating.gate_threshold(P_lo, d)``); None or ``+inf``: no gate.
     joint_threshold : float or None
-        Joint gate on :math:`\\kappa_n^*` (e.g. ``gating.gate_threshold(P_lo, n * d)``);
+        Joint gate on :math:`\kappa_n^*` (e.g. ``gating.gate_threshold(P_lo, n * d)``);
         None or ``+inf``: no joint test.
 
     Returns
@@ -915,7 +911,7 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     gr = associate_pointwise(c, th, order="best_first")
     jt = associate_joint(c)
     ok_j = all_correct(jt.row_to_col, truth)
-    passed = np.asarray(jt.total_cost) < jth
+    passed = np.asarray(jt.cost) < jth
     return DecisionComparison(
         proportion(all_correct(pw.row_to_col, truth), None),
         proportion(all_correct(gr.row_to_col, truth), None),
@@ -975,7 +971,7 @@ def _outcome_fn(c, t, rule):
     if rule == "joint":
         res = associate_joint(c)
         right = all_correct(res.row_to_col, t)
-        total = np.asarray(res.total_cost)
+        total = np.asarray(res.cost)
 
         def joint(gate):
             passed = total < gate                       # the joint test, kappa*_n < gamma_n
@@ -992,12 +988,12 @@ def _outcome_fn(c, t, rule):
 
 
 def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
-    """Classify one rule's decisions per trial: correct, false accept, or rejected.
+    r"""Classify one rule's decisions per trial: correct, false accept, or rejected.
 
     Parameters
     ----------
     kappa : array_like, shape (..., n1, n2)
-        Proximity measures :math:`\\kappa_{ij}` per trial (``+inf`` forbids a pair).
+        Proximity measures :math:`\kappa_{ij}` per trial (``+inf`` forbids a pair).
     truth : array_like of int, shape (..., n1)
         The true ``row_to_col`` per trial (-1: no partner).
     rule : {"scan", "greedy", "joint"}
@@ -1005,9 +1001,9 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
         ``order="scan"``), greedy best-first (``order="best_first"``), or
         joint ML (:func:`associate_joint`) followed by the joint test.
     gate : float
-        The per-pair gate :math:`\\gamma` of a pointwise rule, or the gate
-        :math:`\\gamma_n` of the joint test on the chosen pairing's summed
-        :math:`\\kappa`; ``+inf``: no gate.
+        The per-pair gate :math:`\gamma` of a pointwise rule, or the gate
+        :math:`\gamma_n` of the joint test on the chosen pairing's summed
+        :math:`\kappa`; ``+inf``: no gate.
 
     Returns
     -------
@@ -1027,11 +1023,11 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
     Notes
     -----
     A trial is **correct** when every pair is right and accepted (the joint
-    rule also needs :math:`\\kappa^*_n < \\gamma_n`), a **false accept** when
+    rule also needs :math:`\kappa^*_n < \gamma_n`), a **false accept** when
     at least one wrong pair is accepted, and **rejected** otherwise. For
     ``"greedy"`` and ``"joint"`` the false-accept rate cannot fall and the
     rejection rate cannot rise as the gate widens: greedy best-first takes
-    the pairs in increasing :math:`\\kappa`, so the pairs it accepts under a
+    the pairs in increasing :math:`\kappa`, so the pairs it accepts under a
     gate are a subset of those it accepts under any wider gate; the joint
     pairing does not depend on the gate at all.
 
@@ -1048,7 +1044,7 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
 
 def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept",
                    gates=None) -> float:
-    """The gate at which a rule's empirical error rate on these trials meets `alpha`.
+    r"""The gate at which a rule's empirical error rate on these trials meets `alpha`.
 
     Parameters
     ----------
@@ -1066,8 +1062,8 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
         Candidate gates (> 0, increasing); every one is scored and the
         widest (narrowest) one meeting `alpha` is returned. None (default):
         the exact answer among all gates, found by bisection over the
-        breakpoints of the rate — just above each distinct :math:`\\kappa`
-        (pointwise rules) or each trial's summed :math:`\\kappa` of the
+        breakpoints of the rate — just above each distinct :math:`\kappa`
+        (pointwise rules) or each trial's summed :math:`\kappa` of the
         chosen pairing (``"joint"``), where the decisions can change. The
         bisection is exact because the rates are monotone in the gate for
         ``"greedy"`` and ``"joint"`` (see :func:`decision_outcome`); for
@@ -1091,9 +1087,9 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     Calibrate on one set of trials and evaluate on fresh ones: the rate at
     the returned gate is biased low on the trials that chose it. For one
     object (``n1 = n2 = 1``) and known covariances the true pair's
-    :math:`\\kappa` is :math:`\\chi^2_d`, so ``error="false_reject"`` returns
-    the empirical :math:`1-\\alpha` quantile of :math:`\\kappa`, which
-    converges to the :math:`\\chi^2_d` quantile of eq-gate.
+    :math:`\kappa` is :math:`\chi^2_d`, so ``error="false_reject"`` returns
+    the empirical :math:`1-\alpha` quantile of :math:`\kappa`, which
+    converges to the :math:`\chi^2_d` quantile of eq-gate.
 
     Examples
     --------
@@ -1128,7 +1124,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
         raise ValueError("`gates` must be given for `rule` = 'scan': its error rates need not be "
                          "monotone in the gate, so only a scored grid is exact")
     if rule == "joint":
-        stat = np.asarray(associate_joint(c).total_cost, dtype=float).ravel()
+        stat = np.asarray(associate_joint(c).cost, dtype=float).ravel()
     else:
         stat = c[np.isfinite(c)]
     vals = np.unique(stat[np.isfinite(stat)])

@@ -42,8 +42,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
+from .engine import scenes
 from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
@@ -56,26 +56,20 @@ from .engine._validation import (
     as_probability,
     check_size,
 )
-from .engine.assignment import (  # noqa: F401  (re-exported: the solvers' home is assignment)
-    _HIGHS_COST_SCALE,
-    _condition_costs,
-    _gap_of,
-    _sd_constraints,
-    _sd_enumerate,
-    _sd_solve,
-    _solve_candidates,
-)
-from .engine.scenes import GroupingScene, _grouping_scene  # the simulator's home is scenes
+from .engine.assignment._lagrangian import _solve_candidates
+from .engine.assignment._milp import _sd_solve
+from .engine.assignment._results import _gap_of
+from .engine.assignment._sd import _sd_enumerate
+from .engine.linalg import mahalanobis_sq_pairwise
+from .engine.scenes import GroupingScene, binding_hypotheses
+from .gating import gate_threshold
 
 __all__ = [
     "PAPER_HYPOTHESES",
     "GroupingResult",
-    "GroupingScene",
-    "MAX_BINDING_HYPOTHESES",
     "MAX_CANDIDATE_GROUPS",
     "MAX_GROUPINGS",
     "binding_costs",
-    "binding_hypotheses",
     "group_bruteforce",
     "group_costs",
     "group_sd",
@@ -84,13 +78,6 @@ __all__ = [
 ]
 
 _COSTS = ("ml", "pairwise")
-
-#: Largest number of binding hypotheses :math:`(n!)^m` that
-#: :func:`binding_hypotheses` and :func:`binding_costs` enumerate (``(n, m) = (6, 2)``
-#: has 518 400; ``(6, 3)`` has 3.7e8 and is refused). The scalable route is the
-#: exact ML binding as a grouping of ``m + 1`` sources with the tracks as source
-#: 0, solved by :func:`group_sd`.
-MAX_BINDING_HYPOTHESES = 10**6
 
 #: Largest number of groupings :math:`(n!)^{m-1}` that :func:`group_bruteforce`
 #: enumerates, whatever its `max_groupings` (about a minute of work); beyond it,
@@ -118,7 +105,7 @@ for _h in PAPER_HYPOTHESES.values():
 # ----------------------------------------------------------------------------- results
 @dataclass(frozen=True)
 class GroupingResult:
-    """The best grouping of one scene (or of a batch of scenes).
+    r"""The best grouping of one scene (or of a batch of scenes).
 
     Attributes
     ----------
@@ -143,17 +130,17 @@ class GroupingResult:
         exact methods, the best Lagrangian dual value for ``"lagrangian"``.
     gap : float or numpy.ndarray
         Proved relative duality gap
-        :math:`(\text{cost} - \text{lower bound}) / \\max(|\text{cost}|, 1)`
+        :math:`(\text{cost} - \text{lower bound}) / \max(|\text{cost}|, 1)`
         (0 for the exact methods).
     history : numpy.ndarray or None, shape (iterations, 2)
         For ``"lagrangian"`` on one scene: the best lower bound and the best
         cost after each iteration (summed over the independent clusters).
         ``None`` otherwise.
-    assignment, exact
-        (properties) with `cost`, `lower_bound`, `gap` and `history`, the
-        :class:`radarfusion_ref.engine.assignment.AssignmentResult` vocabulary shared
-        with the 2-D results: ``assignment`` is `groups`; ``exact`` is whether
-        the gap is 0 (every batch entry).
+    exact : bool
+        True when the proved gap is 0 (for every scene of a batch). With
+        `cost`, `lower_bound`, `gap` and `history`, the
+        :class:`radarfusion_ref.engine.assignment.AssignmentResult` vocabulary
+        shared with the 2-D results.
 
     With missed detections and false reports (:func:`group_sd` with
     `p_detect`), `groups` has one row per group, ``-1`` marking a source
@@ -168,20 +155,11 @@ class GroupingResult:
     lower_bound: np.ndarray | float | None = None
     gap: np.ndarray | float = 0.0
     history: np.ndarray | None = None
+    exact: bool = True
 
     def __post_init__(self):
         if self.lower_bound is None:            # exact methods: the cost is its own bound
             object.__setattr__(self, "lower_bound", self.cost)
-
-    @property
-    def assignment(self) -> np.ndarray:
-        """The chosen groups, `groups`."""
-        return self.groups
-
-    @property
-    def exact(self) -> bool:
-        """True when the proved gap is 0 (for every scene of a batch)."""
-        return bool(np.all(np.asarray(self.gap) == 0.0))
 
 
 # ----------------------------------------------------------------------------- validation
@@ -285,9 +263,7 @@ def _pairwise_tensor(x, cov):
     B, m, n, _ = x.shape
     out = np.zeros((B,) + (n,) * m)
     for i, k in itertools.combinations(range(m), 2):
-        S = cov[:, i, :, None] + cov[:, k, None, :]          # (Bc, n, n, d, d)
-        D = x[:, i, :, None] - x[:, k, None, :]              # (B, n, n, d)
-        q = np.einsum("...k,...k->...", D, np.linalg.solve(S, D[..., None])[..., 0])
+        q = mahalanobis_sq_pairwise(x[:, i], x[:, k], cov[:, i], cov[:, k])   # (B, n, n)
         shape = [B] + [1] * m
         shape[1 + i] = n
         shape[1 + k] = n
@@ -355,7 +331,7 @@ def _tensor(x, cov, cost):
 
 # ----------------------------------------------------------------------------- counting
 def n_groupings(n_targets: int, n_sources: int, *, binding: bool = False) -> int:
-    """Number of ways to group the reports of `n_sources` sources about `n_targets` targets.
+    r"""Number of ways to group the reports of `n_sources` sources about `n_targets` targets.
 
     Parameters
     ----------
@@ -389,7 +365,7 @@ def n_groupings(n_targets: int, n_sources: int, *, binding: bool = False) -> int
         k = (n!)^{m-1}.
 
     With binding, source 1's order relative to the tracks is free as well, so
-    :math:`k = (n!)^m`. The paper prints :math:`k = (m-1)!\\,n!` (eq. 24), which
+    :math:`k = (n!)^m`. The paper prints :math:`k = (m-1)!\,n!` (eq. 24), which
     agrees only for :math:`m = 2` and for :math:`(m, n) = (3, 2)`.
 
     References
@@ -415,7 +391,7 @@ def n_groupings(n_targets: int, n_sources: int, *, binding: bool = False) -> int
 
 # ----------------------------------------------------------------------------- costs
 def group_costs(x, cov, *, cost: str = "ml") -> np.ndarray:
-    """Cost of every candidate group (one report from each source).
+    r"""Cost of every candidate group (one report from each source).
 
     Parameters
     ----------
@@ -428,12 +404,12 @@ def group_costs(x, cov, *, cost: str = "ml") -> np.ndarray:
     cost : {"ml", "pairwise"}, optional
         ``"ml"`` (default): minus twice the log marginal likelihood that the
         group's reports come from one target, with the constant
-        :math:`(m-1)d\\ln 2\\pi` dropped: every grouping has the same :math:`n`
+        :math:`(m-1)d\ln 2\pi` dropped: every grouping has the same :math:`n`
         groups of :math:`m` reports, so the constant is the same for every
         grouping and cannot change a decision (the package's rule: a constant
-        of the full :math:`-2\\ln f` is dropped only where every hypothesis
+        of the full :math:`-2\ln f` is dropped only where every hypothesis
         holds the same number of groups; :func:`group_sd` with the dummy
-        index, where group sizes differ, adds :math:`(|S|-1)d\\ln 2\\pi` back,
+        index, where group sizes differ, adds :math:`(|S|-1)d\ln 2\pi` back,
         as ``association.proximity_matrix(..., logdet=True)`` and
         ``separated.pair_statistic(..., logdet=True)`` include it for a pair).
         ``"pairwise"``: the paper's sum of the pairwise quadratic forms.
@@ -453,22 +429,22 @@ def group_costs(x, cov, *, cost: str = "ml") -> np.ndarray:
     Notes
     -----
     With a flat prior on the target state :math:`x`, the reports
-    :math:`a_i \\sim \\mathcal N(x, C_i)` of one group have the marginal
-    likelihood :math:`\\int\\prod_i \\mathcal N(a_i; x, C_i)\\,dx`. With
-    :math:`W = \\sum_i C_i^{-1}` and the fused estimate
-    :math:`\\hat x = W^{-1}\\sum_i C_i^{-1}a_i`,
+    :math:`a_i \sim \mathcal N(x, C_i)` of one group have the marginal
+    likelihood :math:`\int\prod_i \mathcal N(a_i; x, C_i)\,dx`. With
+    :math:`W = \sum_i C_i^{-1}` and the fused estimate
+    :math:`\hat x = W^{-1}\sum_i C_i^{-1}a_i`,
 
     .. math::
 
-        c_{\\mathrm{ML}} = \\sum_i (a_i-\\hat x)^T C_i^{-1}(a_i-\\hat x)
-        + \\ln\\det W + \\sum_i \\ln\\det C_i ,
+        c_{\mathrm{ML}} = \sum_i (a_i-\hat x)^T C_i^{-1}(a_i-\hat x)
+        + \ln\det W + \sum_i \ln\det C_i ,
 
-    which for :math:`m = 2` is :math:`\\Delta^T(C_1+C_2)^{-1}\\Delta + \\ln\\det(C_1+C_2)`.
+    which for :math:`m = 2` is :math:`\Delta^T(C_1+C_2)^{-1}\Delta + \ln\det(C_1+C_2)`.
     The paper's cost is
 
     .. math::
 
-        c_{\\mathrm{pw}} = \\sum_{i<k} (a_i-a_k)^T (C_i+C_k)^{-1} (a_i-a_k).
+        c_{\mathrm{pw}} = \sum_{i<k} (a_i-a_k)^T (C_i+C_k)^{-1} (a_i-a_k).
 
     Both agree (up to the factor :math:`m/2` and a constant) when all reports
     share one covariance. Coordinates are centred before fusing, so large
@@ -492,11 +468,6 @@ def group_costs(x, cov, *, cost: str = "ml") -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- solvers (assignment)
-def _perms(n):
-    dtype = np.int8 if n < 127 else np.int32
-    return np.array(list(itertools.permutations(range(n))), dtype=dtype).reshape(-1, n)
-
-
 def _normalise(tuples):
     """Sort the rows of (..., n, m) tuples by source 0."""
     order = np.argsort(tuples[..., 0], axis=-1)
@@ -504,7 +475,7 @@ def _normalise(tuples):
 
 
 def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) -> GroupingResult:
-    """Best grouping by enumerating all :math:`(n!)^{m-1}` groupings.
+    r"""Best grouping by enumerating all :math:`(n!)^{m-1}` groupings.
 
     Parameters
     ----------
@@ -535,7 +506,7 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
     Notes
     -----
     The rule of the paper, eq. (26): the grouping :math:`g` minimising
-    :math:`\\sum_{k=1}^n c(g_k)`. Enumeration is vectorised over scenes and
+    :math:`\sum_{k=1}^n c(g_k)`. Enumeration is vectorised over scenes and
     chunked over groupings.
 
     References
@@ -667,9 +638,7 @@ def _pair_statistics(xa, ca, xb, cb):
     check_size(8 * 6 * xa.shape[0] * xb.shape[0] * (xa.shape[1] + 1) ** 2, MEMORY_LIMIT,
                what=f"bytes of pair statistics ({xa.shape[0]} x {xb.shape[0]} report pairs)",
                alternative="splitting the scene into regions")
-    S = ca[:, None] + cb[None, :]
-    D = xa[:, None] - xb[None, :]
-    return np.einsum("...k,...k->...", D, np.linalg.solve(S, D[..., None])[..., 0])
+    return mahalanobis_sq_pairwise(xa, xb, ca, cb)
 
 
 def _gated_tuples(gates, counts, dummy):
@@ -701,10 +670,10 @@ def _gated_tuples(gates, counts, dummy):
     return T
 
 
-def _tuple_ml_costs(xs, cs, T, log_s2, logdet=True):
+def _tuple_ml_costs(xs, cs, T, log_s2, median_logdet=False):
     """ML cost of every candidate group (rows of T, -1 = absent), as in group_costs.
 
-    ``logdet=False``: the log-determinant part, ln|W| + sum_i ln|C_i|, is replaced by its
+    ``median_logdet=True``: the log-determinant part, ln|W| + sum_i ln|C_i|, is replaced by its
     median over the candidate groups of the same size (the cost without the term, kept on
     the same scale so that groups still compete fairly with lone reports).
     """
@@ -735,7 +704,7 @@ def _tuple_ml_costs(xs, cs, T, log_s2, logdet=True):
     chol = np.linalg.cholesky(W)
     ld_w = 2.0 * np.sum(np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
     ld_all = ld_w + ld
-    if not logdet:
+    if median_logdet:
         for k in np.unique(cnt[cnt >= 2]):
             ld_all[cnt == k] = np.median(ld_all[cnt == k])
     out = q + ld_all + (cnt - 1) * d * log_s2
@@ -743,7 +712,7 @@ def _tuple_ml_costs(xs, cs, T, log_s2, logdet=True):
     return out, cnt
 
 
-def _scene_candidates(xs, cs, *, cost, gamma, det, logdet=True):
+def _scene_candidates(xs, cs, *, cost, gamma, det, median_logdet=False):
     """Candidate groups of one scene (tuples, costs), gated and with the dummy index.
 
     `xs`, `cs`: per-source reports (n_i, d) and covariances (n_i, d, d);
@@ -777,7 +746,7 @@ def _scene_candidates(xs, cs, *, cost, gamma, det, logdet=True):
             c += v[T[:, i], T[:, k]]
         cnt = np.full(T.shape[0], m)
     else:
-        c, cnt = _tuple_ml_costs(xs_s, cs_s, T, log_s2, logdet)
+        c, cnt = _tuple_ml_costs(xs_s, cs_s, T, log_s2, median_logdet)
     if dummy:
         c, keep = _detection_costs(c, cnt, T, det, d)
         T, c = T[keep], c[keep]
@@ -826,8 +795,9 @@ def _groups_from_tuples(T):
 def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
              time_limit: float | None = None, method: str = "milp", gap: float = 0.01,
              max_iter: int = 100, p_false_reject: float | None = None, p_detect=None,
-             false_density=None, object_density=None, logdet: bool = True) -> GroupingResult:
-    """Best grouping as an S-D assignment: exactly (HiGHS) or to a proved gap (Lagrangian).
+             false_density=None, object_density=None,
+             median_logdet: bool = False) -> GroupingResult:
+    r"""Best grouping as an S-D assignment: exactly (HiGHS) or to a proved gap (Lagrangian).
 
     Parameters
     ----------
@@ -863,25 +833,25 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         Subgradient iterations per cluster before the gap target is tightened
         (then twice as many before branch and bound takes over).
     p_false_reject : float, optional
-        Gate: the probability :math:`P_{\\text{lo}}` that one true pair of
+        Gate: the probability :math:`P_{\text{lo}}` that one true pair of
         reports fails its gate. A candidate group is kept only if each of its
-        report pairs has :math:`\\kappa \\le \\gamma`, :math:`\\gamma` the
-        :math:`\\chi^2_d` quantile at :math:`1 - P_{\\text{lo}}`; costs are then
+        report pairs has :math:`\kappa \le \gamma`, :math:`\gamma` the
+        :math:`\chi^2_d` quantile at :math:`1 - P_{\text{lo}}`; costs are then
         computed for the kept groups only. ``None`` (default): no gate.
     p_detect : float or array_like of shape (m,), optional
-        Detection probability :math:`P_{D,i} \\in (0, 1]` of each source.
+        Detection probability :math:`P_{D,i} \in (0, 1]` of each source.
         Given with `false_density` and `object_density`, every source may miss
         targets and report false alarms (the dummy index), and report counts
         may differ.
     false_density : float or array_like of shape (m,), optional
-        False-report density :math:`\\rho_{F,i} \\ge 0` of each source (per unit
+        False-report density :math:`\rho_{F,i} \ge 0` of each source (per unit
         volume of the report space).
     object_density : float, optional
-        Target density :math:`\\rho_T > 0` (per unit volume).
-    logdet : bool, optional
-        Keep the log-determinant term :math:`\\ln|2\\pi S|` of the ML group cost
-        (default: the full :math:`-2\\ln` likelihood). ``False`` replaces each candidate
-        group's :math:`\\ln|W| + \\sum_i \\ln|\\Sigma_i|` (:math:`W = \\sum_i \\Sigma_i^{-1}`)
+        Target density :math:`\rho_T > 0` (per unit volume).
+    median_logdet : bool, optional
+        ``False`` (default) keeps the log-determinant term :math:`\ln|2\pi S|` of
+        the ML group cost: the full :math:`-2\ln` likelihood. ``True`` replaces each candidate
+        group's :math:`\ln|W| + \sum_i \ln|\Sigma_i|` (:math:`W = \sum_i \Sigma_i^{-1}`)
         by its median over the candidate groups of the same size: the cost of a rule that
         ignores the term, on the same scale so that groups still compete fairly with lone
         reports. Only for ``cost="ml"`` on candidate groups (with `p_false_reject` or
@@ -910,57 +880,57 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     Notes
     -----
     One binary variable :math:`z_t` per candidate group (tuple)
-    :math:`t = (j_1, \\dots, j_m)`, :math:`n^m` in all:
+    :math:`t = (j_1, \dots, j_m)`, :math:`n^m` in all:
 
     .. math::
 
-        \\min_z \\sum_t c_t z_t \\quad\\text{s.t.}\\quad
-        \\sum_{t:\\,t_i = j} z_t = 1 \\;\\; (i = 1..m,\\; j = 1..n),
-        \\qquad z_t \\in \\{0, 1\\}.
+        \min_z \sum_t c_t z_t \quad\text{s.t.}\quad
+        \sum_{t:\,t_i = j} z_t = 1 \;\; (i = 1..m,\; j = 1..n),
+        \qquad z_t \in \{0, 1\}.
 
     Costs of any size are accepted: when they exceed 1e9 they are capped above
     twice the greedy grouping's total (which cannot change the optimum) and
     rescaled by a positive factor before HiGHS sees them.
 
     For :math:`m = 2` this is the linear assignment problem (its LP relaxation
-    is integral); for :math:`m \\ge 3` it is the NP-hard S-D assignment problem
+    is integral); for :math:`m \ge 3` it is the NP-hard S-D assignment problem
     (Deb et al., 1997). The relaxation's optimum is a lower bound on the integer optimum, so
     an integral relaxed solution is an exact answer; in well-separated scenes
     this is the common case and is much faster than branch and bound.
 
-    *Gate.* The pair statistics :math:`\\kappa` of all report pairs are
+    *Gate.* The pair statistics :math:`\kappa` of all report pairs are
     computed first (:math:`O(m^2 n^2)`), then tuples are grown source by
     source, keeping only those whose pairs all pass: memory follows the number
     of gated candidates, not :math:`n^m`. A true group of :math:`m` reports
-    passes with probability at least :math:`1 - \\binom{m}{2} P_{\\text{lo}}`.
+    passes with probability at least :math:`1 - \binom{m}{2} P_{\text{lo}}`.
 
-    *Dummy index.* Targets form a Poisson field of density :math:`\\rho_T`;
+    *Dummy index.* Targets form a Poisson field of density :math:`\rho_T`;
     source :math:`i` detects each with probability :math:`P_{D,i}` and adds
-    false reports of density :math:`\\rho_{F,i}`. A group of the sources
-    :math:`S` (:math:`|S| \\ge 2`) and a lone report of source :math:`i` cost
+    false reports of density :math:`\rho_{F,i}`. A group of the sources
+    :math:`S` (:math:`|S| \ge 2`) and a lone report of source :math:`i` cost
 
     .. math::
 
-        c_S = c_{\\mathrm{ML}} + (|S|-1)\\,d\\ln 2\\pi - 2\\ln\\Big(\\rho_T
-              \\prod_{i\\in S} P_{D,i} \\prod_{i\\notin S}(1-P_{D,i})\\Big),
-        \\qquad c_i = -2\\ln u_i,\\;\\;
-        u_i = \\rho_{F,i} + \\rho_T P_{D,i}\\prod_{k\\ne i}(1-P_{D,k}),
+        c_S = c_{\mathrm{ML}} + (|S|-1)\,d\ln 2\pi - 2\ln\Big(\rho_T
+              \prod_{i\in S} P_{D,i} \prod_{i\notin S}(1-P_{D,i})\Big),
+        \qquad c_i = -2\ln u_i,\;\;
+        u_i = \rho_{F,i} + \rho_T P_{D,i}\prod_{k\ne i}(1-P_{D,k}),
 
-    so the total is :math:`-2\\ln` of the grouping's likelihood up to one
-    constant; for :math:`m = 2`, :math:`c_{12} - c_1 - c_2 = \\kappa - 2c_0`
+    so the total is :math:`-2\ln` of the grouping's likelihood up to one
+    constant; for :math:`m = 2`, :math:`c_{12} - c_1 - c_2 = \kappa - 2c_0`
     with :math:`c_0` of :func:`radarfusion_ref.association.non_assignment_cost`.
 
     *Lagrangian relaxation.* The candidate groups are split into independent
     clusters (connected reports). In each, the constraints of sources
     :math:`3..m` get multipliers :math:`y`; for each pair :math:`(j_1, j_2)`
-    the cheapest completion of reduced cost :math:`c_t - \\sum_{i\\ge 3}
+    the cheapest completion of reduced cost :math:`c_t - \sum_{i\ge 3}
     y_i(t_i)` leaves a 2-D assignment over the gated pairs, solved exactly
     (:func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`, with
     the dummy rows and columns kept sparse). Its value plus
-    :math:`\\sum y` is a valid lower bound :math:`q(y)` (reduced by a
+    :math:`\sum y` is a valid lower bound :math:`q(y)` (reduced by a
     floating-point rounding allowance). A feasible grouping is recovered each
     iteration by fixing the relaxed pairs and assigning sources
-    :math:`3, \\dots, m` one at a time, and :math:`y` moves along the
+    :math:`3, \dots, m` one at a time, and :math:`y` moves along the
     subgradient with a Polyak step toward the best cost found. A relaxed
     solution that is itself feasible is optimal (gap 0).
 
@@ -997,10 +967,10 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
                              f"{p_lo.shape}")
         p_lo = float(p_lo)
     why = (f"pair gate P_lo = {p_lo:g}" if p_lo is not None else "no gate")
-    logdet = as_bool(logdet, "logdet")
+    median_logdet = as_bool(median_logdet, "median_logdet")
     with_det = p_detect is not None or false_density is not None or object_density is not None
-    if not logdet and (cost != "ml" or (p_lo is None and not with_det)):
-        raise ValueError("`logdet`=False applies to the ML cost (`cost`='ml') of candidate "
+    if median_logdet and (cost != "ml" or (p_lo is None and not with_det)):
+        raise ValueError("`median_logdet`=True applies to the ML cost (`cost`='ml') of candidate "
                          "groups: give `p_false_reject` (a gate) or `p_detect` (the dummy "
                          f"index); received cost={cost!r}, p_false_reject={p_false_reject!r}, "
                          f"p_detect={_describe(p_detect) if p_detect is not None else None}")
@@ -1011,14 +981,16 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
             raise ValueError("`cost` must be 'ml' with missed detections and false reports "
                              f"(`p_detect`): the likelihood defines their costs; received {cost!r}")
         d = xs[0].shape[1]
-        gamma = None if p_lo is None else float(stats.chi2.isf(p_lo, d))
+        gamma = None if p_lo is None else float(gate_threshold(p_lo, d))
         counts = [xi.shape[0] for xi in xs]
-        T, c = _scene_candidates(xs, cs, cost=cost, gamma=gamma, det=det, logdet=logdet)
+        T, c = _scene_candidates(xs, cs, cost=cost, gamma=gamma, det=det,
+                                  median_logdet=median_logdet)
         chosen, total, lb, hist = _solve_candidates(
             T, c, counts, dummy=True, method=method, gap=gap, max_iter=max_iter,
             time_limit=time_limit, why=why)
+        gp = _gap_of(total, lb)
         return GroupingResult(_groups_from_tuples(T[chosen]), total, cost, method, None,
-                              lb, _gap_of(total, lb), hist)
+                              lb, gp, hist, gp == 0.0)
     xb, cb, batch = _reports_iv(x, cov)
     B, m, n, d = xb.shape
     if p_lo is None:
@@ -1049,8 +1021,8 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
                 c = _tensor(xb[b:b + 1], cov_b[None], cost).ravel()
             else:
                 T, c = _scene_candidates(list(xb[b]), list(cov_b), cost=cost,
-                                         gamma=float(stats.chi2.isf(p_lo, d)), det=None,
-                                         logdet=logdet)
+                                         gamma=float(gate_threshold(p_lo, d)), det=None,
+                                         median_logdet=median_logdet)
             try:
                 chosen, totals[b], lbs[b], hist = _solve_candidates(
                     T, c, [n] * m, dummy=False, method=method, gap=gap, max_iter=max_iter,
@@ -1069,59 +1041,15 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     if not batch:
         return GroupingResult(groups, float(totals[0]), cost, method,
                               bool(integral[0]) if exact_full else None,
-                              float(lbs[0]), float(gaps[0]), hist)
+                              float(lbs[0]), float(gaps[0]), hist, bool(gaps[0] == 0.0))
     return GroupingResult(groups, totals.reshape(batch), cost, method,
                           integral.reshape(batch) if exact_full else None,
-                          lbs.reshape(batch), gaps.reshape(batch))
+                          lbs.reshape(batch), gaps.reshape(batch), None, bool(np.all(gaps == 0.0)))
 
 
 # ----------------------------------------------------------------------------- binding
-def binding_hypotheses(n_targets: int, n_sources: int) -> np.ndarray:
-    """All ways to bind every source's reports one-to-one to `n_targets` fused tracks.
-
-    Parameters
-    ----------
-    n_targets : int
-        Number of tracks (= reports per source), ``>= 1``.
-    n_sources : int
-        Number of sources, ``>= 1``.
-
-    Returns
-    -------
-    numpy.ndarray of int, shape (H, m, n)
-        ``hyp[h, i, p]``: index of the report of source ``i`` bound to track
-        ``p`` under hypothesis ``h``; :math:`H = (n!)^m`, in
-        :func:`itertools.product` order of the sources' permutations.
-
-    Raises
-    ------
-    ValueError
-        If :math:`(n!)^m` exceeds :data:`MAX_BINDING_HYPOTHESES` (checked before
-        anything is built; use :func:`group_sd` with the tracks as source 0).
-
-    Examples
-    --------
-    >>> binding_hypotheses(2, 2).shape
-    (4, 2, 2)
-    >>> binding_hypotheses(2, 2)[1].tolist()    # the paper's hypothesis IV
-    [[0, 1], [1, 0]]
-    """
-    n = as_int(n_targets, "n_targets", minimum=1)
-    m = as_int(n_sources, "n_sources", minimum=1)
-    _check_bindings(n, m)
-    perms = _perms(n).astype(np.int64)
-    return np.array([np.stack(p) for p in itertools.product(perms, repeat=m)])
-
-
-def _check_bindings(n, m):
-    check_size(math.factorial(n) ** m, MAX_BINDING_HYPOTHESES,
-               what=f"binding hypotheses (n!)**m (`n_targets` n = {n}, `n_sources` m = {m})",
-               alternative="group_sd on the m + 1 sources with the tracks as source 0 "
-                           "(the exact ML binding, without enumeration)")
-
-
 def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarray:
-    """Score every binding hypothesis of m sources' reports to n fused tracks.
+    r"""Score every binding hypothesis of m sources' reports to n fused tracks.
 
     Parameters
     ----------
@@ -1143,27 +1071,27 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
     Returns
     -------
     numpy.ndarray, shape (..., H)
-        One cost per hypothesis of :func:`binding_hypotheses` (``H = (n!)**m``);
+        One cost per hypothesis of `radarfusion_ref.engine.scenes.binding_hypotheses` (``H = (n!)**m``);
         the rule picks the minimum.
 
     Raises
     ------
     ValueError
         For inconsistent shapes, covariances that are not symmetric positive
-        definite, more than :data:`MAX_BINDING_HYPOTHESES` hypotheses, or costs
+        definite, more than :data:`radarfusion_ref.engine.scenes.MAX_BINDING_HYPOTHESES` hypotheses, or costs
         beyond the floating-point range.
 
     Notes
     -----
-    Paper, eq. (6)–(7): :math:`\\Sigma_h = \\sum_{i,p}\\Delta_{ij/p}^T
-    (R_i+R_p)^{-1}\\Delta_{ij/p}` with :math:`\\Delta_{ij/p} = a_{ij} - a_p`
+    Paper, eq. (6)–(7): :math:`\Sigma_h = \sum_{i,p}\Delta_{ij/p}^T
+    (R_i+R_p)^{-1}\Delta_{ij/p}` with :math:`\Delta_{ij/p} = a_{ij} - a_p`
     and :math:`j` the report of source :math:`i` bound to track :math:`p`.
     Exact: the track is one more noisy report of the target, so each track's
     group {track, bound reports} is scored by :func:`group_costs` (``"ml"``):
 
     .. math::
 
-        \\Sigma^{\\mathrm{exact}}_h = \\sum_p c_{\\mathrm{ML}}(a_p, a_{1 j_1}, \\dots, a_{m j_m}),
+        \Sigma^{\mathrm{exact}}_h = \sum_p c_{\mathrm{ML}}(a_p, a_{1 j_1}, \dots, a_{m j_m}),
 
     equivalently the quadratic form of the stacked differences with their
     full (correlated) covariance, whose off-diagonal blocks are :math:`R_p`.
@@ -1209,17 +1137,14 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
     else:
         tcb = np.broadcast_to(tc, (*batch, n, d, d)).reshape(-1, n, d, d)
     B = xb.shape[0]
-    _check_bindings(n, m)
-    H = math.factorial(n) ** m
+    hyp = binding_hypotheses(n, m)                                   # (H, m, n), size-checked
+    H = hyp.shape[0]
     check_size(8 * B * (H + (n ** (m + 1) if cost == "ml" else 0)) + 8 * H * m * n,
                MEMORY_LIMIT, what=f"bytes of binding costs (`x`: {B} scene(s) x {H} hypotheses)",
                alternative="fewer scenes per call")
-    hyp = binding_hypotheses(n, m)                                   # (H, m, n)
     (xb, cb, tb, tcb), log_s2 = _rescale(xb, cb, tb, tcb)
     if cost == "paper":
-        S = cb[:, :, :, None] + tcb[:, None, None, :]               # (B, m, n_j, n_p, d, d)
-        D = xb[:, :, :, None] - tb[:, None, None, :]                 # (B, m, n_j, n_p, d)
-        q = np.einsum("...k,...k->...", D, np.linalg.solve(S, D[..., None])[..., 0])
+        q = mahalanobis_sq_pairwise(xb, tb[:, None], cb, tcb[:, None])  # (B, m, n_j, n_p)
         ii = np.arange(m)[None, :, None]
         pp = np.arange(n)[None, None, :]
         out = q[:, ii, hyp, pp].sum(axis=(-2, -1))                   # (B, H)
@@ -1266,5 +1191,6 @@ def grouping_scene(n_targets: int, n_sources: int, *, spacing: float = 1.0,
     >>> s.reports.shape, s.true_groups.shape
     ((4, 2, 3, 2), (4, 3, 2))
     """
-    return _grouping_scene(n_targets, n_sources, spacing=spacing, layout=layout, cov=cov,
-                           track_cov=track_cov, trials=trials, rng=rng, count_name="n_targets")
+    n = as_int(n_targets, "n_targets", minimum=1)
+    return scenes.grouping_scene(n, n_sources, spacing=spacing, layout=layout, cov=cov,
+                                 track_cov=track_cov, trials=trials, rng=rng)

@@ -15,6 +15,7 @@ Reference values come from independent routes:
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -22,7 +23,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import sparse
-from scipy.optimize import linear_sum_assignment
+from scipy.optimize import linear_sum_assignment, linprog
 
 from radarfusion_ref import association, grouping
 from radarfusion_ref.engine import assignment as asg
@@ -126,19 +127,17 @@ def test_association_functions_are_the_assignment_solvers():
     for f, g in ((association.associate_joint, asg.solve_2d),
                  (association.associate_bruteforce, asg.solve_2d_bruteforce)):
         a, b = f(c, miss_cost=3.0), g(c, miss_cost=3.0)
-        assert np.array_equal(a.row_to_col, b.row_to_col) and a.total_cost == b.total_cost
+        assert np.array_equal(a.row_to_col, b.row_to_col) and a.cost == b.cost
     k1, k2 = association.k_best_assignments(c[:, :5], 4), asg.k_best_2d(c[:, :5], 4)
-    assert np.array_equal(k1.assignments, k2.assignments) and np.array_equal(k1.costs, k2.costs)
-    assert association.Association is asg.Association
-    assert association.KBestAssignments is asg.KBestAssignments
+    assert np.array_equal(k1.row_to_col, k2.row_to_col) and np.array_equal(k1.cost, k2.cost)
 
 
 def test_k_best_ranks_every_assignment_in_order():
     c = np.random.default_rng(5).uniform(0, 3, size=(4, 4))
     kb = asg.k_best_2d(c, 24)
     brute = sorted(sum(c[i, p[i]] for i in range(4)) for p in itertools.permutations(range(4)))
-    np.testing.assert_allclose(kb.costs, brute, rtol=1e-12)
-    assert kb.k == 24 and len({tuple(a) for a in kb.assignments.tolist()}) == 24
+    np.testing.assert_allclose(kb.cost, brute, rtol=1e-12)
+    assert kb.k == 24 and len({tuple(a) for a in kb.row_to_col.tolist()}) == 24
 
 
 # ---------------------------------------------------------------- S-D
@@ -162,9 +161,9 @@ def test_sd_milp_lagrangian_and_bruteforce_agree_on_small_tensors(n, seed):
     tight = asg.solve_sd(c, method="lagrangian", gap=1e-9)
     assert tight.cost == pytest.approx(opt, rel=1e-9)
     for r in (milp, bf, lag):      # a grouping: one report of each source per group
-        assert np.array_equal(np.sort(r.assignment, axis=0), np.tile(np.arange(n)[:, None],
+        assert np.array_equal(np.sort(r.groups, axis=0), np.tile(np.arange(n)[:, None],
                                                                      (1, 3)))
-        assert r.cost == pytest.approx(sum(c[tuple(g)] for g in r.assignment), rel=1e-12)
+        assert r.cost == pytest.approx(sum(c[tuple(g)] for g in r.groups), rel=1e-12)
 
 
 @settings(max_examples=25, deadline=None)
@@ -184,7 +183,7 @@ def test_sd_gated_candidates_with_missing_reports_match_exact_cover(seed, p_keep
         assert opt - 1e-9 * max(1.0, abs(opt)) <= r.cost
         assert r.gap <= 0.02
         assert r.cost == pytest.approx(c[r.chosen].sum())
-        used = np.concatenate([np.flatnonzero(np.isin(np.arange(k), r.assignment[:, i]))
+        used = np.concatenate([np.flatnonzero(np.isin(np.arange(k), r.groups[:, i]))
                                for i, k in enumerate(counts)])
         assert used.size == sum(counts)                        # every report exactly once
     assert asg.solve_sd(c, T).cost == pytest.approx(opt, rel=1e-9, abs=1e-9)
@@ -207,9 +206,35 @@ def test_group_sd_and_group_bruteforce_go_through_the_solvers():
     tensor = grouping.group_costs(x, cov)
     g = grouping.group_sd(x, cov)
     s = asg.solve_sd(tensor)
-    assert np.array_equal(g.groups, s.assignment) and g.cost == pytest.approx(s.cost)
+    assert np.array_equal(g.groups, s.groups) and g.cost == pytest.approx(s.cost)
     b = grouping.group_bruteforce(x, cov)
-    assert np.array_equal(b.groups, asg.solve_sd_bruteforce(tensor).assignment)
+    assert np.array_equal(b.groups, asg.solve_sd_bruteforce(tensor).groups)
+
+
+def test_sd_fractional_relaxation_falls_back_to_branch_and_bound():
+    # m = 3, n = 2: the four even-parity tuples at z = 1/2 cover every report once.
+    # Cost 0 for even parity, 1 for odd: the LP optimum is 0 (fractional), while
+    # every grouping pairs a tuple with its complement (opposite parity): cost 1.
+    idx = np.indices((2, 2, 2)).reshape(3, -1)
+    parity_cost = (idx.sum(axis=0) % 2).astype(float)
+    A = np.zeros((6, 8))                         # each report in exactly one tuple, built here
+    for t in range(8):
+        for i in range(3):
+            A[2 * i + idx[i, t], t] = 1.0
+    lp = linprog(parity_cost, A_eq=A, b_eq=np.ones(6), bounds=(0, 1), method="highs")
+    assert lp.fun == pytest.approx(0.0, abs=1e-9)
+    r = asg.solve_sd(parity_cost.reshape(2, 2, 2))
+    assert r.relaxation_integral is False and r.exact
+    assert r.cost == pytest.approx(1.0) == brute_sd_tensor(parity_cost.reshape(2, 2, 2))
+    np.testing.assert_array_equal(np.sort(r.groups, axis=0), [[0, 0, 0], [1, 1, 1]])
+
+
+def test_sd_huge_costs_keep_the_optimum():
+    # costs up to ~1e35 are capped (never changing the optimum) and rescaled before HiGHS
+    rng = np.random.default_rng(21)
+    for _ in range(20):
+        c = np.exp(rng.uniform(0, 80, size=(3, 3, 3)))
+        assert asg.solve_sd(c).cost == pytest.approx(brute_sd_tensor(c), rel=1e-9)
 
 
 # ---------------------------------------------------------------- one vocabulary
@@ -225,11 +250,14 @@ def test_every_result_speaks_the_same_vocabulary():
         assert np.all(np.asarray(r.lower_bound) <= np.asarray(r.cost) + 1e-12)
         assert r.exact == bool(np.all(np.asarray(r.gap) == 0.0))
     a, kb, sd, gm, gl = results
-    assert np.array_equal(a.assignment, a.row_to_col) and a.cost == a.total_cost == 4.0 \
-        and a.history is None
-    assert np.array_equal(kb.assignment, kb.assignments) and np.array_equal(kb.cost, kb.costs)
+    for r in results:             # one kind of attribute: plain dataclass fields
+        names = {f.name for f in dataclasses.fields(r)}
+        assert {"cost", "lower_bound", "gap", "history", "exact"} <= names, type(r)
+        assert not {"assignment", "total_cost", "assignments", "costs"} & set(dir(r)), type(r)
+    assert a.row_to_col.tolist() == [1, 0] and a.cost == 4.0 and a.history is None
+    assert kb.row_to_col.tolist() == [[1, 0], [0, 1]] and kb.cost.tolist() == [4.0, 6.0]
     assert sd.cost == 2.0 and sd.method == "milp"
-    assert np.array_equal(gm.assignment, gm.groups) and gm.exact
+    assert gm.exact and gm.groups.shape == (2, 3)
     assert gl.history is not None and gl.history.shape[1] == 2
 
 
@@ -303,5 +331,5 @@ def test_sd_with_two_sources_is_the_linear_assignment():
     for method in ("milp", "lagrangian"):
         s = asg.solve_sd(c, method=method)
         assert s.cost == pytest.approx(c[r, q].sum(), rel=1e-12) and s.exact
-        assert np.array_equal(s.assignment[:, 1], q)
+        assert np.array_equal(s.groups[:, 1], q)
     assert asg.solve_sd_bruteforce(c).cost == pytest.approx(c[r, q].sum(), rel=1e-12)

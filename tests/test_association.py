@@ -21,6 +21,7 @@ from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
 from radarfusion_ref import association as A
+from radarfusion_ref.engine import assignment as asg
 from radarfusion_ref.engine import scenes
 from radarfusion_ref.engine.errors import RadarFusionWarning
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
@@ -98,7 +99,7 @@ def cost_matrices(draw, max_n=5, allow_inf=True):
 def test_joint_equals_bruteforce(cost, threshold, miss):
     j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
     b = A.associate_bruteforce(cost, threshold=threshold, miss_cost=miss)
-    assert j.total_cost == pytest.approx(b.total_cost, rel=1e-9, abs=1e-9)
+    assert j.cost == pytest.approx(b.cost, rel=1e-9, abs=1e-9)
     assert j.n_assigned == b.n_assigned
     check_feasible(j, cost, threshold)
 
@@ -107,14 +108,14 @@ def test_joint_equals_bruteforce(cost, threshold, miss):
 def test_joint_complete_equals_itertools_enumeration(cost):
     best = min(t for _, t in enumerate_complete(cost))
     j = A.associate_joint(cost)
-    assert j.total_cost == pytest.approx(best, abs=1e-9)
+    assert j.cost == pytest.approx(best, abs=1e-9)
     assert j.n_assigned == min(cost.shape)
 
 
 @given(cost_matrices(), st.floats(-1.0, 6.0), st.one_of(st.none(), st.floats(0.1, 10.0)))
 def test_miss_cost_equals_augmented_matrix(cost, miss, threshold):
     j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
-    assert j.total_cost == pytest.approx(augmented_optimum(cost, miss, threshold), abs=1e-9)
+    assert j.cost == pytest.approx(augmented_optimum(cost, miss, threshold), abs=1e-9)
 
 
 @given(cost_matrices(max_n=4), st.floats(0.1, 10.0))
@@ -139,7 +140,7 @@ def test_joint_batch_equals_loop():
     for idx in np.ndindex(4, 3):
         single = A.associate_joint(c[idx], miss_cost=0.3)
         np.testing.assert_array_equal(batch.row_to_col[idx], single.row_to_col)
-        assert batch.total_cost[idx] == pytest.approx(single.total_cost)
+        assert batch.cost[idx] == pytest.approx(single.cost)
 
 
 def test_bruteforce_square_n8_matches_joint():
@@ -167,10 +168,10 @@ def test_result_fields():
     assert r.pairs.tolist() == [[0, 0], [1, 2]]
     assert r.unassigned_rows.tolist() == []
     assert r.unassigned_cols.tolist() == [1]
-    assert r.total_cost == pytest.approx(1.0 + 2.0 + 2.0)
+    assert r.cost == pytest.approx(1.0 + 2.0 + 2.0)
     np.testing.assert_array_equal(r.col_to_row, [0, -1, 1])
     with pytest.raises(AttributeError):
-        r.total_cost = 0.0  # frozen
+        r.cost = 0.0  # frozen
     batch = A.associate_joint(np.zeros((2, 2, 2)))
     with pytest.raises(ValueError, match="`pairs`"):
         _ = batch.pairs
@@ -206,12 +207,12 @@ def test_pointwise_scan_hand_worked():
                   [0.3, 0.4, 1.6]])
     r = A.associate_pointwise(c, 1.5)
     np.testing.assert_array_equal(r.row_to_col, [1, 0, -1])
-    assert r.total_cost == pytest.approx(1.2)
+    assert r.cost == pytest.approx(1.2)
     # best first: 0.1 at (0,2), 0.1 at (1,1) (first in row-major order), then 0.3 at (2,0)
     g = A.associate_pointwise(c, 1.5, order="best_first")
     np.testing.assert_array_equal(g.row_to_col, [2, 1, 0])
     # the joint optimum here happens to equal the greedy choice
-    assert A.associate_joint(c).total_cost == pytest.approx(0.5)
+    assert A.associate_joint(c).cost == pytest.approx(0.5)
 
 
 def test_pointwise_strict_inequality():
@@ -225,7 +226,7 @@ def test_pointwise_order_matters_but_joint_does_not():
     np.testing.assert_array_equal(A.associate_pointwise(c, 1.0).row_to_col, [0, -1])
     flipped = c[::-1]
     np.testing.assert_array_equal(A.associate_pointwise(flipped, 1.0).row_to_col, [0, 1])
-    assert A.associate_joint(c).total_cost == A.associate_joint(flipped).total_cost
+    assert A.associate_joint(c).cost == A.associate_joint(flipped).cost
 
 
 def greedy_reference(c, th):
@@ -275,8 +276,8 @@ def test_pointwise_batch_equals_loop():
 def test_greedy_is_not_joint_ml():
     # the counterexample used in the chapter's erratum
     c = np.array([[1.0, 2.0], [2.0, 100.0]])
-    assert A.associate_pointwise(c, np.inf, order="best_first").total_cost == 101.0
-    assert A.associate_joint(c).total_cost == 4.0
+    assert A.associate_pointwise(c, np.inf, order="best_first").cost == 101.0
+    assert A.associate_joint(c).cost == 4.0
 
 
 # ----------------------------------------------------------------------------- k best
@@ -287,9 +288,9 @@ def test_murty_equals_sorted_bruteforce(cost, k):
     every = sorted(t for _, t in enumerate_complete(cost) if np.isfinite(t))
     r = A.k_best_assignments(cost, k)
     assert r.k == min(k, len(every))
-    np.testing.assert_allclose(r.costs, every[:r.k], atol=1e-9)
-    assert len({tuple(a) for a in r.assignments}) == r.k
-    for a, total in zip(r.assignments, r.costs, strict=True):
+    np.testing.assert_allclose(r.cost, every[:r.k], atol=1e-9)
+    assert len({tuple(a) for a in r.row_to_col}) == r.k
+    for a, total in zip(r.row_to_col, r.cost, strict=True):
         rows = np.flatnonzero(a >= 0)
         assert len(rows) == min(cost.shape)
         assert cost[rows, a[rows]].sum() == pytest.approx(total)
@@ -300,7 +301,7 @@ def test_murty_distinct_costs_same_assignments():
     c = rng.random((6, 6))
     every = sorted(enumerate_complete(c), key=lambda x: x[1])
     r = A.k_best_assignments(c, 40)
-    for (a_ref, _), a in zip(every[:40], r.assignments, strict=True):
+    for (a_ref, _), a in zip(every[:40], r.row_to_col, strict=True):
         np.testing.assert_array_equal(a, a_ref)
 
 
@@ -308,9 +309,9 @@ def test_murty_larger_costs_match_lower_bound_logic():
     rng = np.random.default_rng(5)
     c = rng.random((30, 30))
     r = A.k_best_assignments(c, 60)
-    assert np.all(np.diff(r.costs) >= -1e-12)
-    assert r.costs[0] == pytest.approx(A.associate_joint(c).total_cost)
-    assert len({tuple(a) for a in r.assignments}) == 60
+    assert np.all(np.diff(r.cost) >= -1e-12)
+    assert r.cost[0] == pytest.approx(A.associate_joint(c).cost)
+    assert len({tuple(a) for a in r.row_to_col}) == 60
 
 
 # ----------------------------------------------------------------------------- marginals
@@ -557,6 +558,15 @@ def test_every_public_function_is_covered():
     assert functions == set(PUBLIC)
 
 
+def inverse_of(row_to_col, n2):
+    """col_to_row of one row_to_col vector, written out here (-1 for an unused column)."""
+    out = np.full(n2, -1)
+    for i, j in enumerate(row_to_col):
+        if j >= 0:
+            out[j] = i
+    return out
+
+
 def assert_matching(row_to_col, col_to_row, n2):
     """row_to_col is a valid (partial) matching and col_to_row its inverse."""
     r2c = np.asarray(row_to_col)
@@ -580,8 +590,8 @@ def test_property_pointwise_is_a_gated_matching(cost, threshold, order):
     assert_matching(r.row_to_col, r.col_to_row, cost.shape[1])
     th = np.inf if threshold is None else threshold
     vals = cost[r.pairs[:, 0], r.pairs[:, 1]]
-    assert np.all(vals < th) and np.isfinite(r.total_cost)
-    assert r.total_cost == pytest.approx(vals.sum())
+    assert np.all(vals < th) and np.isfinite(r.cost)
+    assert r.cost == pytest.approx(vals.sum())
     # maximal: no acceptable pair is left between two free reports
     free = np.ix_(r.unassigned_rows, r.unassigned_cols)
     assert not np.any(cost[free] < th)
@@ -593,17 +603,17 @@ def test_property_joint_is_a_matching_and_the_brute_force_optimum(cost, threshol
     b = A.associate_bruteforce(cost, threshold=threshold, miss_cost=miss)
     for r in (j, b):
         assert_matching(r.row_to_col, r.col_to_row, cost.shape[1])
-        assert np.isfinite(r.total_cost)
-    assert j.total_cost == pytest.approx(b.total_cost, rel=1e-9, abs=1e-9)
+        assert np.isfinite(r.cost)
+    assert j.cost == pytest.approx(b.cost, rel=1e-9, abs=1e-9)
 
 
 @given(cost_matrices(max_n=4), st.integers(1, 30))
 def test_property_k_best_are_distinct_matchings_in_order(cost, k):
     r = A.k_best_assignments(cost, k)
-    assert np.all(np.isfinite(r.costs)) and np.all(np.diff(r.costs) >= -1e-9)
-    for a in r.assignments:
-        assert_matching(a, A._inverse(a[None], cost.shape[1])[0], cost.shape[1])
-    assert len({tuple(a) for a in r.assignments}) == r.k
+    assert np.all(np.isfinite(r.cost)) and np.all(np.diff(r.cost) >= -1e-9)
+    for a in r.row_to_col:
+        assert_matching(a, inverse_of(a, cost.shape[1]), cost.shape[1])
+    assert len({tuple(a) for a in r.row_to_col}) == r.k
 
 
 @given(cost_matrices(max_n=4))
@@ -653,7 +663,7 @@ def test_property_clutter_scene_and_decision_helpers(n, trials, spacing, rho_f, 
                                    trials=trials, rng=n + trials)
     t2c = sc.true_row_to_col
     for t in range(trials):
-        assert_matching(t2c[t], A._inverse(t2c[t][None], sc.owner2.shape[1])[0],
+        assert_matching(t2c[t], inverse_of(t2c[t], sc.owner2.shape[1]),
                         sc.owner2.shape[1])
     assert np.all(A.all_correct(t2c, t2c))
     k = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.1, 0.2))
@@ -696,20 +706,20 @@ def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
     ref_j = A.associate_joint(c)
     got_j = A.associate_joint(c * scale)
     np.testing.assert_array_equal(got_j.row_to_col, ref_j.row_to_col)
-    assert got_j.total_cost == pytest.approx(ref_j.total_cost * scale, rel=1e-12)
+    assert got_j.cost == pytest.approx(ref_j.cost * scale, rel=1e-12)
     for kw in ({"threshold": 6.0}, {"miss_cost": 2.5}, {"threshold": 6.0, "miss_cost": 2.0}):
         skw = {k: v * scale for k, v in kw.items()}
         ref = A.associate_joint(c, **kw)
         for f in (A.associate_joint, A.associate_bruteforce):
             got = f(c * scale, **skw)
             np.testing.assert_array_equal(got.row_to_col, ref.row_to_col)
-            assert np.isfinite(got.total_cost)
-            assert got.total_cost == pytest.approx(ref.total_cost * scale, rel=1e-12)
+            assert np.isfinite(got.cost)
+            assert got.cost == pytest.approx(ref.cost * scale, rel=1e-12)
     np.testing.assert_array_equal(A.associate_pointwise(c * scale, 6.0 * scale).row_to_col,
                                   A.associate_pointwise(c, 6.0).row_to_col)
     kb_ref, kb = A.k_best_assignments(c, 10), A.k_best_assignments(c * scale, 10)
-    np.testing.assert_array_equal(kb.assignments, kb_ref.assignments)
-    np.testing.assert_allclose(kb.costs, kb_ref.costs * scale, rtol=1e-12)
+    np.testing.assert_array_equal(kb.row_to_col, kb_ref.row_to_col)
+    np.testing.assert_allclose(kb.cost, kb_ref.cost * scale, rtol=1e-12)
 
 
 def test_costs_near_the_float_maximum():
@@ -718,14 +728,14 @@ def test_costs_near_the_float_maximum():
     for f in (A.associate_joint, A.associate_bruteforce):
         r = f(c)                                                   # used to claim infeasibility
         np.testing.assert_array_equal(r.row_to_col, [1, 0])
-        assert r.total_cost == big
+        assert r.cost == big
     c2 = np.array([[big, 1.0], [np.inf, big]])
     for f in (A.associate_joint, A.associate_bruteforce):
         np.testing.assert_array_equal(f(c2, threshold=np.inf).row_to_col, [0, 1])
         np.testing.assert_array_equal(f(c2, miss_cost=big / 8).row_to_col, [1, -1])
     np.testing.assert_allclose(A.association_probabilities(c), [[0, 1], [1, 0]])
     np.testing.assert_allclose(A.association_probabilities(np.full((3, 3), 1e308)), 1 / 3)
-    np.testing.assert_allclose(A.k_best_assignments(c, 2).costs, [big, 2 * big])
+    np.testing.assert_allclose(A.k_best_assignments(c, 2).cost, [big, 2 * big])
 
 
 def test_a_total_beyond_the_float_range_is_refused_not_inf():
@@ -770,7 +780,7 @@ def test_enumeration_limits_are_checked_before_allocation():
     with pytest.raises(ValueError, match=r"`cost`.*k=\.\.\."):
         A.association_probabilities(np.zeros((11, 11)))
     with pytest.raises(ValueError, match=r"`k`.*limit"):
-        A.k_best_assignments(np.eye(3), A.MAX_K_BEST + 1)
+        A.k_best_assignments(np.eye(3), asg.MAX_K_BEST + 1)
     with pytest.raises(ValueError, match=r"`k`.*bytes of Murty"):
         A.k_best_assignments(np.zeros((1000, 1000)), 10_000)
     with pytest.raises(ValueError, match=r"`false_density1`.*bytes.*trials"):
@@ -1115,9 +1125,9 @@ def test_sparse_joint_equals_dense_and_brute_force(seed, n1, n2, density, miss, 
     ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
     assert np.array_equal(got.row_to_col, ref.row_to_col)
     assert np.array_equal(got.col_to_row, ref.col_to_row)
-    assert got.total_cost == pytest.approx(ref.total_cost, rel=1e-12, abs=1e-12)
+    assert got.cost == pytest.approx(ref.cost, rel=1e-12, abs=1e-12)
     brute = A.associate_bruteforce(dense, threshold=th, miss_cost=miss)
-    assert got.total_cost == pytest.approx(brute.total_cost, rel=1e-12, abs=1e-12)
+    assert got.cost == pytest.approx(brute.cost, rel=1e-12, abs=1e-12)
     assert np.array_equal(got.row_to_col, brute.row_to_col)
 
 
@@ -1135,16 +1145,16 @@ def test_sparse_joint_formats_rectangular_and_explicit_zeros(fmt):
         got = A.associate_joint(cost, threshold=th, miss_cost=miss)
         ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
         assert np.array_equal(got.row_to_col, ref.row_to_col), (th, miss)
-        assert got.total_cost == pytest.approx(ref.total_cost, rel=1e-12)
+        assert got.cost == pytest.approx(ref.cost, rel=1e-12)
     # a stored 0 is an allowed pair of cost 0, taken here
     got = A.associate_joint(sparse.csr_array(([0.0], ([1], [2])), shape=(3, 4)))
-    assert got.pairs.tolist() == [[1, 2]] and got.total_cost == 0.0
+    assert got.pairs.tolist() == [[1, 2]] and got.cost == 0.0
     # nothing stored: no pair, every report unassigned
     empty = A.associate_joint(sparse.csr_array((3, 4)), miss_cost=1.5)
-    assert empty.n_assigned == 0 and empty.total_cost == pytest.approx(1.5 * 7)
+    assert empty.n_assigned == 0 and empty.cost == pytest.approx(1.5 * 7)
     # duplicates are summed (scipy's meaning of a repeated entry)
     dup = sparse.coo_array(([1.0, 2.0, 5.0], ([0, 0, 1], [0, 0, 1])), shape=(2, 2))
-    assert A.associate_joint(dup).total_cost == pytest.approx(8.0)
+    assert A.associate_joint(dup).cost == pytest.approx(8.0)
 
 
 def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
@@ -1165,7 +1175,7 @@ def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
         got = A.associate_joint(gated, threshold=th, miss_cost=miss)
         ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
         assert np.array_equal(got.row_to_col, ref.row_to_col), miss
-        assert got.total_cost == pytest.approx(ref.total_cost, rel=1e-9)
+        assert got.cost == pytest.approx(ref.cost, rel=1e-9)
 
 
 @pytest.mark.parametrize(("bad", "exc", "msg"), [

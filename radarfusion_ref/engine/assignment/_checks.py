@@ -1,0 +1,102 @@
+"""Input checks and exact power-of-two scaling shared by the assignment solvers (private)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._validation import as_float_array, as_probability, check_size
+
+
+def _as_gap(gap, name: str = "gap") -> float:
+    """A relative gap: one number in the open interval (0, 1)."""
+    g = as_probability(gap, name)
+    if g.ndim:
+        raise ValueError(f"`{name}` must be a number in the open interval (0, 1); received "
+                         f"shape {g.shape}")
+    return float(g)
+
+
+def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
+    """:func:`radarfusion_ref.engine._validation.check_size`, with the public argument named in the message."""
+    try:
+        return check_size(requested, limit, what=what, alternative=alternative)
+    except ValueError as exc:
+        raise ValueError(f"`{name}`: {exc}") from None
+
+
+def _exponents(c: np.ndarray, *extra: float) -> np.ndarray:
+    """Binary exponents ``e`` (per matrix) with ``|finite entries| < 2**e``.
+
+    The solvers work on ``ldexp(cost, -e)``: a power-of-two scaling is exact,
+    keeps every finite entry below 1 in magnitude, so no sum or difference of
+    a few entries overflows even for costs near the float maximum.
+    """
+    finite = np.where(np.isfinite(c), np.abs(c), 0.0)
+    top = finite.max(axis=(-2, -1)) if c.size else np.zeros(c.shape[:-2])
+    for x in extra:
+        top = np.maximum(top, abs(x))
+    return np.frexp(top)[1]
+
+
+def _scaled(c: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``c * 2**-e`` per matrix (exact; ``+inf`` stays ``+inf``)."""
+    return np.ldexp(c, -np.asarray(e)[..., None, None])
+
+
+def _as_cost(cost, name: str = "cost") -> np.ndarray:
+    """Cost matrices ``(..., n1, n2)``: finite or ``+inf``; NaN, ``-inf`` and empty refused."""
+    arr = as_float_array(cost, name, ndim_min=2, allow_nonfinite=True)
+    if arr.shape[-1] == 0 or arr.shape[-2] == 0:
+        raise ValueError(
+            f"`{name}` must have at least one row and one column; received shape {arr.shape}"
+        )
+    if np.any(np.isnan(arr)):
+        raise ValueError(
+            f"`{name}` must not contain NaN (use +inf for a forbidden pair); received "
+            f"{int(np.count_nonzero(np.isnan(arr)))} NaN entries in shape {arr.shape}"
+        )
+    if np.any(arr == -np.inf):
+        raise ValueError(
+            f"`{name}` must not contain -inf (a pair cannot be infinitely likely); received "
+            f"{int(np.count_nonzero(arr == -np.inf))} -inf entries in shape {arr.shape}"
+        )
+    return arr
+
+
+def _as_threshold(threshold, name: str = "threshold") -> float:
+    """A gate: a number > 0; ``+inf`` and None both mean "no gate" (returned as ``+inf``)."""
+    if threshold is None:
+        return np.inf
+    arr = as_float_array(threshold, name, allow_nonfinite=True)
+    if arr.ndim != 0:
+        raise ValueError(f"`{name}` must be a single number > 0; received shape {arr.shape}")
+    value = float(arr)
+    if math.isnan(value) or value <= 0:
+        raise ValueError(f"`{name}` must be a number > 0 (or +inf for no gate); received {value}")
+    return value
+
+
+def _as_miss_cost(miss_cost, name: str = "miss_cost") -> float | None:
+    """Non-assignment cost: a real number; ``+inf`` means the same as None."""
+    if miss_cost is None:
+        return None
+    arr = as_float_array(miss_cost, name, allow_nonfinite=True)
+    if arr.ndim != 0:
+        raise ValueError(f"`{name}` must be a single number; received shape {arr.shape}")
+    value = float(arr)
+    if math.isnan(value) or value == -np.inf:
+        raise ValueError(f"`{name}` must be a real number or +inf; received {value}")
+    return None if value == np.inf else value
+
+
+def _inverse(row_to_col: np.ndarray, n2: int) -> np.ndarray:
+    """``col_to_row`` from ``row_to_col`` (batched, -1 for unassigned)."""
+    batch = row_to_col.shape[:-1]
+    flat = row_to_col.reshape(-1, row_to_col.shape[-1])
+    inv = np.full((flat.shape[0], n2), -1, dtype=int)
+    b, i = np.nonzero(flat >= 0)
+    inv[b, flat[b, i]] = i
+    return inv.reshape(*batch, n2)
+

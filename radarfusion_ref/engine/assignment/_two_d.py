@@ -1,0 +1,421 @@
+"""The 2-D assignment: dense (batched), sparse (gated) and by enumeration."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from functools import lru_cache
+
+import numpy as np
+from scipy import sparse
+from scipy.optimize import linear_sum_assignment
+from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+
+from .._validation import MEMORY_LIMIT
+from ._checks import (
+    _as_cost,
+    _as_miss_cost,
+    _as_threshold,
+    _exponents,
+    _inverse,
+    _limit,
+    _scaled,
+)
+from ._results import Association
+
+__all__ = [
+    "MAX_HYPOTHESES",
+    "MAX_PARTIAL_MATCHINGS",
+    "MAX_SCORED_HYPOTHESES",
+    "solve_2d",
+    "solve_2d_bruteforce",
+]
+
+
+# --------------------------------------------------------------------------- 2-D limits
+#: Largest number of joint hypotheses of one cost matrix that
+#: :func:`solve_2d_bruteforce` and the exact :func:`radarfusion_ref.association.association_probabilities`
+#: enumerate (:math:`10! = 3\,628\,800` fits; :math:`n = 11` does not).
+MAX_HYPOTHESES = 4_000_000
+
+
+#: Largest number of *partial* matchings :func:`solve_2d_bruteforce` scores
+#: when a gate, a non-assignment cost or forbidden pairs are given (7 x 7 fits).
+MAX_PARTIAL_MATCHINGS = 200_000
+
+
+#: Largest number of hypotheses :func:`solve_2d_bruteforce` scores in one call,
+#: summed over a batch of cost matrices (bounds its run time).
+MAX_SCORED_HYPOTHESES = 200_000_000
+
+
+#: Working memory of one vectorized block of the enumerations, in bytes.
+_BLOCK_BYTES = 1 << 25
+
+
+def _make_result(cost: np.ndarray, row_to_col: np.ndarray, miss_cost: float | None):
+    """Assemble an :class:`Association` (total cost computed from the decisions)."""
+    n1, n2 = cost.shape[-2:]
+    col_to_row = _inverse(row_to_col, n2)
+    assigned = row_to_col >= 0
+    picked = np.take_along_axis(cost, np.where(assigned, row_to_col, 0)[..., None], axis=-1)[..., 0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = np.where(assigned, picked, 0.0).sum(axis=-1)
+        if miss_cost is not None:
+            n_un = (n1 - assigned.sum(-1)) + (n2 - np.count_nonzero(col_to_row >= 0, axis=-1))
+            total = total + miss_cost * n_un
+    if not np.all(np.isfinite(total)):
+        raise ValueError(
+            "`cost`: the total cost of the chosen association lies beyond the float range "
+            f"(|total| > {np.finfo(float).max:.3g}); the decisions exist but their sum cannot be "
+            "represented: divide `cost` (and `miss_cost`) by a common factor")
+    total = float(total) if np.ndim(total) == 0 else total
+    return Association(row_to_col, col_to_row, total)
+
+
+# --------------------------------------------------------------------------- 2-D dense
+def _solve_batch(c: np.ndarray, th: float, miss: float | None) -> np.ndarray:
+    """Optimal ``row_to_col`` for a stack of matrices ``(B, n1, n2)`` (validated inputs).
+
+    Every matrix is turned into one plain rectangular assignment problem
+    (vectorized over the stack), then solved by
+    :func:`scipy.optimize.linear_sum_assignment`; pairs that are not allowed or
+    not worth taking are dropped afterwards. Costs are first scaled by a power
+    of two (exact) so that the working matrix cannot overflow.
+    """
+    nb, n1, n2 = c.shape
+    allowed = (c < th) & np.isfinite(c)              # the gate of eq. (eq-gate): kappa < gamma
+    e = _exponents(c, *(() if miss is None else (miss,)))
+    c = _scaled(c, e)
+    if miss is not None:
+        miss = np.ldexp(miss, -e)[:, None, None]      # per matrix, same scale as its costs
+        # Partial matching with a cost `miss` per unassigned report: a pair is worth
+        # taking only if c < 2*miss, and
+        #   min over partial matchings of sum(c - 2 miss)
+        #     = min over full assignments of sum(min(c - 2 miss, 0)),
+        # so one rectangular assignment of the clipped matrix is exact (no augmentation).
+        work = np.where(allowed, np.minimum(c - 2.0 * miss, 0.0), 0.0)     # |work| < 4
+        useful = allowed & (work < 0)
+    elif allowed.all():
+        work, useful = c, allowed                 # the plain complete assignment
+    else:
+        # Maximum number of allowed pairs first, then the smallest cost among those:
+        # forbidden pairs get a cost larger than any possible saving, so every
+        # assignment with fewer forbidden pairs is cheaper (exact lexicographic order).
+        lo = np.min(c, axis=(1, 2), where=allowed, initial=np.inf)
+        hi = np.max(c, axis=(1, 2), where=allowed, initial=-np.inf)
+        lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
+        big = (min(n1, n2) + 1) * (hi - lo + 1.0)            # hi - lo < 2 after scaling
+        work = np.where(allowed, c - lo[:, None, None], big[:, None, None])
+        useful = allowed
+    k = min(n1, n2)
+    rows = np.empty((nb, k), dtype=int)
+    cols = np.empty((nb, k), dtype=int)
+    for b in range(nb):
+        rows[b], cols[b] = linear_sum_assignment(work[b])
+    keep = useful[np.arange(nb)[:, None], rows, cols]
+    out = np.full((nb, n1), -1, dtype=int)
+    bb, kk = np.nonzero(keep)
+    out[bb, rows[bb, kk]] = cols[bb, kk]
+    return out
+
+
+# --------------------------------------------------------------------------- 2-D sparse (gated)
+def _as_sparse_cost(cost, name: str = "cost"):
+    """A scipy.sparse cost matrix as canonical CSR: 2-D, real, finite stored entries."""
+    shape = cost.shape
+    if len(shape) != 2:
+        raise ValueError(f"`{name}` (sparse) must be a 2-D matrix (n1, n2); received shape "
+                         f"{shape}")
+    if shape[0] == 0 or shape[1] == 0:
+        raise ValueError(f"`{name}` must have at least one row and one column; received shape "
+                         f"{shape}")
+    if cost.dtype.kind not in "iuf":
+        raise TypeError(f"`{name}` (sparse) must hold real numbers; received dtype {cost.dtype}")
+    csr = sparse.csr_array(cost, dtype=float, copy=True)
+    csr.sum_duplicates()                       # scipy's meaning of repeated (i, j) entries
+    data = csr.data
+    if np.any(np.isnan(data)):
+        raise ValueError(
+            f"`{name}` (sparse) must not store NaN: a forbidden pair is one left out of the "
+            f"matrix; received {int(np.count_nonzero(np.isnan(data)))} stored NaN entries")
+    if not np.all(np.isfinite(data)):
+        bad = int(np.count_nonzero(~np.isfinite(data)))
+        raise ValueError(
+            f"`{name}` (sparse) must store finite costs only: a missing entry already forbids "
+            f"the pair, so +inf is never stored, and -inf (an infinitely likely pair) is "
+            f"refused; received {bad} infinite stored entries")
+    return csr
+
+
+def _solve_sparse(csr, th: float, miss: float | None) -> np.ndarray:
+    r"""Optimal ``row_to_col`` of one gated sparse problem (validated inputs).
+
+    The partial matching with a cost per unassigned report is the full matching
+    of the rows into the columns plus one private dummy column per row:
+
+    * an allowed pair (i, j) is an edge of weight :math:`c_{ij} - 2 c_0`, the
+      dummy edge (i, n2 + i) has weight 0 — so the matching cost is
+      :math:`\sum_{\text{pairs}} c_{ij} + c_0 (\#\text{unassigned rows} +
+      \#\text{unassigned columns}) - c_0 (n_1 + n_2)`; pairs with
+      :math:`c_{ij} \ge 2 c_0` are never worth taking and are left out;
+    * with no `miss_cost`, the largest number of pairs first: the dummy weight is
+      larger than any saving among pairs (the lexicographic order of the dense
+      solver).
+
+    Every full matching saturates the n1 rows, so adding one constant to every
+    weight keeps the optimum and makes all weights >= 1 (LAPJVsp needs non-zero
+    weights). Solved by :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`.
+    """
+    n1, n2 = csr.shape
+    rows = np.repeat(np.arange(n1), np.diff(csr.indptr))
+    cols = csr.indices
+    c = csr.data
+    keep = c < th
+    if miss is not None:
+        keep &= c < 2.0 * miss                 # scaled below; the comparison is exact in 2**k
+    rows, cols, c = rows[keep], cols[keep], c[keep]
+    out = np.full(n1, -1, dtype=int)
+    if c.size == 0:
+        return out
+    e = int(np.frexp(max(float(np.max(np.abs(c))), 0.0 if miss is None else abs(miss)))[1])
+    c = np.ldexp(c, -e)                        # exact: every |entry| < 1
+    if miss is not None:
+        gain = np.ldexp(2.0 * miss, -e) - c    # > 0: what taking the pair saves, < 4
+        w_pair = float(np.max(gain)) + 1.0 - gain
+        w_dummy = float(np.max(gain)) + 1.0
+    else:
+        lo, hi = float(np.min(c)), float(np.max(c))
+        w_pair = c - lo + 1.0                  # in [1, 3)
+        w_dummy = 2.0 * (min(n1, n2) + 1) * (hi - lo + 1.0) + 1.0
+    graph = sparse.csr_array(
+        (np.concatenate([w_pair, np.full(n1, w_dummy)]),
+         (np.concatenate([rows, np.arange(n1)]), np.concatenate([cols, n2 + np.arange(n1)]))),
+        shape=(n1, n1 + n2))
+    r, col = min_weight_full_bipartite_matching(graph)
+    real = col < n2
+    out[r[real]] = col[real]
+    return out
+
+
+def _associate_sparse(cost, threshold, miss_cost) -> Association:
+    """:func:`solve_2d` for a scipy.sparse matrix of gated pair costs."""
+    csr = _as_sparse_cost(cost)
+    th = _as_threshold(threshold)
+    miss = _as_miss_cost(miss_cost)
+    n1, n2 = csr.shape
+    _limit(24 * (csr.nnz + n1), MEMORY_LIMIT, name="cost", what="bytes of the sparse graph",
+           alternative="a tighter gate (fewer stored pairs)")
+    row_to_col = _solve_sparse(csr, th, miss)
+    assigned = row_to_col >= 0
+    # the chosen pairs' stored costs: canonical CSR keys row * n2 + col are sorted
+    keys = np.repeat(np.arange(n1, dtype=np.int64), np.diff(csr.indptr)) * n2 + csr.indices
+    want = np.flatnonzero(assigned).astype(np.int64) * n2 + row_to_col[assigned]
+    picked = csr.data[np.searchsorted(keys, want)]
+    col_to_row = _inverse(row_to_col, n2)
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = float(np.sum(picked))
+        if miss is not None:
+            total += miss * float((n1 - assigned.sum()) + (n2 - assigned.sum()))
+    if not math.isfinite(total):
+        raise ValueError(
+            "`cost`: the total cost of the chosen association lies beyond the float range; "
+            "divide `cost` (and `miss_cost`) by a common factor")
+    return Association(row_to_col, col_to_row, total)
+
+
+def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
+    """The joint maximum-likelihood association: an exact linear assignment.
+
+    The solver behind :func:`radarfusion_ref.association.associate_joint`, which
+    documents the arguments, the three problems it solves (complete, gated, with a
+    non-assignment cost), the sparse route and the errors: they are the same here.
+
+    Parameters
+    ----------
+    cost : array_like, shape (..., n1, n2), or scipy.sparse matrix (n1, n2)
+        Pair costs; ``+inf`` (dense) or a missing entry (sparse) forbids a pair.
+    threshold : float, optional
+        Gate: a pair is allowed only if its cost is strictly below it.
+    miss_cost : float, optional
+        Cost charged for each report left unassigned.
+
+    Returns
+    -------
+    Association
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`radarfusion_ref.association.associate_joint`.
+
+    Examples
+    --------
+    >>> c = [[0.5, 0.1], [0.2, 3.0]]
+    >>> r = solve_2d(c)
+    >>> r.pairs.tolist(), r.cost
+    ([[0, 1], [1, 0]], 0.30000000000000004)
+    >>> r = solve_2d([[1.0, 9.0], [9.0, 9.0]], miss_cost=2.0)
+    >>> r.pairs.tolist(), r.unassigned_rows.tolist(), r.unassigned_cols.tolist(), r.cost
+    ([[0, 0]], [1], [1], 5.0)
+    >>> solve_2d([[5.0, 6.0]], threshold=1.0).n_assigned
+    0
+    >>> from scipy import sparse
+    >>> gated = sparse.csr_array(([0.5, 0.1, 0.2], ([0, 0, 1], [0, 1, 0])), shape=(2, 3))
+    >>> solve_2d(gated).pairs.tolist()
+    [[0, 1], [1, 0]]
+    """
+    if sparse.issparse(cost):
+        return _associate_sparse(cost, threshold, miss_cost)
+    c = _as_cost(cost)
+    th = _as_threshold(threshold)
+    miss = _as_miss_cost(miss_cost)
+    n1, n2 = c.shape[-2:]
+    flat = c.reshape(-1, n1, n2)
+    out = _solve_batch(flat, th, miss)
+    return _make_result(c, out.reshape(*c.shape[:-2], n1), miss)
+
+
+# --------------------------------------------------------------------------- 2-D brute force
+@lru_cache(maxsize=16)
+def _permutations(n: int) -> np.ndarray:
+    """All ``n!`` permutations of ``range(n)``, one per row (int8, read-only)."""
+    perms = np.zeros((1, 0), dtype=np.int8)
+    for k in range(n):
+        m = perms.shape[0]
+        out = np.empty((m * (k + 1), k + 1), dtype=np.int8)
+        for pos in range(k + 1):
+            block = out[pos * m:(pos + 1) * m]
+            block[:, :pos] = perms[:, :pos]
+            block[:, pos] = k
+            block[:, pos + 1:] = perms[:, pos:]
+        perms = out
+    perms.setflags(write=False)
+    return perms
+
+
+@lru_cache(maxsize=16)
+def _injections(n1: int, n2: int) -> np.ndarray:
+    """All ``n2! / (n2 - n1)!`` injective maps rows -> columns (n1 <= n2)."""
+    if n1 == n2:
+        return _permutations(n1)
+    out = np.array(list(itertools.permutations(range(n2), n1)), dtype=np.int8).reshape(-1, n1)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _partial_matchings(n1: int, n2: int) -> np.ndarray:
+    """Every partial matching as a ``row_to_col`` vector with -1 for unassigned."""
+    rows = []
+    for k in range(min(n1, n2) + 1):
+        for rsel in itertools.combinations(range(n1), k):
+            for cperm in itertools.permutations(range(n2), k):
+                v = [-1] * n1
+                for r, cc in zip(rsel, cperm, strict=True):
+                    v[r] = cc
+                rows.append(v)
+    out = np.array(rows, dtype=np.int8).reshape(-1, n1)
+    out.setflags(write=False)
+    return out
+
+
+def _n_partial(n1: int, n2: int) -> int:
+    return sum(math.comb(n1, k) * math.perm(n2, k) for k in range(min(n1, n2) + 1))
+
+
+def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
+    """The joint ML association by enumerating every joint hypothesis.
+
+    The reference route for :func:`solve_2d`: the same problem (same
+    arguments, same meaning), solved by scoring every hypothesis. Square
+    matrices without gate or miss cost enumerate the :math:`n!` permutations
+    (chunked, vectorized); otherwise all partial matchings are scored.
+
+    Parameters
+    ----------
+    cost : array_like, shape (..., n1, n2)
+        As in :func:`solve_2d`.
+    threshold, miss_cost : float, optional
+        As in :func:`solve_2d`.
+
+    Returns
+    -------
+    Association
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`radarfusion_ref.association.associate_bruteforce`, which also gives
+        the enumeration limits.
+
+    Examples
+    --------
+    >>> solve_2d_bruteforce([[0.5, 0.1], [0.2, 3.0]]).row_to_col
+    array([1, 0])
+    """
+    c = _as_cost(cost)
+    th = _as_threshold(threshold)
+    miss = _as_miss_cost(miss_cost)
+    n1, n2 = c.shape[-2:]
+    batch = c.shape[:-2]
+    flat = c.reshape(-1, n1, n2)
+    nb = flat.shape[0]
+    allowed = (flat < th) & np.isfinite(flat)
+    # Plain complete assignment: enumerate permutations. With a gate, a miss cost or
+    # forbidden (+inf) pairs, score every partial matching instead.
+    simple = th == np.inf and miss is None and bool(np.all(np.isfinite(flat)))
+    if simple:
+        transpose = n1 > n2
+        a, b = min(n1, n2), max(n1, n2)
+        count = _limit(math.perm(b, a), MAX_HYPOTHESES, name="cost",
+                       what=f"joint hypotheses (n!-type count for a {n1} x {n2} matrix)",
+                       alternative="solve_2d (associate_joint: exact linear assignment, O(n^3))")
+    else:
+        count = _limit(_n_partial(n1, n2), MAX_PARTIAL_MATCHINGS, name="cost",
+                       what=f"partial matchings (gated or with a miss cost, {n1} x {n2} matrix)",
+                       alternative="solve_2d (associate_joint: exact linear assignment, O(n^3))")
+    _limit(nb * count, MAX_SCORED_HYPOTHESES, name="cost",
+           what=f"hypotheses to score over a batch of {nb} matrices",
+           alternative="solve_2d (associate_joint: exact linear assignment, O(n^3))")
+    e = _exponents(flat, *(() if miss is None else (miss,)))
+    scaled = _scaled(flat, e)                         # exact; sums of n entries cannot overflow
+    if simple:
+        work = np.swapaxes(scaled, 1, 2) if transpose else scaled
+        hyps = _injections(a, b)
+        best = np.full(nb, np.inf)
+        best_k = np.zeros(nb, dtype=int)
+        idx = np.arange(a)
+        chunk = max(1, _BLOCK_BYTES // (8 * a * nb))   # bounded memory per block
+        for start in range(0, hyps.shape[0], chunk):
+            h = hyps[start:start + chunk]
+            tot = work[:, idx, h].sum(axis=-1)            # (nb, chunk)
+            k = tot.argmin(axis=1)
+            v = tot[np.arange(nb), k]
+            better = v < best
+            best[better] = v[better]
+            best_k[better] = start + k[better]
+        chosen = hyps[best_k].astype(int)                 # (nb, a)
+        out = _inverse(chosen, n1) if transpose else chosen
+        return _make_result(c, out.reshape(*batch, n1), None)
+
+    hyps = _partial_matchings(n1, n2).astype(int)         # (H, n1)
+    used = hyps >= 0
+    safe = np.maximum(hyps, 0)
+    npairs = used.sum(axis=1)
+    out = np.full((nb, n1), -1, dtype=int)
+    for t in range(nb):
+        ct = np.where(allowed[t], scaled[t], np.inf)
+        vals = np.where(used, ct[np.arange(n1), safe], 0.0)
+        ok = np.all(np.isfinite(vals), axis=1)
+        total = vals.sum(axis=1)
+        if miss is not None:
+            m_t = np.ldexp(miss, -e[t])
+            score = np.where(ok, total + m_t * (n1 + n2 - 2 * npairs), np.inf)
+        else:
+            top = npairs[ok].max()
+            score = np.where(ok & (npairs == top), total, np.inf)
+        out[t] = hyps[int(np.argmin(score))]
+    return _make_result(c, out.reshape(*batch, n1), miss)
+
+
