@@ -4,13 +4,14 @@ Run as ``python benchmarks/bench_capstone.py [--quick]``. Everything is measured
 this run: the committed hour (2018-08-01 11:00–12:00 UTC over Switzerland, 360 scans
 at 10 s) is simulated for the three default radars and run through the whole pipeline
 (registration over the first 30 scans, debiased 3-D conversion, gate, S-D grouping with
-dummies by the exact MILP, ML fusion, recognition), then scored (GOSPA, association,
-NEES, recognition); step 7 (tracking with track-to-track fusion) is timed and scored
+dummies by the exact MILP, ML fusion, recognition; ``cp.PipelineSettings()``), then scored
+(GOSPA, association, NEES, recognition); step 7 (tracking with track-to-track fusion) is timed and scored
 after it. It prints the per-stage wall times and two ratios:
 
 * the mean time per scan against the real-time budget of one scan period (10 s);
 * the total against a baseline measured in the same run on the first scans: the same
-  pipeline with the Lagrangian S-D solver (``method="lagrangian"``), per scan.
+  pipeline with the Lagrangian S-D solver (``PipelineSettings(method="lagrangian")``),
+  per scan.
 
 The target is the whole hour in under 60 s on a 2-core machine (printed as PASS/FAIL;
 the exit code is 1 on FAIL). ``--quick`` runs 10 minutes instead of the hour.
@@ -61,7 +62,7 @@ def main(quick: bool = False) -> int:
     times = {}
     for method in ("milp", "lagrangian"):
         t = time.perf_counter()
-        cp.run_pipeline(sub, radars, method=method, warmup=BASELINE_SCANS)
+        cp.run_pipeline(sub, radars, cp.PipelineSettings(method=method, warmup=BASELINE_SCANS))
         times[method] = (time.perf_counter() - t) / BASELINE_SCANS
     print(f"baseline on the first {BASELINE_SCANS} scans: Lagrangian "
           f"{1000 * times['lagrangian']:.0f} ms/scan, MILP {1000 * times['milp']:.0f} ms/scan "
@@ -80,8 +81,9 @@ def main(quick: bool = False) -> int:
           f"{ev.mean_gospa:.0f} m; root-mean parts: localisation {parts['localisation']:.0f} m, "
           f"missed {parts['missed']:.0f} m, false {parts['false']:.0f} m")
     print(f"association: purity {ev.purity}, completeness {ev.completeness}")
-    mean, lo, hi, n = ev.nees
-    print(f"NEES (3 dof) mean {mean:.3f} over {n} objects, 95 % interval [{lo:.3f}, {hi:.3f}]")
+    ne = ev.nees
+    print(f"NEES (3 dof) mean {ne.mean:.3f} over {ne.count} objects, 95 % interval "
+          f"[{ne.low:.3f}, {ne.high:.3f}]")
     print(f"recognition {ev.recognition}")
     b = result.biases
     est = ", ".join(f"{r.name} {b[i, 0]:+.1f} m / {np.degrees(b[i, 2]):+.3f} deg "
@@ -90,7 +92,7 @@ def main(quick: bool = False) -> int:
     print(f"registration: {est}")
     print(f"tracks: {tev.n_tracks} for {np.unique(truth.aircraft).size} aircraft; GOSPA mean "
           f"{tev.mean_gospa:.0f} m (objects {ev.mean_gospa:.0f} m); position RMSE {tev.rmse:.0f} m; "
-          f"NEES mean {tev.nees[0]:.3f} (95 % interval [{tev.nees[1]:.3f}, {tev.nees[2]:.3f}], "
+          f"NEES mean {tev.nees.mean:.3f} (95 % interval [{tev.nees.low:.3f}, {tev.nees.high:.3f}], "
           "covariance intersection is conservative)")
     if quick:
         return 0

@@ -1,11 +1,16 @@
-"""Tests of radarfusion_ref.capstone: data, ENU, truth, simulator, GOSPA, pipeline, bad input."""
+"""Tests of radarfusion_ref.capstone and the engine homes it uses (geodesy, metrics).
+
+Data, ENU, truth, simulator, GOSPA, NEES, purity, pipeline, tracking, bad input.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import hashlib
 import itertools
 import math
+from importlib import resources
 
 import numpy as np
 import pytest
@@ -14,10 +19,13 @@ from hypothesis import strategies as st
 
 from radarfusion_ref import capstone as cp
 from radarfusion_ref.engine import montecarlo
+from radarfusion_ref.engine.geodesy import geodetic_to_enu
+from radarfusion_ref.engine.metrics import gospa, nees, purity
 from radarfusion_ref.kit import checks
 
 SHA256 = "38fc29bbf0e2d67c7a4ef42723f0390d35c5eeedb581225e8db94d4322f89ba4"
 SIZE = 155_801
+NOREG = cp.PipelineSettings(register=False)
 
 
 @pytest.fixture(scope="module")
@@ -37,13 +45,15 @@ def short(traffic):
 def short_runs(short):
     """The pipeline on `short`: registered (warm-up = the 12 scans) and unregistered."""
     _, radars, rep = short
-    return (cp.run_pipeline(rep, radars, warmup=12),
-            cp.run_pipeline(rep, radars, register=False))
+    return (cp.run_pipeline(rep, radars, cp.PipelineSettings(warmup=12)),
+            cp.run_pipeline(rep, radars, cp.PipelineSettings(register=False)))
 
 
 # ----------------------------------------------------------------------------- data
 def test_committed_file_hash_and_size():
     raw = cp.DATA_FILE.read_bytes()
+    assert raw == resources.files("radarfusion_ref.capstone").joinpath(
+        "data/switzerland_busiest_hour.csv.gz").read_bytes()
     assert len(raw) == SIZE <= 1_000_000
     assert hashlib.sha256(raw).hexdigest() == SHA256
 
@@ -68,7 +78,7 @@ def _write(tmp_path, text, name="f.csv.gz"):
 
 
 GOOD_ROW = "0,abc123,XYZ1,4680000,820000,35000,450,90"
-HEAD = ",".join(cp._HEADER)
+HEAD = ",".join(cp.COLUMNS)
 
 
 def test_load_small_valid_file(tmp_path):
@@ -144,23 +154,23 @@ def _enu_to_geodetic(enu, origin):
 
 def test_enu_known_points():
     o = (0.0, 0.0, 0.0)
-    assert np.allclose(cp.geodetic_to_enu(0.0, 90.0, 0.0, origin=o), [A, 0.0, -A], atol=1e-6)
-    assert np.allclose(cp.geodetic_to_enu(90.0, 0.0, 0.0, origin=o),
+    assert np.allclose(geodetic_to_enu(0.0, 90.0, 0.0, origin=o), [A, 0.0, -A], atol=1e-6)
+    assert np.allclose(geodetic_to_enu(90.0, 0.0, 0.0, origin=o),
                        [0.0, A * (1 - F), -A], atol=1e-6)
-    assert np.allclose(cp.geodetic_to_enu(*cp.ORIGIN), 0.0, atol=1e-6)
-    up = cp.geodetic_to_enu(cp.ORIGIN[0], cp.ORIGIN[1], 1234.5)
+    assert np.allclose(geodetic_to_enu(*cp.ORIGIN, origin=cp.ORIGIN), 0.0, atol=1e-6)
+    up = geodetic_to_enu(cp.ORIGIN[0], cp.ORIGIN[1], 1234.5, origin=cp.ORIGIN)
     assert np.allclose(up, [0.0, 0.0, 1234.5], atol=1e-6)
     # a small step east along the parallel: east = (N cos(lat)) dlon to first order
     lat = math.radians(cp.ORIGIN[0])
     N = A / math.sqrt(1 - F * (2 - F) * math.sin(lat) ** 2)
-    east = cp.geodetic_to_enu(cp.ORIGIN[0], cp.ORIGIN[1] + 1e-4, 0.0)
+    east = geodetic_to_enu(cp.ORIGIN[0], cp.ORIGIN[1] + 1e-4, 0.0, origin=cp.ORIGIN)
     assert east[0] == pytest.approx(N * math.cos(lat) * math.radians(1e-4), rel=1e-7)
 
 
 @settings(max_examples=60, deadline=None)
 @given(st.floats(44, 49), st.floats(4, 12), st.floats(-100, 15_000))
 def test_enu_round_trip(lat, lon, h):
-    enu = cp.geodetic_to_enu(lat, lon, h)
+    enu = geodetic_to_enu(lat, lon, h, origin=cp.ORIGIN)
     la, lo, hh = _enu_to_geodetic(enu, cp.ORIGIN)
     assert la == pytest.approx(lat, abs=1e-9)
     assert lo == pytest.approx(lon, abs=1e-9)
@@ -178,18 +188,20 @@ def test_enu_round_trip(lat, lon, h):
 ])
 def test_enu_bad_input(kw, match):
     with pytest.raises(ValueError, match=match):
-        cp.geodetic_to_enu(**kw)
+        geodetic_to_enu(**{"origin": cp.ORIGIN, **kw})
 
 
 def test_enu_non_numeric():
     with pytest.raises(TypeError, match="`lat`"):
-        cp.geodetic_to_enu("north", 0.0, 0.0)
+        geodetic_to_enu("north", 0.0, 0.0, origin=cp.ORIGIN)
+    with pytest.raises(TypeError, match="origin"):
+        geodetic_to_enu(0.0, 0.0, 0.0)                      # no default frame in the engine
 
 
 # ----------------------------------------------------------------------------- truth
 def test_truth_at_record_times_equals_records(traffic):
     tr = cp.truth_scans(traffic, period=10.0, start=0.0, duration=3600.0)
-    enu = cp.geodetic_to_enu(traffic.lat, traffic.lon, traffic.alt)
+    enu = geodetic_to_enu(traffic.lat, traffic.lon, traffic.alt, origin=cp.ORIGIN)
     # records at multiples of 10 s whose neighbours bracket them are reproduced exactly
     rec = {(int(a), float(t)): k for k, (a, t) in enumerate(zip(traffic.aircraft, traffic.t,
                                                                  strict=True))}
@@ -222,14 +234,14 @@ def test_speed_type_model_matches_the_hour(traffic):
 
 
 def test_truth_gap_is_not_bridged(tmp_path):
-    head = ",".join(cp._HEADER)
+    head = ",".join(cp.COLUMNS)
     rows = ["0,aaaaaa,A,4680000,820000,35000,450,90", "10,aaaaaa,A,4680100,820000,35000,450,90",
             "100,aaaaaa,A,4681000,820000,35000,450,90"]
     p = tmp_path / "gap.csv.gz"
     p.write_bytes(gzip.compress(("\n".join([head, *rows]) + "\n").encode()))
     tr = cp.truth_scans(cp.load_traffic(p), period=5.0, duration=120.0, max_gap=30.0)
     assert tr.times[tr.scan].tolist() == [0.0, 5.0, 10.0, 100.0]
-    mid = cp.geodetic_to_enu(46.8005, 8.2, 35000 * 0.3048)
+    mid = geodetic_to_enu(46.8005, 8.2, 35000 * 0.3048, origin=cp.ORIGIN)
     assert np.allclose(tr.position[1], mid, atol=0.05)     # linear between the records
 
 
@@ -247,6 +259,28 @@ def test_truth_bad_input(traffic, kw, match):
 
 
 # ----------------------------------------------------------------------------- simulator
+def _spherical(rel):
+    """Slant range, azimuth from east and elevation, written out for the tests."""
+    r = np.sqrt(np.sum(rel**2, axis=-1))
+    return r, np.arctan2(rel[..., 1], rel[..., 0]), np.arcsin(rel[..., 2] / r)
+
+
+def _covered(position, radar):
+    r, _, e = _spherical(position - radar.enu)
+    return (r <= radar.max_range) & (e >= radar.min_elevation)
+
+
+def test_coverage_count(short):
+    truth, radars, _ = short
+    expected = sum(_covered(truth.position, r).astype(int) for r in radars)
+    assert np.array_equal(cp.coverage_count(truth.position, radars), expected)
+    assert 0 < np.mean(expected == 3) < 1
+    with pytest.raises(ValueError, match="`position`"):
+        cp.coverage_count([1.0, 2.0, 3.0], radars)
+    with pytest.raises(TypeError, match="`radars`"):
+        cp.coverage_count(truth.position, radars[0])
+
+
 def test_simulator_statistics(traffic):
     """P_D, clutter rate and the noise variances agree with the model (Monte Carlo, CIs)."""
     truth = cp.truth_scans(traffic, duration=3600.0)
@@ -254,9 +288,9 @@ def test_simulator_statistics(traffic):
     rep = cp.simulate_reports(truth, radars, rng=2024)
     sites = np.stack([r.enu for r in radars])
     tkey = truth.scan * 1000 + truth.aircraft
-    covered = cp._coverage_count(truth.position, radars[:1]) > 0
+    covered = _covered(truth.position, radars[0])
     for i, rad in enumerate(radars):
-        cov_i = cp._coverage_count(truth.position, [rad]) > 0
+        cov_i = _covered(truth.position, rad)
         mine = (rep.radar == i) & (rep.source >= 0)
         detected = np.isin(tkey[cov_i], rep.scan[mine] * 1000 + rep.source[mine])
         checks.require(montecarlo.proportion(int(detected.sum()), detected.size),
@@ -268,9 +302,9 @@ def test_simulator_statistics(traffic):
         # residuals against the true (biased) polar coordinates
         k = np.searchsorted(tkey, rep.scan[mine] * 1000 + rep.source[mine])
         rel = truth.position[k] - sites[i]
-        r, b, e = cp._polar(rel)
+        r, b, e = _spherical(rel)
         dr = rep.r[mine] - (r + rad.bias_range)
-        db = cp._wrap(rep.beta[mine] - (b + rad.bias_azimuth))
+        db = np.angle(np.exp(1j * (rep.beta[mine] - (b + rad.bias_azimuth))))
         de = rep.epsilon[mine] - e
         df = rep.feature[mine] - truth.speed[k]
         for name, resid, sig in (("range", dr, rad.sigma_r), ("azimuth", db, rad.sigma_beta),
@@ -334,7 +368,7 @@ points = st.integers(0, 4).flatmap(
 def test_gospa_brute_force(x, y, c, p):
     x = np.array(x, dtype=float).reshape(-1, 2)
     y = np.array(y, dtype=float).reshape(-1, 2)
-    g = cp.gospa(x, y, c=c, p=p)
+    g = gospa(x, y, c=c, p=p)
     assert g.total == pytest.approx(_gospa_brute(x, y, c, p), rel=1e-9, abs=1e-9)
     assert g.localisation + g.missed + g.false == pytest.approx(g.total**p, rel=1e-9,
                                                                 abs=1e-9)
@@ -357,7 +391,7 @@ def test_gospa_against_stone_soup():
         x = rng.uniform(-5000, 5000, (n, 3))
         y = rng.uniform(-5000, 5000, (k, 3))
         c, p = float(rng.uniform(500, 4000)), float(rng.choice([1.0, 2.0]))
-        ours = cp.gospa(x, y, c=c, p=p)
+        ours = gospa(x, y, c=c, p=p)
         metric = GOSPAMetric(c=c, p=p)
         theirs, _ = metric.compute_gospa_metric(
             [State(v.reshape(3, 1), timestamp=now) for v in y],
@@ -382,13 +416,75 @@ def test_gospa_against_stone_soup():
 ])
 def test_gospa_bad_input(kw, exc, match):
     with pytest.raises(exc, match=match):
-        cp.gospa(**kw)
+        gospa(**kw)
 
 
 def test_gospa_refuses_huge_sets_before_allocating():
     x = np.lib.stride_tricks.as_strided(np.zeros(1), shape=(200_000, 3), strides=(0, 0))
     with pytest.raises(ValueError, match=r"`x`, `y`.*one scan at a time"):
-        cp.gospa(x, x, c=1.0)
+        gospa(x, x, c=1.0)
+
+
+# ----------------------------------------------------------------------------- NEES, purity
+def test_nees_against_explicit_inverse_and_closed_form_range():
+    rng = np.random.default_rng(4)
+    A_ = rng.normal(size=(50, 3, 3))
+    P = A_ @ np.swapaxes(A_, 1, 2) + 0.1 * np.eye(3)
+    e = rng.normal(size=(50, 3))
+    r = nees(e, P)
+    direct = [float(v @ np.linalg.inv(M) @ v) for v, M in zip(e, P, strict=True)]
+    assert np.allclose(r.values, direct, rtol=1e-10)
+    assert r.mean == pytest.approx(np.mean(direct), rel=1e-10)
+    assert (r.count, r.dof, r.level) == (50, 3, 0.95)
+    # one 2-D error: N * mean is chi-square with 2 dof, whose quantiles are -2 ln(1 - q)
+    one = nees([[1.0, 2.0]], [np.eye(2)], level=0.9)
+    assert one.low == pytest.approx(-2 * math.log(0.95), rel=1e-12)
+    assert one.high == pytest.approx(-2 * math.log(0.05), rel=1e-12)
+
+
+def test_nees_of_consistent_errors_is_near_the_dimension():
+    rng = np.random.default_rng(8)
+    n, d = 4000, 3
+    L = np.tril(rng.normal(size=(n, d, d)), -1) + np.eye(d) * rng.uniform(0.5, 3.0, (n, d, 1))
+    e = np.einsum("nab,nb->na", L, rng.standard_normal((n, d)))       # e ~ N(0, L L^T)
+    r = nees(e, L @ np.swapaxes(L, 1, 2))
+    assert abs(r.mean - d) < 4 * math.sqrt(2 * d / n)                 # 4 standard errors
+    assert r.low < d < r.high
+
+
+@pytest.mark.parametrize(("kw", "exc", "match"), [
+    (dict(error=np.zeros((0, 3)), cov=np.zeros((0, 3, 3))), ValueError, "`error`"),
+    (dict(error=np.zeros((2, 3)), cov=np.eye(3)), ValueError, "`cov`"),
+    (dict(error=np.zeros((1, 2)), cov=[[[1.0, 2.0], [2.0, 1.0]]]), ValueError, "`cov`"),
+    (dict(error=np.zeros((1, 2)), cov=[np.eye(2)], level=1.0), ValueError, "`level`"),
+    (dict(error="e", cov=[np.eye(2)]), TypeError, "`error`"),
+])
+def test_nees_bad_input(kw, exc, match):
+    with pytest.raises(exc, match=match):
+        nees(**kw)
+
+
+def _purity_brute(sources, present):
+    out = []
+    for row, mask in zip(sources.tolist(), present.tolist(), strict=True):
+        seen = {v for v, k in zip(row, mask, strict=True) if k}     # sources of the reports
+        out.append(min(seen) if len(seen) == 1 and min(seen) >= 0 else -1)
+    return np.array(out, dtype=int)
+
+
+def test_purity_against_sets():
+    rng = np.random.default_rng(3)
+    sources = rng.integers(-1, 3, size=(400, 3))
+    present = rng.random((400, 3)) < 0.7
+    r = purity(sources, present)
+    assert np.array_equal(r.source, _purity_brute(sources, present))
+    assert np.array_equal(r.pure, r.source >= 0)
+    assert r.fraction.successes == r.pure.sum() and r.fraction.trials == 400
+    assert purity(np.zeros((0, 3), dtype=int)).fraction is None
+    with pytest.raises(TypeError, match="`sources`"):
+        purity(sources.astype(float))
+    with pytest.raises(ValueError, match="`present`"):
+        purity(sources, present[:, :2])
 
 
 # ----------------------------------------------------------------------------- pipeline
@@ -402,14 +498,14 @@ def test_pipeline_short_window(short, short_runs):
     assert np.all(np.abs(res.biases[:, 0] - true_b[:, 0]) < 20.0)
     assert np.all(np.abs(res.biases[:, 2] - true_b[:, 1]) < math.radians(0.02))
     assert ev.purity.low > 0.97 and ev.completeness.low > 0.95
-    mean, lo, hi, n = ev.nees
+    mean, lo, hi, n = ev.nees.mean, ev.nees.low, ev.nees.high, ev.nees.count
     assert n > 200 and 0.8 * lo < mean < 1.25 * hi
     assert ev.recognition.low > 0.75
     assert np.all(np.isfinite(ev.gospa)) and ev.gospa.size == truth.n_scans
     assert np.allclose(ev.localisation + ev.missed + ev.false, ev.gospa**2)
     # without registration the biases make the fused estimates inconsistent and split groups
     raw = cp.evaluate(unregistered, truth, c=2000.0)
-    assert raw.nees[0] > 2 * mean
+    assert raw.nees.mean > 2 * mean
     assert raw.completeness.high < ev.completeness.low
     assert raw.mean_gospa > ev.mean_gospa
 
@@ -419,7 +515,7 @@ def test_missed_aircraft_are_the_detection_model_s(short, short_runs):
     truth, radars, _ = short
     ev = cp.evaluate(short_runs[0], truth, c=2000.0)
     observed = float(np.sum(ev.missed) / (ev.c**2 / 2))
-    cov = np.stack([cp._coverage_count(truth.position, [r]) > 0 for r in radars])
+    cov = np.stack([_covered(truth.position, r) for r in radars])
     pd = np.array([r.p_detect for r in radars])[:, None]
     none = np.prod(np.where(cov, 1 - pd, 1), axis=0)
     one = sum(np.where(cov[i], pd[i], 0) * np.prod(np.where(cov & (np.arange(3)[:, None] != i),
@@ -437,22 +533,22 @@ def coarse(traffic):
     radars = cp.default_radars(sigma_beta=math.radians(1.0), sigma_epsilon=math.radians(1.0),
                                clutter_rate=100.0, bias_range=0.0, bias_azimuth=0.0)
     rep = cp.simulate_reports(truth, radars, rng=3)
-    base = cp.evaluate(cp.run_pipeline(rep, radars, register=False), truth, c=5000.0)
+    base = cp.evaluate(cp.run_pipeline(rep, radars, NOREG), truth, c=5000.0)
     return truth, radars, rep, base
 
 
 def test_ablation_debias(coarse):
     truth, radars, rep, base = coarse
-    lin = cp.evaluate(cp.run_pipeline(rep, radars, register=False, debias=False), truth,
+    lin = cp.evaluate(cp.run_pipeline(rep, radars, dataclasses.replace(NOREG, debias=False)), truth,
                       c=5000.0)
     # the linearized covariance is too small at 1 degree: NEES far above 3, debiased near 3
-    assert lin.nees[0] > 1.5 * base.nees[0]
-    assert base.nees[1] * 0.8 < base.nees[0] < base.nees[2] * 1.25
+    assert lin.nees.mean > 1.5 * base.nees.mean
+    assert base.nees.low * 0.8 < base.nees.mean < base.nees.high * 1.25
 
 
 def test_ablation_features(coarse):
     truth, radars, rep, base = coarse
-    nof = cp.evaluate(cp.run_pipeline(rep, radars, register=False, use_features=False), truth,
+    nof = cp.evaluate(cp.run_pipeline(rep, radars, dataclasses.replace(NOREG, use_features=False)), truth,
                       c=5000.0)
     assert nof.completeness.high < base.completeness.low
     assert nof.purity.estimate < base.purity.estimate
@@ -460,7 +556,7 @@ def test_ablation_features(coarse):
 
 def test_ablation_logdet(coarse):
     truth, radars, rep, base = coarse
-    nold = cp.evaluate(cp.run_pipeline(rep, radars, register=False, logdet=False), truth,
+    nold = cp.evaluate(cp.run_pipeline(rep, radars, dataclasses.replace(NOREG, logdet=False)), truth,
                        c=5000.0)
     assert nold.mean_gospa > base.mean_gospa
     assert nold.purity.estimate <= base.purity.estimate
@@ -472,27 +568,26 @@ def test_pipeline_edge_models(traffic):
     truth = cp.truth_scans(traffic, duration=60.0)
     sure = cp.default_radars(p_detect=1.0, clutter_rate=0.0, bias_range=0.0, bias_azimuth=0.0)
     ev = cp.evaluate(cp.run_pipeline(cp.simulate_reports(truth, sure, rng=4), sure,
-                                     register=False), truth)
+                                     NOREG), truth)
     assert ev.purity.low > 0.95 and ev.completeness.low > 0.95
     assert np.all(ev.false == 0)
     small = cp.default_radars(max_range=120e3)
-    with pytest.raises(ValueError, match=r"`warmup`.*at least 10"):
-        cp.run_pipeline(cp.simulate_reports(truth, small, rng=4), small, warmup=6)
+    with pytest.raises(ValueError, match=r"`settings\.warmup`.*at least 10"):
+        cp.run_pipeline(cp.simulate_reports(truth, small, rng=4), small,
+                        cp.PipelineSettings(warmup=6))
 
 
 def test_pipeline_reproducible_and_solver_agree(short, short_runs):
     _, radars, rep = short
     a = short_runs[1]
-    b = cp.run_pipeline(rep, radars, register=False)
+    b = cp.run_pipeline(rep, radars, NOREG)
     assert np.array_equal(a.members, b.members) and np.array_equal(a.position, b.position)
     assert a.members.shape[0] > 100
     # the Lagrangian solver (1 % gap) groups the first four scans as the exact MILP does
     keep = rep.scan < 4
-    sub = cp.Reports(**{f: getattr(rep, f)[keep] for f in
-                        ("scan", "radar", "r", "beta", "epsilon", "feature", "source")},
-                     n_scans=4)
-    exact = cp.run_pipeline(sub, radars, register=False)
-    lag = cp.run_pipeline(sub, radars, register=False, method="lagrangian")
+    sub = dataclasses.replace(rep.subset(keep), n_scans=4)
+    exact = cp.run_pipeline(sub, radars, NOREG)
+    lag = cp.run_pipeline(sub, radars, dataclasses.replace(NOREG, method="lagrangian"))
     same = {tuple(r) for r in exact.members.tolist()} & {tuple(r) for r in lag.members.tolist()}
     assert len(same) >= 0.98 * exact.members.shape[0] > 60
 
@@ -506,17 +601,19 @@ def test_pipeline_bad_input(short, short_runs):
     with pytest.raises(ValueError, match="`reports`"):
         cp.run_pipeline(rep, radars[:2])
     for name, bad in (("debias", 1), ("register", "yes"), ("logdet", None),
-                      ("use_features", 0.0)):
+                      ("use_features", 0.0), ("warmup", "10")):
         with pytest.raises(TypeError, match=f"`{name}`"):
-            cp.run_pipeline(rep, radars, **{name: bad})
-    with pytest.raises(ValueError, match="`warmup`"):
-        cp.run_pipeline(rep, radars, warmup=0)
-    with pytest.raises(ValueError, match="`p_false_reject`"):
-        cp.run_pipeline(rep, radars, p_false_reject=1.5)
-    with pytest.raises(ValueError, match="`method`"):
-        cp.run_pipeline(rep, radars, method="greedy")
-    with pytest.raises(ValueError, match="`min_reports`"):
-        cp.run_pipeline(rep, radars, min_reports=4)
+            cp.PipelineSettings(**{name: bad})
+    for name, bad in (("warmup", 0), ("p_false_reject", 1.5), ("p_false_reject", [0.1]),
+                      ("method", "greedy"), ("min_reports", 0)):
+        with pytest.raises(ValueError, match=f"`{name}`"):
+            cp.PipelineSettings(**{name: bad})
+    with pytest.raises(ValueError, match=r"`settings\.min_reports`"):
+        cp.run_pipeline(rep, radars, cp.PipelineSettings(min_reports=4))
+    with pytest.raises(TypeError, match="`settings`"):
+        cp.run_pipeline(rep, radars, {"register": False})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        NOREG.register = True
     res = short_runs[1]
     with pytest.raises(TypeError, match="`result`"):
         cp.evaluate(rep, truth)
@@ -566,8 +663,8 @@ def test_track_fusion(tracked):
     pure_err = res.position[pure] - truth.position[ti]
     assert e_ci.rmse < math.sqrt(np.mean(np.sum(pure_err**2, axis=1)))
     # covariance intersection is conservative, the naive rule is not
-    assert e_ci.nees[0] < 3.0 < e_naive.nees[0] * 1.05
-    assert e_ci.nees[0] < e_naive.nees[0]
+    assert e_ci.nees.mean < 3.0 < e_naive.nees.mean * 1.05
+    assert e_ci.nees.mean < e_naive.nees.mean
     # coasting tracks fill scans in which an aircraft was missed
     assert np.mean(e_ci.missed) < np.mean(e_obj.missed)
     assert np.allclose(e_ci.localisation + e_ci.missed + e_ci.false, e_ci.gospa**2)

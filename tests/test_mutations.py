@@ -93,7 +93,7 @@ MUTATIONS = {
                 return dataclasses.replace(r, covariance=np.asarray(r.covariance) * 1.01)
             return g
         """),
-    "book/11_capstone": ("radarfusion_ref.capstone", "gospa", """
+    "book/11_capstone": ("radarfusion_ref.engine.metrics", "gospa", """
         def wrap(f):
             @functools.wraps(f)
             def g(*a, **k):

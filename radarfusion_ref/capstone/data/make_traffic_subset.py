@@ -1,8 +1,8 @@
-"""Regenerate ``data/switzerland_busiest_hour.csv.gz`` from the ``traffic`` wheel.
+"""Regenerate ``switzerland_busiest_hour.csv.gz`` (beside this script) from the ``traffic`` wheel.
 
 Usage::
 
-    python data/make_traffic_subset.py [WHEEL]
+    python radarfusion_ref/capstone/data/make_traffic_subset.py [WHEEL]
 
 ``WHEEL`` is the path of ``traffic-2.13-py3-none-any.whl``; without it the script
 runs ``pip download traffic==2.13 --no-deps`` into a temporary directory. Only the

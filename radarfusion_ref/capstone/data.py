@@ -1,0 +1,336 @@
+r"""The capstone's truth: the committed hour of ADS-B traffic, and the aircraft at scan times.
+
+The hour (2018-08-01 11:00–12:00 UTC over Switzerland, 142 aircraft) ships inside the
+package as ``radarfusion_ref/capstone/data/switzerland_busiest_hour.csv.gz`` (its
+``README.md`` beside it gives the source, licence and columns; the script beside it
+regenerates it byte for byte). :func:`load_traffic` reads it with
+:mod:`importlib.resources`, so a plain (non-editable) install finds it, and
+:func:`truth_scans` interpolates the aircraft at the scan times in the east-north-up
+frame about :data:`ORIGIN`.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import math
+import zlib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ..engine._validation import MEMORY_LIMIT, _describe, as_float_array, check_size
+from ..engine.geodesy import geodetic_to_enu
+
+__all__ = [
+    "COLUMNS",
+    "DATA_FILE",
+    "ORIGIN",
+    "SPEED_BOUNDS",
+    "SPEED_CLASSES",
+    "Traffic",
+    "TruthScans",
+    "load_traffic",
+    "truth_scans",
+]
+
+#: The committed hour, a resource of this package (``data/README.md`` beside it). A
+#: :class:`importlib.resources.abc.Traversable`: ``DATA_FILE.read_bytes()`` works in any
+#: install, also from a zip.
+DATA_FILE = resources.files(__package__).joinpath("data", "switzerland_busiest_hour.csv.gz")
+
+#: Header of a traffic file (integers, except the two names).
+COLUMNS = ("t_s", "icao24", "callsign", "lat_e5", "lon_e5", "alt_ft", "gs_kt", "track_deg")
+
+#: Origin of the common east-north-up frame: latitude, longitude (degrees, WGS-84) and
+#: ellipsoidal height (m) — the middle of the data's box (45.8–47.8 N, 6.0–10.5 E).
+ORIGIN = (46.8, 8.2, 0.0)
+
+#: Speed classes of the recognition step, by ground speed: slow < 440 kt <= medium
+#: < 465 kt <= fast (about the tertiles of the committed hour).
+SPEED_CLASSES = ("slow", "medium", "fast")
+SPEED_BOUNDS = (440.0, 465.0)
+
+_FT = 0.3048                        # metres per foot
+
+
+@dataclass(frozen=True)
+class Traffic:
+    """ADS-B records of one window, sorted by aircraft then time.
+
+    Attributes
+    ----------
+    t : numpy.ndarray of float, shape (N,)
+        Seconds from the window start.
+    aircraft : numpy.ndarray of int, shape (N,)
+        Aircraft index into `icao24` (0..A-1).
+    icao24, callsign : tuple of str, length A
+        Transponder address and the first callsign seen of each aircraft.
+    lat, lon : numpy.ndarray, shape (N,)
+        WGS-84 latitude and longitude (degrees).
+    alt : numpy.ndarray, shape (N,)
+        Barometric altitude (m; the records' feet times 0.3048), used as height.
+    speed : numpy.ndarray, shape (N,)
+        Ground speed (kt).
+    track : numpy.ndarray, shape (N,)
+        Track (degrees clockwise from north).
+    """
+
+    t: np.ndarray
+    aircraft: np.ndarray
+    icao24: tuple
+    callsign: tuple
+    lat: np.ndarray
+    lon: np.ndarray
+    alt: np.ndarray
+    speed: np.ndarray
+    track: np.ndarray
+
+
+def _bad_file(path, what):
+    return ValueError(f"`path` {str(path)!r}: {what}")
+
+
+def _read_iv(path):
+    """The raw bytes of `path` (default: the committed hour)."""
+    if path is None:
+        return DATA_FILE, DATA_FILE.read_bytes()
+    if isinstance(path, bool) or not isinstance(path, (str, Path)):
+        raise TypeError(f"`path` must be a file path (str or pathlib.Path); received "
+                        f"{_describe(path)}")
+    p = Path(path)
+    if not p.is_file():
+        raise _bad_file(p, "no such file (the default, load_traffic(), reads the committed "
+                           "hour shipped with the package)")
+    return p, p.read_bytes()
+
+
+def _parse(p, raw):
+    """Columns of a traffic file: names, then the integer columns by name."""
+    try:
+        text = gzip.decompress(raw).decode("ascii")
+    except (OSError, EOFError, zlib.error) as exc:
+        raise _bad_file(p, f"not a complete gzip file ({exc})") from None
+    except UnicodeDecodeError:
+        raise _bad_file(p, "the decompressed data is not ASCII text") from None
+    rows = list(csv.reader(io.StringIO(text)))
+    if not rows or tuple(rows[0]) != COLUMNS:
+        raise _bad_file(p, f"the header must be {','.join(COLUMNS)}; received "
+                           f"{','.join(rows[0]) if rows else '(empty file)'!r}")
+    body = rows[1:]
+    if not body:
+        raise _bad_file(p, "the file holds no records")
+    bad = [k for k, r in enumerate(body) if len(r) != len(COLUMNS)]
+    if bad:
+        raise _bad_file(p, f"row {bad[0] + 2} has {len(body[bad[0]])} columns, not "
+                           f"{len(COLUMNS)}")
+    cols = list(zip(*body, strict=True))
+    num = {}
+    for k, name in enumerate(COLUMNS):
+        if name in ("icao24", "callsign"):
+            continue
+        try:
+            num[name] = np.array(cols[k], dtype=np.int64)
+        except (ValueError, OverflowError):
+            j = next(i for i, v in enumerate(cols[k]) if not v.strip().lstrip("-").isdigit())
+            raise _bad_file(p, f"column {name!r}, row {j + 2}: {cols[k][j]!r} is not an "
+                               "integer") from None
+    for name, scale, lo, hi in (("lat_e5", 1e-5, -90, 90), ("lon_e5", 1e-5, -180, 180),
+                                ("t_s", 1, 0, np.inf), ("gs_kt", 1, 0, np.inf)):
+        arr = num[name] * scale
+        out = np.flatnonzero((arr < lo) | (arr > hi))
+        if out.size:
+            raise _bad_file(p, f"column {name!r}, row {out[0] + 2}: {arr[out[0]]} is outside "
+                               f"[{lo}, {hi}]")
+    return np.array(cols[1]), np.array(cols[2]), num
+
+
+def load_traffic(path=None) -> Traffic:
+    """Load the committed ADS-B hour (or a file of the same format).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path, optional
+        A gzip CSV with header ``t_s,icao24,callsign,lat_e5,lon_e5,alt_ft,gs_kt,track_deg``
+        (:data:`COLUMNS`; integers, except the two names). Default: :data:`DATA_FILE`, the
+        hour shipped with the package; no network access, no extra package.
+
+    Returns
+    -------
+    Traffic
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, not gzip, truncated, has another header, a row of another
+        column count, a non-integer or non-finite entry, latitude outside [-90, 90] or
+        longitude outside [-180, 180] degrees, a negative time or ground speed, or no rows.
+        The message names `path` and what is wrong.
+    TypeError
+        If `path` is not a string or path.
+
+    Examples
+    --------
+    >>> tr = load_traffic()
+    >>> len(tr.icao24), tr.t.size
+    (142, 12902)
+    """
+    p, raw = _read_iv(path)
+    icao, calls, num = _parse(p, raw)
+    names, aircraft = np.unique(icao, return_inverse=True)
+    order = np.lexsort((num["t_s"], aircraft))
+    first = {}
+    for a, c in zip(aircraft[order], calls[order], strict=True):
+        first.setdefault(int(a), c)
+    return Traffic(
+        t=num["t_s"][order].astype(float), aircraft=aircraft[order].astype(np.int64),
+        icao24=tuple(str(n) for n in names), callsign=tuple(first[a] for a in range(names.size)),
+        lat=num["lat_e5"][order] * 1e-5, lon=num["lon_e5"][order] * 1e-5,
+        alt=num["alt_ft"][order] * _FT, speed=num["gs_kt"][order].astype(float),
+        track=num["track_deg"][order].astype(float))
+
+
+# ----------------------------------------------------------------------------- truth
+@dataclass(frozen=True)
+class TruthScans:
+    """Aircraft positions at the scan times (one row per aircraft and scan).
+
+    Attributes
+    ----------
+    times : numpy.ndarray, shape (S,)
+        Scan times (s from the window start).
+    scan, aircraft : numpy.ndarray of int, shape (K,)
+        Scan index and aircraft index (into `icao24`) of each row.
+    position : numpy.ndarray, shape (K, 3)
+        Interpolated ENU position (m) about :data:`ORIGIN`.
+    speed : numpy.ndarray, shape (K,)
+        Interpolated ground speed (kt).
+    speed_class : numpy.ndarray of int, shape (K,)
+        Index into :data:`SPEED_CLASSES` (by :data:`SPEED_BOUNDS`).
+    icao24 : tuple of str
+        Aircraft addresses.
+    period : float
+        Scan period (s).
+    """
+
+    times: np.ndarray
+    scan: np.ndarray
+    aircraft: np.ndarray
+    position: np.ndarray
+    speed: np.ndarray
+    speed_class: np.ndarray
+    icao24: tuple
+    period: float
+
+    @property
+    def n_scans(self) -> int:
+        """Number of scans."""
+        return int(self.times.size)
+
+
+def _scalar(value, name, *, positive=True):
+    """A single finite number, > 0 (or >= 0 with ``positive=False``)."""
+    v = as_float_array(value, name)
+    if v.ndim:
+        raise ValueError(f"`{name}` must be a number; received {_describe(value)}")
+    if (v <= 0) if positive else (v < 0):
+        raise ValueError(f"`{name}` must be {'> 0' if positive else '>= 0'}; received "
+                         f"{_describe(value)}")
+    return float(v)
+
+
+def _truth_iv(traffic, period, start, duration, max_gap):
+    if not isinstance(traffic, Traffic):
+        raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
+                        f"{_describe(traffic)}")
+    period = _scalar(period, "period")
+    start = _scalar(start, "start", positive=False)
+    duration = _scalar(duration, "duration")
+    max_gap = _scalar(max_gap, "max_gap")
+    n_scans = math.ceil(duration / period - 1e-9)
+    check_size(8 * 8 * n_scans * len(traffic.icao24), MEMORY_LIMIT,
+               what=f"bytes of truth rows ({n_scans} scans of `duration` / `period` x "
+                    f"{len(traffic.icao24)} aircraft)",
+               alternative="a longer `period` or a shorter `duration`, in windows")
+    return period, start, duration, max_gap, n_scans
+
+
+def _at_scans(t, times, max_gap):
+    """Scan indices at which an aircraft with record times `t` is placed."""
+    k = np.searchsorted(t, times, side="right") - 1             # record at or before
+    ok = (k >= 0) & (k < t.size - 1)
+    exact = (k >= 0) & (t[np.maximum(k, 0)] == times)            # a record at the scan
+    kk = np.clip(k, 0, max(t.size - 2, 0))
+    if t.size >= 2:
+        ok &= (t[kk + 1] - t[kk]) <= max_gap
+    return np.flatnonzero(ok | exact)
+
+
+def truth_scans(traffic, *, period=10.0, start=0.0, duration=600.0,
+                max_gap=30.0) -> TruthScans:
+    """Aircraft positions at scan times ``start, start + period, ...`` (linear interpolation).
+
+    Parameters
+    ----------
+    traffic : Traffic
+        From :func:`load_traffic`.
+    period : float, optional
+        Scan period T (s; default 10, the records' own spacing).
+    start : float, optional
+        Time of the first scan (s from the window start, >= 0; default 0).
+    duration : float, optional
+        Length of the scanned interval (s, > 0; default 600): scans at
+        ``start + k * period < start + duration``.
+    max_gap : float, optional
+        An aircraft is placed at a scan time only if it has a record at that time, or two
+        of its records bracket the time and lie at most `max_gap` seconds apart (default
+        30); never extrapolated.
+
+    Returns
+    -------
+    TruthScans
+
+    Raises
+    ------
+    TypeError
+        If `traffic` is not a :class:`Traffic`.
+    ValueError
+        Non-positive `period`, `duration` or `max_gap`, negative `start`, a window
+        holding no aircraft at any scan, or one whose rows would exceed the memory limit.
+
+    Examples
+    --------
+    >>> tr = truth_scans(load_traffic(), period=10.0, duration=60.0)
+    >>> tr.n_scans, tr.position.shape[1]
+    (6, 3)
+    """
+    period, start, duration, max_gap, n_scans = _truth_iv(traffic, period, start, duration,
+                                                          max_gap)
+    times = start + period * np.arange(n_scans)
+    enu = geodetic_to_enu(traffic.lat, traffic.lon, traffic.alt, origin=ORIGIN)
+    bounds = np.flatnonzero(np.diff(traffic.aircraft)) + 1
+    starts = np.concatenate([[0], bounds])
+    stops = np.concatenate([bounds, [traffic.t.size]])
+    parts = []
+    for a0, a1 in zip(starts, stops, strict=True):
+        t = traffic.t[a0:a1]
+        s = _at_scans(t, times, max_gap)
+        if not s.size:
+            continue
+        cols = [np.interp(times[s], t, v[a0:a1]) for v in
+                (enu[:, 0], enu[:, 1], enu[:, 2], traffic.speed)]
+        parts.append((s, np.full(s.size, traffic.aircraft[a0]), np.stack(cols[:3], -1),
+                      cols[3]))
+    if not parts:
+        raise ValueError(f"`traffic`: no aircraft has records bracketing any scan time in "
+                         f"[{start:g}, {start + duration:g}) s")
+    scan, aircraft, pos, speed = (np.concatenate(p) for p in zip(*parts, strict=True))
+    order = np.lexsort((aircraft, scan))
+    speed = speed[order]
+    return TruthScans(times=times, scan=scan[order], aircraft=aircraft[order],
+                      position=pos[order], speed=speed,
+                      speed_class=np.searchsorted(SPEED_BOUNDS, speed, side="right"),
+                      icao24=traffic.icao24, period=period)

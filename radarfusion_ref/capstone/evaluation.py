@@ -1,0 +1,287 @@
+r"""Scores of the capstone's fusion centre against the truth.
+
+:func:`evaluate` scores the fused objects of each scan, :func:`evaluate_tracks` the
+fused tracks: GOSPA with its localisation, missed and false parts
+(:func:`radarfusion_ref.engine.metrics.gospa`), association accuracy (purity,
+:func:`radarfusion_ref.engine.metrics.purity`, and completeness), NEES
+(:func:`radarfusion_ref.engine.metrics.nees`) and recognition accuracy.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..engine._validation import _describe, as_choice, as_int
+from ..engine.metrics import NeesResult, gospa, nees, purity
+from ..engine.montecarlo import Proportion, proportion
+from .data import TruthScans, _scalar
+from .pipeline import PipelineResult
+from .radars import _coverage_count, _radars_iv
+from .tracking import TrackFusionResult
+
+__all__ = ["Evaluation", "TrackEvaluation", "evaluate", "evaluate_tracks"]
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    r"""Scores of a :class:`~radarfusion_ref.capstone.pipeline.PipelineResult` against the truth.
+
+    Attributes
+    ----------
+    times : numpy.ndarray, shape (S,)
+        Scan times (s).
+    gospa, localisation, missed, false : numpy.ndarray, shape (S,)
+        Per scan: GOSPA (m) and its three parts (m^p; they sum to ``gospa**p``).
+    c, p : float
+        GOSPA cut-off (m) and order (α = 2).
+    purity : Proportion or None
+        Fraction of declared objects whose reports all come from one aircraft (None
+        without declared objects; likewise below when there is nothing to count).
+    completeness : Proportion or None
+        Fraction of (aircraft, scan) pairs with at least one report whose reports form
+        exactly one group of the grouping (all of them together, nothing else; a lone
+        report counts when it is left alone).
+    nees : NeesResult or None
+        3-D NEES of the pure objects, its mean and the two-sided 95 % range of that mean
+        under :math:`\chi^2_3` errors, :math:`[\chi^2_{3N}(0.025), \chi^2_{3N}(0.975)]/N`.
+    recognition : Proportion or None
+        Fraction of pure objects whose most probable class is the aircraft's.
+    timings : dict
+        The pipeline's stage times plus "metrics".
+    """
+
+    times: np.ndarray
+    gospa: np.ndarray
+    localisation: np.ndarray
+    missed: np.ndarray
+    false: np.ndarray
+    c: float
+    p: float
+    purity: Proportion | None
+    completeness: Proportion | None
+    nees: NeesResult | None
+    recognition: Proportion | None
+    timings: dict = field(hash=False)
+
+    @property
+    def mean_gospa(self) -> float:
+        """Mean over scans of the per-scan GOSPA (m)."""
+        return float(np.mean(self.gospa))
+
+    def parts_rms(self) -> dict:
+        """Each part and the total as a length: the p-th root of its mean over scans (m)."""
+        out = {k: float(np.mean(getattr(self, k)) ** (1.0 / self.p))
+               for k in ("localisation", "missed", "false")}
+        out["total"] = float(np.mean(self.gospa ** self.p) ** (1.0 / self.p))
+        return out
+
+
+def _truth_rows(truth, scan, aircraft):
+    """Row of the truth of each (scan, aircraft) pair."""
+    base = len(truth.icao24) + 1
+    tkey = truth.scan.astype(np.int64) * base + truth.aircraft
+    return np.searchsorted(tkey, np.asarray(scan, dtype=np.int64) * base + aircraft)
+
+
+def _gospa_per_scan(truth, keep, scan, position, c, p):
+    """GOSPA and its parts (S, 4) of the estimates of each scan against the kept truth."""
+    S = truth.n_scans
+    tb = np.searchsorted(truth.scan, np.arange(S + 1))
+    order = np.argsort(scan, kind="stable")
+    rb = np.searchsorted(scan[order], np.arange(S + 1))
+    parts = np.zeros((S, 4))
+    for s in range(S):
+        g = gospa(truth.position[tb[s]:tb[s + 1]][keep[tb[s]:tb[s + 1]]],
+                  position[order[rb[s]:rb[s + 1]]], c=c, p=p)
+        parts[s] = g.total, g.localisation, g.missed, g.false
+    return parts
+
+
+def _completeness(result, truth):
+    """Share of (aircraft, scan) pairs whose reports form exactly one group, alone."""
+    rep = result.reports
+    real = rep.source >= 0
+    key = rep.scan[real].astype(np.int64) * (len(truth.icao24) + 1) + rep.source[real]
+    grp = result.group_of[real]
+    uk, inv = np.unique(key, return_inverse=True)
+    gmin = np.full(uk.size, np.iinfo(np.int64).max)
+    gmax = np.full(uk.size, -1)
+    np.minimum.at(gmin, inv, grp)
+    np.maximum.at(gmax, inv, grp)
+    one_group = gmin == gmax
+    gsize = np.bincount(result.group_of[result.group_of >= 0])
+    nrep = np.bincount(inv)
+    ok = one_group & (gsize[gmin.clip(0, gsize.size - 1)] == nrep)
+    return proportion(int(ok.sum()), uk.size) if uk.size else None
+
+
+def _evaluate_iv(result, truth, c, p, scope):
+    if not isinstance(result, PipelineResult):
+        raise TypeError(f"`result` must be a PipelineResult (from run_pipeline); received "
+                        f"{_describe(result)}")
+    if not isinstance(truth, TruthScans):
+        raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
+                        f"{_describe(truth)}")
+    c = _scalar(c, "c")
+    p = _scalar(p, "p")
+    if p < 1:
+        raise ValueError(f"`p` must be >= 1; received {p!r}")
+    scope = as_choice(scope, "scope", ("covered", "all"))
+    if truth.n_scans != result.reports.n_scans:
+        raise ValueError(f"`truth` has {truth.n_scans} scans but the result's reports "
+                         f"{result.reports.n_scans}")
+    return c, p, scope
+
+
+def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
+    r"""Score a pipeline run against the truth: GOSPA per scan, association, NEES, recognition.
+
+    Parameters
+    ----------
+    result : PipelineResult
+    truth : TruthScans
+        The truth the reports were simulated from.
+    c : float, optional
+        GOSPA cut-off (m, default 2000: an estimate further than 2 km from every aircraft
+        is false).
+    p : float, optional
+        GOSPA order (default 2); α = 2.
+    scope : {"covered", "all"}, optional
+        Truth set of GOSPA: the aircraft inside the coverage (range and elevation limits)
+        of at least ``min_reports`` radars — those the fusion centre can declare
+        (default) — or every aircraft of the window.
+
+    Returns
+    -------
+    Evaluation
+
+    Raises
+    ------
+    TypeError
+        If `result` or `truth` has the wrong type.
+    ValueError
+        Bad `c`, `p` or `scope`, or a truth whose scan count differs from the reports'.
+
+    Notes
+    -----
+    GOSPA compares the truth positions of each scan with the declared objects. NEES uses
+    the pure objects: :math:`(\hat x - x)^T P^{-1} (\hat x - x)`, 3 degrees of freedom.
+    """
+    c, p, scope = _evaluate_iv(result, truth, c, p, scope)
+    t0 = time.perf_counter()
+    keep = np.ones(truth.scan.size, dtype=bool)
+    if scope == "covered":
+        keep = _coverage_count(truth.position, result.radars) >= result.settings.min_reports
+    parts = _gospa_per_scan(truth, keep, result.scan, result.position, c, p)
+    mem = result.members
+    pur = purity(np.where(mem >= 0, result.reports.source[np.maximum(mem, 0)], -1), mem >= 0)
+    nees_t = recognition = None
+    if pur.pure.any():
+        ti = _truth_rows(truth, result.scan[pur.pure], pur.source[pur.pure])
+        nees_t = nees(result.position[pur.pure] - truth.position[ti],
+                      result.covariance[pur.pure])
+        correct = result.speed_class[pur.pure] == truth.speed_class[ti]
+        recognition = proportion(int(correct.sum()), nees_t.count)
+    timings = dict(result.timings)
+    timings["metrics"] = time.perf_counter() - t0
+    return Evaluation(times=truth.times, gospa=parts[:, 0], localisation=parts[:, 1],
+                      missed=parts[:, 2], false=parts[:, 3], c=c, p=p, purity=pur.fraction,
+                      completeness=_completeness(result, truth), nees=nees_t,
+                      recognition=recognition, timings=timings)
+
+
+# ----------------------------------------------------------------------------- tracks
+@dataclass(frozen=True)
+class TrackEvaluation:
+    r"""Scores of a :class:`~radarfusion_ref.capstone.tracking.TrackFusionResult`.
+
+    Attributes
+    ----------
+    gospa, localisation, missed, false : numpy.ndarray, shape (S,)
+        Per scan, as in :class:`Evaluation`.
+    c, p : float
+    nees : NeesResult or None
+        3-D NEES of the labelled rows (a track row whose object came from one aircraft),
+        with the 95 % range of the mean under :math:`\chi^2_3` errors.
+    rmse : float or None
+        Root-mean-square position error of those rows (m).
+    n_tracks : int
+        Tracks reported at least once.
+    """
+
+    gospa: np.ndarray
+    localisation: np.ndarray
+    missed: np.ndarray
+    false: np.ndarray
+    c: float
+    p: float
+    nees: NeesResult | None
+    rmse: float | None
+    n_tracks: int
+
+    @property
+    def mean_gospa(self) -> float:
+        """Mean over scans of the per-scan GOSPA (m)."""
+        return float(np.mean(self.gospa))
+
+
+def _evaluate_tracks_iv(tracks, truth, radars, c, p, min_radars):
+    if not isinstance(tracks, TrackFusionResult):
+        raise TypeError(f"`tracks` must be a TrackFusionResult (from track_fusion); received "
+                        f"{_describe(tracks)}")
+    if not isinstance(truth, TruthScans):
+        raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
+                        f"{_describe(truth)}")
+    radars = _radars_iv(radars)
+    c = _scalar(c, "c")
+    p = _scalar(p, "p")
+    if p < 1:
+        raise ValueError(f"`p` must be >= 1; received {p!r}")
+    min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))
+    if truth.n_scans != tracks.n_scans:
+        raise ValueError(f"`truth` has {truth.n_scans} scans but `tracks` {tracks.n_scans}")
+    return radars, c, p, min_radars
+
+
+def evaluate_tracks(tracks, truth, radars, *, c=2000.0, p=2.0, min_radars=2) -> TrackEvaluation:
+    """Score fused tracks against the truth: GOSPA per scan, NEES and RMSE.
+
+    Parameters
+    ----------
+    tracks : TrackFusionResult
+    truth : TruthScans
+    radars : sequence of Radar
+        For the GOSPA truth set: the aircraft inside the coverage of at least
+        `min_radars` of them (as :func:`evaluate` with ``scope="covered"``).
+    c, p : float, optional
+        GOSPA cut-off (m, default 2000) and order (default 2); α = 2.
+    min_radars : int, optional
+        Default 2.
+
+    Returns
+    -------
+    TrackEvaluation
+
+    Raises
+    ------
+    TypeError
+        Wrong types of `tracks`, `truth` or `radars`.
+    ValueError
+        Bad `c`, `p` or `min_radars`, or scan counts that differ.
+    """
+    radars, c, p, min_radars = _evaluate_tracks_iv(tracks, truth, radars, c, p, min_radars)
+    keep = _coverage_count(truth.position, radars) >= min_radars
+    parts = _gospa_per_scan(truth, keep, tracks.scan, tracks.position, c, p)
+    ok = tracks.source >= 0
+    nees_t, rmse = None, None
+    if ok.any():
+        err = tracks.position[ok] - truth.position[_truth_rows(truth, tracks.scan[ok],
+                                                               tracks.source[ok])]
+        nees_t = nees(err, tracks.covariance[ok])
+        rmse = float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+    return TrackEvaluation(gospa=parts[:, 0], localisation=parts[:, 1], missed=parts[:, 2],
+                           false=parts[:, 3], c=c, p=p, nees=nees_t, rmse=rmse,
+                           n_tracks=int(np.unique(tracks.track).size))

@@ -1,0 +1,346 @@
+r"""The capstone's radars: sites, accuracy, biases, detection, clutter, and their reports.
+
+Frames. All geometry lives in the common ENU frame about
+:data:`radarfusion_ref.capstone.data.ORIGIN`; each radar measures range, azimuth
+(counter-clockwise from east, as in :mod:`radarfusion_ref.conversion`) and elevation
+of the aircraft's common-frame position relative to its own common-frame position. A
+real radar measures in its own local frame, which is rotated against the common one
+(by the meridian convergence, about 0.7° per degree of longitude here); a fusion
+centre undoes that known rotation before fusing, and the simulation leaves it out.
+The radars scan at the same instants (every `period` seconds of the truth), so the
+reports of one scan describe the aircraft at one time, as S-D grouping assumes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import registration
+from ..engine._validation import _describe, as_float_array, as_rng
+from ..engine.geodesy import geodetic_to_enu
+from .data import ORIGIN, TruthScans
+
+__all__ = [
+    "RADAR_SITES",
+    "Radar",
+    "Reports",
+    "coverage_count",
+    "default_radars",
+    "simulate_reports",
+]
+
+#: Radar sites: name -> (latitude deg, longitude deg, height m). Mountain-top sites of
+#: MeteoSwiss's weather-radar network (coordinates rounded), standing in for air-traffic
+#: radars: La Dôle (west), Albis (north), Monte Lema (south).
+RADAR_SITES = {
+    "La Dole": (46.4256, 6.0994, 1682.0),
+    "Albis": (47.2844, 8.5122, 938.0),
+    "Monte Lema": (46.0408, 8.8332, 1626.0),
+}
+
+#: Span (kt) over which false reports draw their speed feature, uniformly.
+_FEATURE_SPAN = (300.0, 600.0)
+#: Altitudes (m, common frame) between which false reports are placed, uniformly.
+_CLUTTER_ALT = (8000.0, 15000.0)
+
+
+@dataclass(frozen=True)
+class Radar:
+    r"""One radar: site, accuracy, biases, detection and clutter.
+
+    Attributes
+    ----------
+    name : str
+    lat, lon, height : float
+        Site (degrees, degrees, m).
+    sigma_r : float
+        Range noise standard deviation (m).
+    sigma_beta, sigma_epsilon : float
+        Azimuth and elevation noise standard deviations (rad).
+    bias_range : float
+        Systematic range offset :math:`\Delta r` (m).
+    bias_azimuth : float
+        Systematic azimuth offset :math:`\Delta\beta` (rad); the bias model is
+        :func:`radarfusion_ref.registration.apply_biases` with zero scale error.
+    p_detect : float
+        Detection probability of an aircraft in coverage.
+    clutter_rate : float
+        Mean number of false reports per scan (Poisson), uniform over the coverage
+        disk and the altitudes 8–15 km, with a speed feature uniform on 300–600 kt.
+    max_range : float
+        Coverage: slant range at most this (m) ...
+    min_elevation : float
+        ... and elevation at least this (rad).
+    sigma_feature : float
+        Noise standard deviation of the speed feature (kt).
+    """
+
+    name: str
+    lat: float
+    lon: float
+    height: float
+    sigma_r: float = 50.0
+    sigma_beta: float = math.radians(0.08)
+    sigma_epsilon: float = math.radians(0.12)
+    bias_range: float = 0.0
+    bias_azimuth: float = 0.0
+    p_detect: float = 0.9
+    clutter_rate: float = 10.0
+    max_range: float = 220_000.0
+    min_elevation: float = 0.0
+    sigma_feature: float = 10.0
+
+    @property
+    def enu(self) -> np.ndarray:
+        """Site in the common ENU frame (m)."""
+        return geodetic_to_enu(self.lat, self.lon, self.height, origin=ORIGIN)
+
+    @property
+    def coverage_volume(self) -> float:
+        """Volume (m^3) of the clutter region: the coverage disk times 8–15 km."""
+        return math.pi * self.max_range**2 * (_CLUTTER_ALT[1] - _CLUTTER_ALT[0])
+
+
+def default_radars(**overrides) -> tuple[Radar, ...]:
+    """The three radars of the capstone, at the :data:`RADAR_SITES`.
+
+    Every radar: range noise 50 m, azimuth 0.08°, elevation 0.12°, speed feature
+    10 kt, coverage 220 km slant range above 0° elevation, 10 false reports per scan.
+    Biases (range offset, azimuth offset) and detection probabilities:
+    La Dôle (+120 m, +0.12°, 0.90), Albis (−80 m, −0.10°, 0.85),
+    Monte Lema (+60 m, +0.15°, 0.92).
+
+    Parameters
+    ----------
+    **overrides
+        Fields of :class:`Radar` (other than the site) set to the same value for all
+        three radars, e.g. ``sigma_beta=np.radians(1.0), clutter_rate=50.0``.
+
+    Returns
+    -------
+    tuple of Radar
+
+    Raises
+    ------
+    TypeError
+        An override that is not a field of :class:`Radar` (or is a site field).
+    ValueError
+        An override value the radars cannot take (as :func:`simulate_reports` checks them).
+
+    Examples
+    --------
+    >>> [r.name for r in default_radars()]
+    ['La Dole', 'Albis', 'Monte Lema']
+    """
+    extra = {"La Dole": (120.0, 0.12, 0.90), "Albis": (-80.0, -0.10, 0.85),
+             "Monte Lema": (60.0, 0.15, 0.92)}
+    allowed = set(Radar.__dataclass_fields__) - {"name", "lat", "lon", "height"}
+    bad = sorted(set(overrides) - allowed)
+    if bad:
+        raise TypeError(f"`overrides`: {', '.join(f'`{k}`' for k in bad)} not a radar "
+                        f"parameter; allowed: {', '.join(sorted(allowed))}")
+    for k, v in overrides.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+            raise TypeError(f"`{k}` must be a number; received {_describe(v)}")
+    out = tuple(dataclasses.replace(
+        Radar(name, *site, bias_range=extra[name][0],
+              bias_azimuth=math.radians(extra[name][1]), p_detect=extra[name][2]),
+        **{k: float(v) for k, v in overrides.items()})
+        for name, site in RADAR_SITES.items())
+    return _radars_iv(out)
+
+
+def _radars_iv(radars):
+    """The door check of a `radars` argument: a list or tuple of valid :class:`Radar`."""
+    if isinstance(radars, Radar) or not isinstance(radars, (list, tuple)) or not all(
+            isinstance(r, Radar) for r in radars):
+        raise TypeError(f"`radars` must be a list or tuple of Radar (see default_radars()); "
+                        f"received {_describe(radars)}")
+    if len(radars) < 2:
+        raise ValueError(f"`radars` must hold at least two radars; received {len(radars)}")
+    for r in radars:
+        vals = np.array([r.lat, r.lon, r.height, r.sigma_r, r.sigma_beta, r.sigma_epsilon,
+                         r.bias_range, r.bias_azimuth, r.p_detect, r.clutter_rate,
+                         r.max_range, r.min_elevation, r.sigma_feature], dtype=float)
+        if not np.all(np.isfinite(vals)) or min(r.sigma_r, r.sigma_beta, r.sigma_epsilon,
+                                                 r.sigma_feature, r.max_range) <= 0 \
+                or not 0 < r.p_detect <= 1 or r.clutter_rate < 0 \
+                or abs(r.bias_azimuth) >= math.pi or abs(r.lat) > 90 or abs(r.lon) > 180:
+            raise ValueError(f"`radars`: radar {r.name!r} needs finite values, positive "
+                             "deviations and range, p_detect in (0, 1], clutter_rate >= 0, "
+                             f"|bias_azimuth| < pi and a valid site; received {r!r}")
+    return tuple(radars)
+
+
+@dataclass(frozen=True)
+class Reports:
+    """All reports of all radars over all scans (one row per report).
+
+    Attributes
+    ----------
+    scan, radar : numpy.ndarray of int, shape (N,)
+        Scan index and radar index (into the `radars` given to :func:`simulate_reports`).
+    r, beta, epsilon : numpy.ndarray, shape (N,)
+        Measured range (m), azimuth and elevation (rad).
+    feature : numpy.ndarray, shape (N,)
+        Measured speed feature (kt).
+    source : numpy.ndarray of int, shape (N,)
+        Truth: the aircraft index, or -1 for a false report.
+    n_scans : int
+        Number of scans (reports may be absent from some).
+    """
+
+    scan: np.ndarray
+    radar: np.ndarray
+    r: np.ndarray
+    beta: np.ndarray
+    epsilon: np.ndarray
+    feature: np.ndarray
+    source: np.ndarray
+    n_scans: int
+
+    def subset(self, rows) -> Reports:
+        """The reports of the given rows (a boolean mask or indices), same `n_scans`."""
+        return Reports(**{k: getattr(self, k)[rows] for k in
+                          ("scan", "radar", "r", "beta", "epsilon", "feature", "source")},
+                       n_scans=self.n_scans)
+
+
+def _polar(rel):
+    """Slant range, azimuth (from east, counter-clockwise) and elevation of (n, 3) offsets."""
+    ground = np.hypot(rel[:, 0], rel[:, 1])
+    return (np.linalg.norm(rel, axis=1), np.arctan2(rel[:, 1], rel[:, 0]),
+            np.arctan2(rel[:, 2], ground))
+
+
+def _coverage_count(position, radars):
+    n = np.zeros(position.shape[0], dtype=np.int64)
+    for rad in radars:
+        r, _, eps = _polar(position - rad.enu)
+        n += (r <= rad.max_range) & (eps >= rad.min_elevation)
+    return n
+
+
+def coverage_count(position, radars) -> np.ndarray:
+    """Number of radars whose coverage holds each position.
+
+    Parameters
+    ----------
+    position : array_like, shape (n, 3)
+        Positions in the common ENU frame (m).
+    radars : sequence of Radar
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (n,)
+        How many radars have the position within `max_range` and above `min_elevation`.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Positions that are not finite (n, 3) numbers, or bad `radars`.
+
+    Examples
+    --------
+    >>> coverage_count([[0.0, 0.0, 10_000.0], [0.0, 0.0, -1e6]], default_radars()).tolist()
+    [3, 0]
+    """
+    pos = _position_iv(position)
+    return _coverage_count(pos, _radars_iv(radars))
+
+
+def _position_iv(position):
+    pos = as_float_array(position, "position", ndim_min=2, last_dims=(3,))
+    if pos.ndim != 2:
+        raise ValueError(f"`position` must have shape (n, 3); received shape {pos.shape}")
+    return pos
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def simulate_reports(truth, radars, *, rng=None) -> Reports:
+    r"""Reports of the radars at every scan: detections with noise and biases, and clutter.
+
+    Parameters
+    ----------
+    truth : TruthScans
+        From :func:`radarfusion_ref.capstone.data.truth_scans`.
+    radars : sequence of Radar
+        E.g. :func:`default_radars`.
+    rng : None, int or numpy.random.Generator, optional
+        Randomness (SPEC 7).
+
+    Returns
+    -------
+    Reports
+        Sorted by scan, then radar; within them detections precede false reports.
+
+    Raises
+    ------
+    TypeError
+        If `truth` is not a :class:`~radarfusion_ref.capstone.data.TruthScans`, `radars`
+        not a sequence of :class:`Radar` or `rng` not a seed or generator.
+    ValueError
+        Invalid radar parameters (named).
+
+    Notes
+    -----
+    An aircraft at slant range :math:`r \le r_{\max}` and elevation
+    :math:`\varepsilon \ge \varepsilon_{\min}` from a radar is detected with
+    probability :math:`P_D`; its report is
+    :math:`(r + \Delta r + v_r,\ \beta + \Delta\beta + v_\beta,\ \varepsilon + v_\varepsilon)`
+    (:func:`radarfusion_ref.registration.apply_biases`) with independent Gaussian
+    noises, and speed feature :math:`s + v_s`, :math:`s` the ground speed. False reports:
+    Poisson(`clutter_rate`) per scan, uniform over the coverage disk and altitudes
+    8–15 km, measured with the same noise (no bias), speed uniform on 300–600 kt.
+
+    Examples
+    --------
+    >>> from radarfusion_ref.capstone.data import load_traffic, truth_scans
+    >>> tr = truth_scans(load_traffic(), duration=30.0)
+    >>> rep = simulate_reports(tr, default_radars(), rng=1)
+    >>> int(rep.n_scans)
+    3
+    """
+    if not isinstance(truth, TruthScans):
+        raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
+                        f"{_describe(truth)}")
+    radars = _radars_iv(radars)
+    gen = as_rng(rng)
+    S = truth.n_scans
+    cols = {k: [] for k in ("scan", "radar", "r", "beta", "epsilon", "feature", "source")}
+    for i, rad in enumerate(radars):
+        site = rad.enu
+        r, beta, eps = _polar(truth.position - site)
+        cover = (r <= rad.max_range) & (eps >= rad.min_elevation)
+        det = cover & (gen.random(r.size) < rad.p_detect)
+        rb, bb = registration.apply_biases(r[det], beta[det],
+                                           [rad.bias_range, 0.0, rad.bias_azimuth])
+        n_false = gen.poisson(rad.clutter_rate, size=S)
+        nf = int(n_false.sum())
+        rho = rad.max_range * np.sqrt(gen.random(nf))
+        phi = gen.uniform(-np.pi, np.pi, nf)
+        z = gen.uniform(*_CLUTTER_ALT, nf) - site[2]
+        fr, fb, fe = _polar(np.stack([rho * np.cos(phi), rho * np.sin(phi), z], -1))
+        n = int(det.sum())
+        r_all = np.concatenate([rb, fr])
+        b_all = np.concatenate([bb, fb])
+        e_all = np.concatenate([eps[det], fe])
+        noise = gen.standard_normal((n + nf, 4))
+        cols["r"].append(np.abs(r_all + rad.sigma_r * noise[:, 0]))
+        cols["beta"].append(_wrap(b_all + rad.sigma_beta * noise[:, 1]))
+        cols["epsilon"].append(e_all + rad.sigma_epsilon * noise[:, 2])
+        feat = np.concatenate([truth.speed[det], gen.uniform(*_FEATURE_SPAN, nf)])
+        cols["feature"].append(feat + rad.sigma_feature * noise[:, 3])
+        cols["scan"].append(np.concatenate([truth.scan[det], np.repeat(np.arange(S), n_false)]))
+        cols["radar"].append(np.full(n + nf, i))
+        cols["source"].append(np.concatenate([truth.aircraft[det], np.full(nf, -1)]))
+    out = {k: np.concatenate(v) for k, v in cols.items()}
+    order = np.lexsort((out["source"] < 0, out["radar"], out["scan"]))
+    return Reports(**{k: v[order] for k, v in out.items()}, n_scans=S)
