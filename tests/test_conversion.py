@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 from radarfusion_ref import conversion as cv
+from radarfusion_ref.conversion._planar import _gain
 from radarfusion_ref.engine.errors import RadarFusionWarning
 
 ALL = (*cv.METHODS, "measurement_conditioned")     # every method that needs no prior
@@ -539,22 +540,22 @@ def test_debiased_conversions_consistent_on_average():
 
 
 # --------------------------------------------------------------------------- simulation and helpers
-def test_simulate_polar_shapes_moments_and_seed():
-    r_hat, b_hat = cv.simulate_polar([100.0, 200.0], [0.1, 0.2], 0.5, 0.01, trials=50_000, rng=1)
-    assert r_hat.shape == b_hat.shape == (2, 50_000)
-    assert np.all(np.abs(r_hat.mean(-1) - [100, 200]) < 5 * 0.5 / np.sqrt(50_000))
-    assert np.all(np.abs(b_hat.std(-1) - 0.01) < 5 * 0.01 / np.sqrt(2 * 50_000))
-    again = cv.simulate_polar([100.0, 200.0], [0.1, 0.2], 0.5, 0.01, trials=50_000, rng=1)
+def test_draw_polar_shapes_moments_and_seed():
+    r_hat, b_hat = cv.draw_polar([100.0, 200.0], [0.1, 0.2], 0.5, 0.01, trials=50_000, rng=1)
+    assert r_hat.shape == b_hat.shape == (50_000, 2)          # the trial axis first
+    assert np.all(np.abs(r_hat.mean(0) - [100, 200]) < 5 * 0.5 / np.sqrt(50_000))
+    assert np.all(np.abs(b_hat.std(0) - 0.01) < 5 * 0.01 / np.sqrt(2 * 50_000))
+    again = cv.draw_polar([100.0, 200.0], [0.1, 0.2], 0.5, 0.01, trials=50_000, rng=1)
     np.testing.assert_array_equal(r_hat, again[0])
 
 
-def test_simulate_polar_bad_input():
+def test_draw_polar_bad_input():
     with pytest.raises(ValueError, match="`r`"):
-        cv.simulate_polar(1.0, 0.0, 0.5, 0.01, trials=10, rng=1)
+        cv.draw_polar(1.0, 0.0, 0.5, 0.01, trials=10, rng=1)
     with pytest.raises(ValueError, match="`trials`"):
-        cv.simulate_polar(100.0, 0.0, 0.5, 0.01, trials=0, rng=1)
+        cv.draw_polar(100.0, 0.0, 0.5, 0.01, trials=0, rng=1)
     with pytest.raises(TypeError, match="`rng`"):
-        cv.simulate_polar(100.0, 0.0, 0.5, 0.01, trials=5, rng=np.random.RandomState(1))
+        cv.draw_polar(100.0, 0.0, 0.5, 0.01, trials=5, rng=np.random.RandomState(1))
 
 
 def test_nonlinearity_index_and_bad_input():
@@ -608,8 +609,8 @@ def test_moments_bias_independent_of_sigma_r_and_mse_psd(p, method):
 
 
 PUBLIC = ("polar_to_cartesian", "conversion_moments", "conversion_bias", "nonlinearity_index",
-          "simulate_polar", "nees", "nees_at_truth", "conversion_monte_carlo",
-          "spherical_to_cartesian", "spherical_moments", "simulate_spherical",
+          "draw_polar", "nees", "nees_at_truth", "conversion_monte_carlo",
+          "spherical_to_cartesian", "spherical_moments", "draw_spherical",
           "spherical_monte_carlo")
 
 
@@ -631,7 +632,7 @@ def test_sigma_beta_max_is_one_documented_value():
               lambda sb: cv.conversion_bias(100.0, 0.0, sb),
               lambda sb: cv.nonlinearity_index(100.0, 0.1, sb),
               lambda sb: cv.nees_at_truth(100.0, 0.0, 0.1, sb),
-              lambda sb: cv.simulate_polar(100.0, 0.0, 0.1, sb, trials=2, rng=1),
+              lambda sb: cv.draw_polar(100.0, 0.0, 0.1, sb, trials=2, rng=1),
               lambda sb: cv.conversion_monte_carlo(100.0, 0.0, 0.1, sb, trials=2, rng=1)):
         with pytest.raises(ValueError, match=r"`sigma_beta`.*SIGMA_BETA_MAX"):
             f(np.nextafter(cv.SIGMA_BETA_MAX, 1.0))
@@ -743,7 +744,7 @@ def test_coordinates_near_1e154_no_longer_overflow_in_silence():
     with pytest.raises(ValueError, match="NEES exceeds"):
         cv.nees([1e200, 0.0], np.eye(2) * 1e-200)
     with pytest.raises(ValueError, match="`r`"):
-        cv.simulate_polar(1.7e308, 0.0, 1e307, 0.01, trials=50, rng=0)
+        cv.draw_polar(1.7e308, 0.0, 1e307, 0.01, trials=50, rng=0)
 
 
 @given(st.floats(-150, 150, **finite), st.floats(-150, 150, **finite))
@@ -786,14 +787,14 @@ def test_zero_sigmas_are_legal_where_the_answer_exists():
         out = cv.polar_to_cartesian(100.0, 0.3, 0.0, 0.01)
     assert np.all(np.isfinite(out.cov))
     np.testing.assert_array_equal(cv.conversion_bias(100.0, 0.3, 0.0), [0.0, 0.0])
-    r_hat, _ = cv.simulate_polar(100.0, 0.3, 0.0, 0.0, trials=4, rng=1)
+    r_hat, _ = cv.draw_polar(100.0, 0.3, 0.0, 0.0, trials=4, rng=1)
     np.testing.assert_array_equal(r_hat, 100.0)
 
 
 # --------------------------------------------------------------------------- sizes, reproducibility
 def test_sizes_are_refused_before_allocation():
     with pytest.raises(ValueError, match="refused"):
-        cv.simulate_polar(100.0, 0.0, 1.0, 0.01, trials=10**12, rng=1)
+        cv.draw_polar(100.0, 0.0, 1.0, 0.01, trials=10**12, rng=1)
     with pytest.raises(ValueError, match="refused"):
         cv.polar_to_cartesian(np.ones((100_000, 1)), np.ones((1, 100_000)), 0.1, 0.01)
     with pytest.raises(ValueError, match="refused"):
@@ -824,9 +825,9 @@ def test_monte_carlo_does_not_depend_on_chunk_size(chunk, batch, seed):
 def test_monte_carlo_nees_equals_the_generic_nees():
     out = cv.conversion_monte_carlo([120.0, 80.0], [0.4, -2.0], 0.5, 0.2, methods=cv.METHODS,
                                     trials=500, rng=4)
-    r_hat, b_hat = cv.simulate_polar([120.0, 80.0], [0.4, -2.0], 0.5, 0.2, trials=500, rng=4)
+    r_hat, b_hat = cv.draw_polar([120.0, 80.0], [0.4, -2.0], 0.5, 0.2, trials=500, rng=4)
     for m in cv.METHODS:
-        conv = cv.polar_to_cartesian(r_hat, b_hat, 0.5, 0.2, method=m)
+        conv = cv.polar_to_cartesian(r_hat.T, b_hat.T, 0.5, 0.2, method=m)   # trials last
         np.testing.assert_allclose(out[m].nees, cv.nees(out[m].error, conv.cov), rtol=1e-9)
 
 
@@ -841,7 +842,7 @@ def test_properties_of_the_deterministic_functions(p, method):
     with warnings_ignored():
         out = cv.polar_to_cartesian(r, b, sr, sb, method=method)
     assert out.xy.shape == (2,) and np.all(np.isfinite(out.xy)) and np.all(np.isfinite(out.cov))
-    np.testing.assert_allclose(np.hypot(*out.xy), cv._gain(method, sb**2) * r, rtol=1e-12)
+    np.testing.assert_allclose(np.hypot(*out.xy), _gain(method, sb**2) * r, rtol=1e-12)
     assert np.linalg.eigvalsh(out.cov)[0] >= -1e-12 * np.abs(out.cov).max()
     m = cv.conversion_moments(r, b, sr, sb, method=method)
     np.testing.assert_allclose(m.mean - m.bias, r * np.array([np.cos(b), np.sin(b)]),
@@ -860,9 +861,9 @@ def test_properties_of_the_deterministic_functions(p, method):
 def test_properties_of_the_random_functions(p, seed, trials):
     r, b, sr, sb = p
     r = max(r, cv.MIN_RANGE_OVER_SIGMA * sr)
-    rh, bh = cv.simulate_polar(r, b, sr, sb, trials=trials, rng=seed)
+    rh, bh = cv.draw_polar(r, b, sr, sb, trials=trials, rng=seed)
     assert rh.shape == bh.shape == (trials,) and np.all(rh > 0)
-    again = cv.simulate_polar(r, b, sr, sb, trials=trials, rng=np.random.default_rng(seed))
+    again = cv.draw_polar(r, b, sr, sb, trials=trials, rng=np.random.default_rng(seed))
     np.testing.assert_array_equal(rh, again[0])
     out = cv.conversion_monte_carlo(r, b, sr, sb, methods=("linearized", "multiplicative"),
                                     trials=trials, rng=seed)
@@ -886,7 +887,7 @@ CALLS = {
     "nonlinearity_index": (lambda **k: cv.nonlinearity_index(**k),
                            {"r": 100.0, "sigma_r": 0.5, "sigma_beta": 0.01}),
     "nees_at_truth": (lambda **k: cv.nees_at_truth(**k), BASE),
-    "simulate_polar": (lambda **k: cv.simulate_polar(**k, trials=3, rng=1), BASE),
+    "draw_polar": (lambda **k: cv.draw_polar(**k, trials=3, rng=1), BASE),
     "conversion_monte_carlo": (lambda **k: cv.conversion_monte_carlo(**k, trials=3, rng=1), BASE),
     "nees": (lambda **k: cv.nees(**k), {"error": [1.0, 2.0], "cov": np.eye(2)}),
 }
@@ -917,7 +918,7 @@ def test_negative_values_name_the_argument(func, data, mag):
 
 
 @given(st.sampled_from(["polar_to_cartesian", "conversion_moments", "nees_at_truth",
-                        "simulate_polar", "conversion_monte_carlo"]),
+                        "draw_polar", "conversion_monte_carlo"]),
        st.integers(2, 4), st.integers(5, 7))
 def test_shape_mismatch_names_the_arguments(func, n1, n2):
     call, base = CALLS[func]
@@ -930,7 +931,7 @@ def test_bad_trials(trials):
     with pytest.raises((ValueError, TypeError), match="`trials`"):
         cv.conversion_monte_carlo(100.0, 0.0, 0.5, 0.01, trials=trials, rng=1)
     with pytest.raises((ValueError, TypeError), match=r"`trials`|refused"):
-        cv.simulate_polar(100.0, 0.0, 0.5, 0.01, trials=trials, rng=1)
+        cv.draw_polar(100.0, 0.0, 0.5, 0.01, trials=trials, rng=1)
 
 
 @given(st.sampled_from([(), [], ("exact",), ("linearized", 3), b"linearized", 5, None]))
@@ -1098,7 +1099,7 @@ def test_3d_monte_carlo_agrees_with_the_moments(method):
     nt = cv.ConversionTrials(method, out.error, out.nees_true)
     assert abs(nt.mean_nees().estimate - 3.0) < 5 * nt.mean_nees().std_error
     # the NEES is e C⁻¹ e with the conversion's own covariance, by solve
-    rh, bh, eh = (v[:50] for v in cv.simulate_spherical(*case, trials=n, rng=3))
+    rh, bh, eh = (v[:50] for v in cv.draw_spherical(*case, trials=n, rng=3))
     conv = cv.spherical_to_cartesian(rh, bh, eh, *case[3:], method=method)
     err = conv.xyz - _sph(*case[:3])
     ref = np.einsum("ni,ni->n", err, np.linalg.solve(conv.cov, err[..., None])[..., 0])
@@ -1122,9 +1123,9 @@ def test_3d_bad_input():
     with pytest.raises(ValueError, match="`sigma_epsilon`"):
         cv.spherical_monte_carlo(*base[:5], 0.0, trials=3, rng=1)
     with pytest.raises(ValueError, match="`r`"):
-        cv.simulate_spherical(1.0, 0.3, 0.1, 0.5, 0.01, 0.01, trials=3, rng=1)
+        cv.draw_spherical(1.0, 0.3, 0.1, 0.5, 0.01, 0.01, trials=3, rng=1)
     with pytest.raises((ValueError, TypeError), match="`trials`"):
-        cv.simulate_spherical(*base, trials=0, rng=1)
+        cv.draw_spherical(*base, trials=0, rng=1)
     with pytest.warns(RadarFusionWarning):
         cv.spherical_to_cartesian(100.0, 0.3, np.pi / 2, 0.5, 0.01, 0.01)
 
