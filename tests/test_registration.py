@@ -132,7 +132,7 @@ def test_displacement_exact_and_first_order():
 
 
 def test_simulated_reports_mean_is_biased_truth():
-    z = rg.simulate_reports(SITES, SPREAD[:2], BIAS, SR, SB, trials=20000, rng=4)
+    z = rg.draw_biased_reports(SITES, SPREAD[:2], BIAS, SR, SB, trials=20000, rng=4)
     truth = rg.true_polar(SITES, SPREAD[:2])
     err_r = z[..., 0] - ((1 + BIAS[:, None, 1]) * truth[..., 0] + BIAS[:, None, 0])
     err_b = z[..., 1] - (truth[..., 1] + BIAS[:, None, 2])
@@ -143,7 +143,7 @@ def test_simulated_reports_mean_is_biased_truth():
 
 
 def test_to_cartesian_and_cost_matrix_against_printed_covariance():
-    z = rg.simulate_reports(SITES, SPREAD[:4], BIAS, SR, SB, rng=5)
+    z = rg.draw_biased_reports(SITES, SPREAD[:4], BIAS, SR, SB, rng=5)
     k = rg.cost_matrix(SITES, z[0], z[1], SR, SB, biases=BIAS)
     for i in range(4):
         for j in range(4):
@@ -166,7 +166,7 @@ def test_noncentrality_closed_form_and_ncx2_law():
     assert lam == pytest.approx(d @ np.linalg.solve(S, d), rel=1e-10)
     # Monte Carlo: kappa of the true pair follows ncx2(2, lam)
     N = 20000
-    z = rg.simulate_reports(SITES, x, BIAS * 0.2, SR, SB, trials=N, rng=6)
+    z = rg.draw_biased_reports(SITES, x, BIAS * 0.2, SR, SB, trials=N, rng=6)
     kap = rg.cost_matrix(SITES, z[:, 0], z[:, 1], SR, SB)[:, 0, 0]
     for q in (1.0, 3.0, gating.gate_threshold(0.01, 2), 15.0):
         p = stats.ncx2.cdf(q, 2, lam)
@@ -238,7 +238,7 @@ def test_equal_range_objects_hide_scale_from_offset():
 
 # --------------------------------------------------------------------------- estimation
 def test_noise_free_reports_give_the_biases():
-    z = rg.simulate_reports(SITES, SPREAD, BIAS, 1e-7, 1e-10, rng=1)
+    z = rg.draw_biased_reports(SITES, SPREAD, BIAS, 1e-7, 1e-10, rng=1)
     est = rg.estimate_biases(SITES, z, 1e-7, 1e-10)
     np.testing.assert_allclose(est.biases, BIAS, rtol=1e-4, atol=1e-7)
     np.testing.assert_allclose(est.targets, SPREAD, atol=1e-5)
@@ -246,7 +246,7 @@ def test_noise_free_reports_give_the_biases():
 
 def test_rmse_matches_the_crlb():
     N = 1500
-    z = rg.simulate_reports(SITES, SPREAD, BIAS, SR, SB, trials=N, rng=7)
+    z = rg.draw_biased_reports(SITES, SPREAD, BIAS, SR, SB, trials=N, rng=7)
     est = rg.estimate_biases(SITES, z, SR, SB)
     _, crlb = full_fim_bias_block(SITES, SPREAD, SR, SB)
     var = np.diag(crlb).reshape(2, 3)
@@ -262,7 +262,7 @@ def test_rmse_matches_the_crlb():
 
 
 def test_batch_equals_loop_and_object_order_does_not_matter():
-    z = rg.simulate_reports(SITES, SPREAD, BIAS, SR, SB, trials=3, rng=8)
+    z = rg.draw_biased_reports(SITES, SPREAD, BIAS, SR, SB, trials=3, rng=8)
     batch = rg.estimate_biases(SITES, z, SR, SB)
     for t in range(3):
         one = rg.estimate_biases(SITES, z[t], SR, SB)
@@ -274,17 +274,17 @@ def test_batch_equals_loop_and_object_order_does_not_matter():
 
 def test_fixed_reference_radar():
     fixed = np.array([[True] * 3, [False] * 3])
-    z = rg.simulate_reports([[0, 0], [0, 0]], SPREAD, [[0, 0, 0], BIAS[1]], 1e-7, 1e-10, rng=2)
+    z = rg.draw_biased_reports([[0, 0], [0, 0]], SPREAD, [[0, 0, 0], BIAS[1]], 1e-7, 1e-10, rng=2)
     est = rg.estimate_biases([[0, 0], [0, 0]], z, 1e-7, 1e-10, fixed=fixed)
     assert np.all(est.biases[0] == 0) and np.all(est.crlb[0] == 0)
     np.testing.assert_allclose(est.biases[1], BIAS[1], rtol=1e-4, atol=1e-7)
 
 
 def test_unobservable_configuration_is_a_value_error():
-    z = rg.simulate_reports([[0, 0], [0, 0]], SPREAD, BIAS, SR, SB, rng=3)
+    z = rg.draw_biased_reports([[0, 0], [0, 0]], SPREAD, BIAS, SR, SB, rng=3)
     with pytest.raises(ValueError, match=r"not observable.*rank 3 of 6.*azimuth_offset"):
         rg.estimate_biases([[0, 0], [0, 0]], z, SR, SB)
-    z = rg.simulate_reports(SITES, SPREAD[:2], BIAS, SR, SB, rng=3)
+    z = rg.draw_biased_reports(SITES, SPREAD[:2], BIAS, SR, SB, rng=3)
     with pytest.raises(ValueError, match="not observable"):
         rg.estimate_biases(SITES, z, SR, SB)
 
@@ -340,11 +340,11 @@ def test_accuracy_monte_carlo_orders_the_methods():
     (lambda: rg.apply_biases("a", 0.0, [0, 0, 0]), TypeError, "`r`"),
     (lambda: rg.true_polar([0, 0], SPREAD), ValueError, "`sensors`"),
     (lambda: rg.true_polar(SITES, [[0.0, 0.0]]), ValueError, "`targets`"),
-    (lambda: rg.simulate_reports(SITES, SPREAD, BIAS, -1, SB), ValueError, "`sigma_r`"),
-    (lambda: rg.simulate_reports(SITES, SPREAD, BIAS, SR, [SB] * 3), ValueError, "`sigma_beta`"),
-    (lambda: rg.simulate_reports(SITES, SPREAD, BIAS[:1], SR, SB), ValueError, "`biases`"),
-    (lambda: rg.simulate_reports(SITES, SPREAD, BIAS, SR, SB, trials=0), ValueError, "`trials`"),
-    (lambda: rg.simulate_reports(SITES, SPREAD, BIAS, SR, SB, rng=np.random.RandomState(1)),
+    (lambda: rg.draw_biased_reports(SITES, SPREAD, BIAS, -1, SB), ValueError, "`sigma_r`"),
+    (lambda: rg.draw_biased_reports(SITES, SPREAD, BIAS, SR, [SB] * 3), ValueError, "`sigma_beta`"),
+    (lambda: rg.draw_biased_reports(SITES, SPREAD, BIAS[:1], SR, SB), ValueError, "`biases`"),
+    (lambda: rg.draw_biased_reports(SITES, SPREAD, BIAS, SR, SB, trials=0), ValueError, "`trials`"),
+    (lambda: rg.draw_biased_reports(SITES, SPREAD, BIAS, SR, SB, rng=np.random.RandomState(1)),
      TypeError, "`rng`"),
     (lambda: rg.noncentrality(SITES[:1], SPREAD, BIAS, SR, SB), ValueError, "`sensors`"),
     (lambda: rg.estimate_biases(SITES[:1], np.ones((1, 3, 2)), SR, SB), ValueError, "`sensors`"),
