@@ -738,70 +738,10 @@ def typed_scene(n_objects: int, *, spacing: float, layout: str = "line", sigma1:
                       np.exp(log_priors), model)
 
 
-def _grouping_scene(n_objects, n_sources, *, spacing, layout, cov, track_cov, trials, rng,
-                    count_name: str) -> GroupingScene:
-    """:func:`grouping_scene`; `count_name` is the public name of the first argument."""
-    n = as_int(n_objects, count_name, minimum=1)
-    m = as_int(n_sources, "n_sources", minimum=1)
-    trials = as_int(trials, "trials", minimum=1)
-    spacing = as_positive(spacing, "spacing")
-    layout = as_choice(layout, "layout", LAYOUTS)
-    c = as_float_array(cov, "cov", ndim_min=4)
-    try:
-        c = np.broadcast_to(c, (m, n, *c.shape[-2:]))
-    except ValueError:
-        raise ValueError(
-            f"`cov` must broadcast to shape (m, n, d, d) = ({m}, {n}, d, d); "
-            f"received shape {np.shape(cov)}"
-        ) from None
-    c = as_covariance(c, "cov")
-    d = c.shape[-1]
-    if spacing.ndim > 1 or spacing.size not in (1, d):
-        raise ValueError(
-            f"`spacing` must be a number or have shape ({d},) (one scale per coordinate); "
-            f"received shape {spacing.shape}"
-        )
-    spacing = np.broadcast_to(spacing.reshape(-1), (d,))
-    tcov = None
-    if track_cov is not None:
-        tcov = as_float_array(track_cov, "track_cov", ndim_min=2)
-        try:
-            tcov = np.broadcast_to(tcov, (n, d, d))
-        except ValueError:
-            raise ValueError(
-                f"`track_cov` must broadcast to shape ({n}, {d}, {d}); received shape "
-                f"{np.shape(track_cov)}"
-            ) from None
-        tcov = as_covariance(tcov, "track_cov")
-    check_size(8 * trials * (4 * m * n * d + 3 * n * d + m * n), MEMORY_LIMIT,
-               what=f"bytes of scenes (`trials` = {trials} x {m} sources x {n} targets x d = {d})",
-               alternative="several calls with generators spawned from one SeedSequence")
-    rng = as_rng(rng)
-    if layout == "line":
-        truth = np.zeros((trials, n, d))
-        truth[..., 0] = spacing[0] * np.arange(n)
-    else:
-        truth = rng.uniform(0.0, 1.0, size=(trials, n, d)) * (spacing * n ** (1.0 / d))
-    owner = rng.permuted(np.broadcast_to(np.arange(n), (trials, m, n)), axis=-1)
-    chol = np.linalg.cholesky(c)                                    # (m, n, d, d)
-    z = rng.standard_normal((trials, m, n, d))
-    src = np.take_along_axis(truth[:, None], owner[..., None], axis=2)   # (T, m, n, d)
-    reports = src + np.einsum("ijkl,tijl->tijk", chol, z)
-    tracks = None
-    if tcov is not None:
-        zt = rng.standard_normal((trials, n, d))
-        tracks = truth + np.einsum("pkl,tpl->tpk", np.linalg.cholesky(tcov), zt)
-    return GroupingScene(truth, reports, owner, np.array(c), tracks,
-                         None if tcov is None else np.array(tcov))
-
-
 def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
                    layout: str = "line", cov, track_cov=None, trials: int = 1,
                    rng=None) -> GroupingScene:
     """Draw `trials` scenes of `n_objects` targets reported by `n_sources` sources.
-
-    :func:`radarfusion_ref.grouping.grouping_scene` is this function with its
-    first argument named ``n_targets`` (the grouping chapter's word).
 
     Parameters
     ----------
@@ -858,8 +798,58 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
     >>> bool(np.all(s.true_groups[..., 0] == np.arange(3)))
     True
     """
-    return _grouping_scene(n_objects, n_sources, spacing=spacing, layout=layout, cov=cov,
-                           track_cov=track_cov, trials=trials, rng=rng, count_name="n_objects")
+    n = as_int(n_objects, "n_objects", minimum=1)
+    m = as_int(n_sources, "n_sources", minimum=1)
+    trials = as_int(trials, "trials", minimum=1)
+    spacing = as_positive(spacing, "spacing")
+    layout = as_choice(layout, "layout", LAYOUTS)
+    c = as_float_array(cov, "cov", ndim_min=4)
+    try:
+        c = np.broadcast_to(c, (m, n, *c.shape[-2:]))
+    except ValueError:
+        raise ValueError(
+            f"`cov` must broadcast to shape (m, n, d, d) = ({m}, {n}, d, d); "
+            f"received shape {np.shape(cov)}"
+        ) from None
+    c = as_covariance(c, "cov")
+    d = c.shape[-1]
+    if spacing.ndim > 1 or spacing.size not in (1, d):
+        raise ValueError(
+            f"`spacing` must be a number or have shape ({d},) (one scale per coordinate); "
+            f"received shape {spacing.shape}"
+        )
+    spacing = np.broadcast_to(spacing.reshape(-1), (d,))
+    tcov = None
+    if track_cov is not None:
+        tcov = as_float_array(track_cov, "track_cov", ndim_min=2)
+        try:
+            tcov = np.broadcast_to(tcov, (n, d, d))
+        except ValueError:
+            raise ValueError(
+                f"`track_cov` must broadcast to shape ({n}, {d}, {d}); received shape "
+                f"{np.shape(track_cov)}"
+            ) from None
+        tcov = as_covariance(tcov, "track_cov")
+    check_size(8 * trials * (4 * m * n * d + 3 * n * d + m * n), MEMORY_LIMIT,
+               what=f"bytes of scenes (`trials` = {trials} x {m} sources x {n} targets x d = {d})",
+               alternative="several calls with generators spawned from one SeedSequence")
+    rng = as_rng(rng)
+    if layout == "line":
+        truth = np.zeros((trials, n, d))
+        truth[..., 0] = spacing[0] * np.arange(n)
+    else:
+        truth = rng.uniform(0.0, 1.0, size=(trials, n, d)) * (spacing * n ** (1.0 / d))
+    owner = rng.permuted(np.broadcast_to(np.arange(n), (trials, m, n)), axis=-1)
+    chol = np.linalg.cholesky(c)                                    # (m, n, d, d)
+    z = rng.standard_normal((trials, m, n, d))
+    src = np.take_along_axis(truth[:, None], owner[..., None], axis=2)   # (T, m, n, d)
+    reports = src + np.einsum("ijkl,tijl->tijk", chol, z)
+    tracks = None
+    if tcov is not None:
+        zt = rng.standard_normal((trials, n, d))
+        tracks = truth + np.einsum("pkl,tpl->tpk", np.linalg.cholesky(tcov), zt)
+    return GroupingScene(truth, reports, owner, np.array(c), tracks,
+                         None if tcov is None else np.array(tcov))
 
 
 def polar_scene(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
