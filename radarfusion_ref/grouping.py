@@ -74,6 +74,7 @@ __all__ = [
     "group_costs",
     "group_sd",
     "grouping_scene",
+    "ml_group_cost",
     "n_groupings",
 ]
 
@@ -225,36 +226,74 @@ def _expand(arr, axis, m_axes):
     return arr.reshape(shape)
 
 
+def _group_iv(x, cov):
+    """Reports (m arrays (..., d)) and covariances (m arrays (..., d, d)) of groups."""
+    if isinstance(x, np.ndarray) or not isinstance(x, (list, tuple)):
+        x = list(as_float_array(x, "x", ndim_min=2))
+    if isinstance(cov, np.ndarray) or not isinstance(cov, (list, tuple)):
+        cov = list(as_float_array(cov, "cov", ndim_min=3))
+    xs = [as_float_array(a, "x", ndim_min=1) for a in x]
+    if len(xs) < 2 or len({a.shape[-1] for a in xs}) != 1:
+        raise ValueError("`x` must hold m >= 2 reports of one dimension d (arrays (..., d)); "
+                         f"received shapes {[a.shape for a in xs]}")
+    d = xs[0].shape[-1]
+    if len(cov) != len(xs):
+        raise ValueError(f"`cov` must hold one covariance per report of `x` (m = {len(xs)}); "
+                         f"received {len(cov)}")
+    covs = [as_covariance(c, "cov", dim=d) for c in cov]
+    try:
+        np.broadcast_shapes(*(a.shape[:-1] for a in xs), *(c.shape[:-2] for c in covs))
+    except ValueError:
+        raise ValueError("`x` and `cov` must have broadcastable leading (group) axes; received "
+                         f"shapes {[a.shape for a in xs]} and {[c.shape for c in covs]}") from None
+    return xs, covs
+
+
+def _quad(r, info):
+    """r^T I r over the last axes."""
+    return np.einsum("...k,...kl,...l->...", r, info, r)
+
+
+def ml_group_cost(x, cov):
+    r"""ML cost of groups of one report per source, eq. (eq-group-cost) of the chapter.
+
+    `x` holds the ``m`` reports :math:`a_i` of a group (``m`` arrays of shape
+    ``(..., d)``, or one array ``(m, ..., d)``), `cov` their covariances
+    :math:`C_i` (``(..., d, d)`` each); leading axes broadcast, one cost each:
+    :math:`\sum_i (a_i-\hat x)^T C_i^{-1}(a_i-\hat x) + \ln\det W + \sum_i \ln\det C_i`
+    with :math:`W = \sum_i C_i^{-1}`, :math:`\hat x = W^{-1}\sum_i C_i^{-1}a_i`
+    (see :func:`group_costs`, which evaluates it for every candidate group).
+
+    >>> float(ml_group_cost([[0.0], [2.0]], [[[1.0]], [[1.0]]]).round(4))   # 2 + ln 2
+    2.6931
+    """
+    xs, covs = _group_iv(x, cov)
+    info, logdet = zip(*(_information(c) for c in covs), strict=True)  # C_i^-1, ln det C_i
+    W = info[0] + sum(info[1:])                                      # W = sum_i C_i^-1
+    ia = [np.einsum("...kl,...l->...k", Ci, a) for Ci, a in zip(info, xs, strict=True)]
+    xhat = np.linalg.solve(W, (ia[0] + sum(ia[1:]))[..., None])[..., 0]   # the fused estimate
+    q = sum(_quad(a - xhat, Ci) for a, Ci in zip(xs, info, strict=True))
+    ld_w = 2.0 * np.sum(np.log(np.diagonal(np.linalg.cholesky(W), axis1=-2, axis2=-1)), -1)
+    return q + ld_w + logdet[0] + sum(logdet[1:])
+
+
 def _ml_tensor(x, cov):
-    """ML group costs, (B, n, ..., n) over m axes (see group_costs)."""
+    """ML group costs, (B, n, ..., n) over m axes (see group_costs).
+
+    Source 0's report is fixed in an outer loop; the other sources' reports are
+    spread over the remaining m - 1 tuple axes (broadcast views, no copies).
+    """
     B, m, n, d = x.shape
     x = x - x.mean(axis=(1, 2), keepdims=True)       # costs are translation invariant
-    info, logdet_c = _information(cov)               # (Bc, m, n, d, d), (Bc, m, n)
-    ia = np.einsum("bijkl,bijl->bijk", info, x) if info.shape[0] == B else \
-        np.einsum("ijkl,bijl->bijk", info[0], x)
     out = np.empty((B,) + (n,) * m)
     k = m - 1
-    # sources 1..m-1 spread over k tuple axes; source 0 handled one report at a time
-    I_rest = [_expand(info[:, i], i - 1, k) for i in range(1, m)]
-    ia_rest = [_expand(ia[:, i], i - 1, k) for i in range(1, m)]
-    x_rest = [_expand(x[:, i], i - 1, k) for i in range(1, m)]
-    ld_rest = sum(_expand(logdet_c[:, i], i - 1, k) for i in range(1, m))
     pad = (1,) * k
+    x_rest = [_expand(x[:, i], i - 1, k) for i in range(1, m)]
+    c_rest = [_expand(cov[:, i], i - 1, k) for i in range(1, m)]
     for j0 in range(n):
-        I0 = info[:, 0, j0].reshape(info.shape[0], *pad, d, d)
         x0 = x[:, 0, j0].reshape(B, *pad, d)
-        W = I0 + sum(I_rest)
-        b = ia[:, 0, j0].reshape(B, *pad, d) + sum(ia_rest)
-        xhat = np.linalg.solve(W, b[..., None])[..., 0]
-        r = x0 - xhat
-        q = np.einsum("...k,...kl,...l->...", r, I0, r)
-        for Ii, xi in zip(I_rest, x_rest, strict=True):
-            r = xi - xhat
-            q = q + np.einsum("...k,...kl,...l->...", r, Ii, r)
-        chol = np.linalg.cholesky(W)
-        ld_w = 2.0 * np.sum(np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
-        ld0 = logdet_c[:, 0, j0].reshape(-1, *pad)
-        out[:, j0] = q + ld_w + ld0 + ld_rest
+        c0 = cov[:, 0, j0].reshape(cov.shape[0], *pad, d, d)
+        out[:, j0] = ml_group_cost([x0, *x_rest], [c0, *c_rest])
     return out
 
 
@@ -1000,51 +1039,65 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
                                "relaxation (`method`='lagrangian', Deb et al. 1997), or "
                                "splitting the scene into clusters")
     groups = np.empty((B, n, m), dtype=np.int64)
-    totals = np.empty(B)
-    lbs = np.empty(B)
+    totals, lbs = np.empty(B), np.empty(B)
     integral = np.zeros(B, dtype=bool)
     hist = None
     for b in range(B):
-        cov_b = cb[min(b, cb.shape[0] - 1)]
-        if method == "milp" and p_lo is None:
-            c_raw = _tensor(xb[b:b + 1], cov_b[None], cost).ravel()
-            try:
-                chosen, integral[b] = _sd_solve(c_raw, m, n, relaxation=relaxation,
-                                                time_limit=time_limit)
-            except RuntimeError as exc:
-                raise RuntimeError(f"scene {b}: {exc}") from None
+        x_b, cov_b = xb[b:b + 1], cb[min(b, cb.shape[0] - 1)][None]
+        if method == "milp" and p_lo is None:          # the full tensor: exact, HiGHS
+            c = _tensor(x_b, cov_b, cost).ravel()
+            chosen, integral[b] = _scene_milp(c, m, n, relaxation, time_limit, b)
             groups[b] = _normalise(np.array(np.unravel_index(chosen, (n,) * m)).T)
-            totals[b] = lbs[b] = c_raw[chosen].sum()
-        else:
-            if p_lo is None:
-                T = np.indices((n,) * m).reshape(m, -1).T
-                c = _tensor(xb[b:b + 1], cov_b[None], cost).ravel()
-            else:
-                T, c = _scene_candidates(list(xb[b]), list(cov_b), cost=cost,
-                                         gamma=float(gate_threshold(p_lo, d)), det=None,
-                                         median_logdet=median_logdet)
-            try:
-                chosen, totals[b], lbs[b], hist = _solve_candidates(
-                    T, c, [n] * m, dummy=False, method=method, gap=gap, max_iter=max_iter,
-                    time_limit=time_limit, why=why)
-            except ValueError as exc:
-                raise ValueError(f"scene {b}: {exc}" if batch else str(exc)) from None
+            totals[b] = lbs[b] = c[chosen].sum()
+        else:                                            # candidate groups, cluster by cluster
+            T, c = _scene_tuples(x_b, cov_b, cost, p_lo, median_logdet)
+            chosen, totals[b], lbs[b], hist = _scene_candidates_solve(
+                T, c, [n] * m, method, gap, max_iter, time_limit, why, b, batch)
             groups[b] = _normalise(T[chosen])
-        if not np.isfinite(totals[b]):
-            raise ValueError(
-                f"`x` and `cov`: scene {b}: the total cost of the best grouping overflows "
-                "the floating-point range; split the scene or gate the candidate groups first"
-            )
-    groups = groups.reshape(*batch, n, m)
-    exact_full = method == "milp" and p_lo is None
-    gaps = np.array([_gap_of(t, lo) for t, lo in zip(totals, lbs, strict=True)])
+        _finite_total(totals[b], b)
+    gaps = np.maximum(0.0, (totals - lbs) / np.maximum(np.abs(totals), 1.0))  # proved gap
+    integral = integral if method == "milp" and p_lo is None else None
     if not batch:
-        return GroupingResult(groups, float(totals[0]), cost, method,
-                              bool(integral[0]) if exact_full else None,
+        return GroupingResult(groups[0], float(totals[0]), cost, method,
+                              None if integral is None else bool(integral[0]),
                               float(lbs[0]), float(gaps[0]), hist, bool(gaps[0] == 0.0))
-    return GroupingResult(groups, totals.reshape(batch), cost, method,
-                          integral.reshape(batch) if exact_full else None,
-                          lbs.reshape(batch), gaps.reshape(batch), None, bool(np.all(gaps == 0.0)))
+    return GroupingResult(groups.reshape(*batch, n, m), totals.reshape(batch), cost, method,
+                          None if integral is None else integral.reshape(batch),
+                          lbs.reshape(batch), gaps.reshape(batch), None, bool(np.all(gaps == 0)))
+
+
+def _scene_milp(c, m, n, relaxation, time_limit, b):
+    """Exact S-D of one scene's full cost tensor (flat); the scene named in errors."""
+    try:
+        return _sd_solve(c, m, n, relaxation=relaxation, time_limit=time_limit)
+    except RuntimeError as exc:
+        raise RuntimeError(f"scene {b}: {exc}") from None
+
+
+def _scene_tuples(x, cov, cost, p_lo, median_logdet):
+    """Candidate groups of one scene (all n**m, or the gated ones) and their costs."""
+    _, m, n, d = x.shape
+    if p_lo is None:
+        return np.indices((n,) * m).reshape(m, -1).T, _tensor(x, cov, cost).ravel()
+    return _scene_candidates(list(x[0]), list(cov[0]), cost=cost,
+                             gamma=float(gate_threshold(p_lo, d)), det=None,
+                             median_logdet=median_logdet)
+
+
+def _scene_candidates_solve(T, c, counts, method, gap, max_iter, time_limit, why, b, batch):
+    """:func:`radarfusion_ref.engine.assignment._lagrangian._solve_candidates` for one scene."""
+    try:
+        return _solve_candidates(T, c, counts, dummy=False, method=method, gap=gap,
+                                 max_iter=max_iter, time_limit=time_limit, why=why)
+    except ValueError as exc:
+        raise ValueError(f"scene {b}: {exc}" if batch else str(exc)) from None
+
+
+def _finite_total(total, b):
+    if not np.isfinite(total):
+        raise ValueError(
+            f"`x` and `cov`: scene {b}: the total cost of the best grouping overflows "
+            "the floating-point range; split the scene or gate the candidate groups first")
 
 
 # ----------------------------------------------------------------------------- binding

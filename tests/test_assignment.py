@@ -221,12 +221,28 @@ def test_sd_fractional_relaxation_falls_back_to_branch_and_bound():
     for t in range(8):
         for i in range(3):
             A[2 * i + idx[i, t], t] = 1.0
+    np.testing.assert_array_equal(asg.sd_constraint_matrix(3, 2).toarray(), A)
     lp = linprog(parity_cost, A_eq=A, b_eq=np.ones(6), bounds=(0, 1), method="highs")
     assert lp.fun == pytest.approx(0.0, abs=1e-9)
     r = asg.solve_sd(parity_cost.reshape(2, 2, 2))
     assert r.relaxation_integral is False and r.exact
     assert r.cost == pytest.approx(1.0) == brute_sd_tensor(parity_cost.reshape(2, 2, 2))
     np.testing.assert_array_equal(np.sort(r.groups, axis=0), [[0, 0, 0], [1, 1, 1]])
+
+
+@pytest.mark.parametrize(("m", "n"), [(2, 1), (2, 3), (3, 3), (4, 2)])
+def test_sd_constraint_matrix_is_one_row_per_report(m, n):
+    A = asg.sd_constraint_matrix(m, n).toarray()
+    groups = list(itertools.product(range(n), repeat=m))       # C order, as the columns
+    ref = np.array([[float(t[i] == j) for t in groups] for i in range(m) for j in range(n)])
+    np.testing.assert_array_equal(A, ref)
+
+
+@pytest.mark.parametrize(("m", "n", "name"), [(1, 2, "m"), (2, 0, "n"), (2.5, 2, "m"),
+                                              (2, "3", "n"), (10**9, 2, "n"), (7, 10, "n")])
+def test_sd_constraint_matrix_bad_input_names_its_argument(m, n, name):
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        asg.sd_constraint_matrix(m, n)
 
 
 def test_sd_huge_costs_keep_the_optimum():

@@ -418,7 +418,7 @@ def test_other_bad_input():
 import mpmath  # noqa: E402
 
 PUBLIC = ["n_groupings", "group_costs", "group_bruteforce", "group_sd", "binding_costs",
-          "grouping_scene"]
+          "grouping_scene", "ml_group_cost"]
 
 
 @st.composite
@@ -1155,3 +1155,42 @@ def test_group_sd_median_logdet_is_refused_where_it_has_no_meaning(kw):
         grouping.group_sd(x, np.ones((3, 2, 1, 1)), median_logdet=True, **kw)
     with pytest.raises(TypeError, match="`median_logdet`"):
         grouping.group_sd(x, np.ones((3, 2, 1, 1)), median_logdet="no")
+
+
+# ---------------------------------------------------------------- ml_group_cost (the shown equation)
+@pytest.mark.parametrize("seed", range(4))
+def test_ml_group_cost_of_two_reports_is_the_pair_form(seed):
+    """m = 2: Delta^T (C1 + C2)^-1 Delta + ln det(C1 + C2), by np.linalg here (closed form)."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(5, 2, 3))
+    L = rng.normal(size=(5, 2, 3, 3))
+    c = L @ np.swapaxes(L, -1, -2) + 0.2 * np.eye(3)
+    S = c[:, 0] + c[:, 1]
+    D = a[:, 0] - a[:, 1]
+    ref = np.einsum("ka,ka->k", D, np.linalg.solve(S, D[..., None])[..., 0]) \
+        + np.linalg.slogdet(S)[1]
+    got = grouping.ml_group_cost([a[:, 0], a[:, 1]], [c[:, 0], c[:, 1]])
+    np.testing.assert_allclose(got, ref, rtol=1e-10)
+
+
+def test_ml_group_cost_is_the_group_costs_entry():
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(3, 2, 2))
+    cov = np.stack([np.eye(2) * v for v in (0.5, 1.0, 2.0)])[:, None]       # (m, 1, d, d)
+    tensor = grouping.group_costs(x, cov)
+    for idx in itertools.product(range(2), repeat=3):
+        one = grouping.ml_group_cost([x[i, j] for i, j in enumerate(idx)], list(cov[:, 0]))
+        assert one == pytest.approx(tensor[idx], rel=1e-10, abs=1e-12)
+
+
+@pytest.mark.parametrize(("x", "cov", "name"), [
+    ([[0.0]], [[[1.0]]], "x"),                                  # one report: not a group
+    ([[0.0], [1.0, 2.0]], [[[1.0]], [[1.0]]], "x"),             # two dimensions
+    ([[0.0], [1.0]], [[[1.0]]], "cov"),                         # one covariance short
+    ([[0.0], [1.0]], [[[1.0]], [[-1.0]]], "cov"),               # not positive definite
+    ([[0.0], [np.nan]], [[[1.0]], [[1.0]]], "x"),
+    ("ab", [[[1.0]], [[1.0]]], "x"),
+])
+def test_ml_group_cost_bad_input_names_its_argument(x, cov, name):
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        grouping.ml_group_cost(x, cov)

@@ -17,7 +17,8 @@ costs from reports and call the functions here.
   (gated, with ``-1`` for a source without a report in a group): exact
   (``method="milp"``, HiGHS) or to a proved relative duality gap
   (``method="lagrangian"``); :func:`solve_sd_bruteforce` — the exact optimum
-  of a full tensor by enumerating the :math:`(n!)^{m-1}` groupings.
+  of a full tensor by enumerating the :math:`(n!)^{m-1}` groupings;
+  :func:`sd_constraint_matrix` — the constraints of the S-D integer program.
 
 .. rubric:: One result vocabulary
 
@@ -63,9 +64,10 @@ is a stored ``+inf``, NaN or ``-inf`` in a sparse matrix.
 
 from __future__ import annotations
 
+from ._milp import MAX_SD_TUPLES, sd_constraint_matrix
 from ._murty import MAX_K_BEST, k_best_2d
 from ._results import AssignmentResult, Association, KBestAssignments, SDAssignment
-from ._sd import MAX_SD_GROUPINGS, MAX_SD_TUPLES, solve_sd, solve_sd_bruteforce
+from ._sd import MAX_SD_GROUPINGS, solve_sd, solve_sd_bruteforce
 from ._two_d import (
     MAX_HYPOTHESES,
     MAX_PARTIAL_MATCHINGS,
@@ -86,6 +88,7 @@ __all__ = [
     "KBestAssignments",
     "SDAssignment",
     "k_best_2d",
+    "sd_constraint_matrix",
     "solve_2d",
     "solve_2d_bruteforce",
     "solve_sd",

@@ -8,6 +8,11 @@ import numpy as np
 from scipy import sparse
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
+from .._validation import as_int
+from ._checks import _limit
+
+__all__ = ["MAX_SD_TUPLES", "sd_constraint_matrix"]
+
 # --------------------------------------------------------------------------- S-D: full tensor, HiGHS
 #: Costs up to this size are handed to HiGHS as they are; larger ones are capped
 #: (never changing the optimum) and rescaled, since HiGHS treats costs from
@@ -52,20 +57,43 @@ def _condition_costs(c_raw, m, n, bound=None):
     return c
 
 
+#: Largest full cost tensor (:math:`n^m` candidate groups) :func:`solve_sd`
+#: accepts; beyond it, pass the gated candidate groups instead.
+MAX_SD_TUPLES = 10**6
+
+
+def sd_constraint_matrix(m, n):
+    r"""Constraints of the S-D assignment: every report lies in exactly one chosen group.
+
+    Row :math:`i n + j` is report :math:`j` of source :math:`i` (``m >= 2``
+    sources, ``n >= 1`` reports each), column :math:`t` the candidate group
+    :math:`t = (t_1, \dots, t_m)`, the :math:`n^m` groups in C order; the entry
+    is 1 when :math:`t_i = j`, so :math:`A z = 1` reads
+    :math:`\sum_{t:\,t_i = j} z_t = 1`. More than :data:`MAX_SD_TUPLES`
+    groups raise a ``ValueError``.
+
+    >>> sd_constraint_matrix(2, 2).toarray().astype(int).tolist()
+    [[1, 1, 0, 0], [0, 0, 1, 1], [1, 0, 1, 0], [0, 1, 0, 1]]
+    """
+    m, n = as_int(m, "m", minimum=2), as_int(n, "n", minimum=1)
+    _limit(n ** min(m, 64), MAX_SD_TUPLES, name="n",      # n**64 > the limit for n >= 2
+           what=f"candidate groups n**m (n = {n}, m = {m})",
+           alternative="gated candidate groups (solve_sd with `candidates`)")
+    t = np.indices((n,) * m).reshape(m, -1)            # t_i of every candidate group t
+    rows = (np.arange(m)[:, None] * n + t).ravel()     # report j = t_i of source i ...
+    cols = np.tile(np.arange(n**m), m)                 # ... lies in group t
+    return sparse.csc_array((np.ones(m * n**m), (rows, cols)), shape=(m * n, n**m))
+
+
 @functools.lru_cache(maxsize=16)
 def _sd_constraints(m, n):
-    """Equality constraints of the S-D assignment: each report in exactly one tuple."""
-    N = n**m
-    idx = np.indices((n,) * m).reshape(m, -1)
-    rows = (np.arange(m)[:, None] * n + idx).ravel()
-    cols = np.tile(np.arange(N), m)
-    A = sparse.csc_array((np.ones(m * N), (rows, cols)), shape=(m * n, N))
-    return A, idx
+    """:func:`sd_constraint_matrix`, cached for repeated solves of one size."""
+    return sd_constraint_matrix(m, n)
 
 
 def _sd_solve_once(c, m, n, *, relaxation=True, time_limit=None):
     """One HiGHS solve of the S-D assignment with conditioned costs `c`."""
-    A, _ = _sd_constraints(m, n)
+    A = _sd_constraints(m, n)
     z, integral = None, False
     if relaxation:
         lp = linprog(c, A_eq=A, b_eq=np.ones(m * n), bounds=(0, 1), method="highs")

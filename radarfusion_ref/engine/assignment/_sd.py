@@ -18,16 +18,13 @@ from .._validation import (
 )
 from ._checks import _as_gap, _exponents
 from ._lagrangian import _solve_candidates
-from ._milp import _sd_solve
+from ._milp import MAX_SD_TUPLES, _sd_solve
 from ._results import SDAssignment, _gap_of
 
-__all__ = ["MAX_SD_GROUPINGS", "MAX_SD_TUPLES", "solve_sd", "solve_sd_bruteforce"]
+__all__ = ["MAX_SD_GROUPINGS", "solve_sd", "solve_sd_bruteforce"]
 
 
 # --------------------------------------------------------------------------- S-D: public API
-#: Largest full cost tensor (:math:`n^m` candidate groups) :func:`solve_sd`
-#: accepts; beyond it, pass the gated candidate groups instead.
-MAX_SD_TUPLES = 10**6
 
 #: Largest number of groupings :math:`(n!)^{m-1}` :func:`solve_sd_bruteforce`
 #: enumerates (about a minute of work).

@@ -74,50 +74,36 @@ def _make_result(cost: np.ndarray, row_to_col: np.ndarray, miss_cost: float | No
 
 
 # --------------------------------------------------------------------------- 2-D dense
-def _solve_batch(c: np.ndarray, th: float, miss: float | None) -> np.ndarray:
-    """Optimal ``row_to_col`` for a stack of matrices ``(B, n1, n2)`` (validated inputs).
+def _work_costs(c: np.ndarray, allowed: np.ndarray, miss: float | None):
+    """One plain rectangular assignment per matrix ``(..., n1, n2)`` (validated inputs).
 
-    Every matrix is turned into one plain rectangular assignment problem
-    (vectorized over the stack), then solved by
-    :func:`scipy.optimize.linear_sum_assignment`; pairs that are not allowed or
-    not worth taking are dropped afterwards. Costs are first scaled by a power
-    of two (exact) so that the working matrix cannot overflow.
+    Returns the working matrices, whose complete assignment of least total is
+    the optimum of the gated / non-assignment problem, and the mask of pairs
+    worth keeping afterwards. Costs are first scaled by a power of two (exact),
+    so that the working matrices cannot overflow.
     """
-    nb, n1, n2 = c.shape
-    allowed = (c < th) & np.isfinite(c)              # the gate of eq. (eq-gate): kappa < gamma
+    n1, n2 = c.shape[-2:]
     e = _exponents(c, *(() if miss is None else (miss,)))
     c = _scaled(c, e)
     if miss is not None:
-        miss = np.ldexp(miss, -e)[:, None, None]      # per matrix, same scale as its costs
+        miss = np.ldexp(miss, -e)[..., None, None]    # per matrix, same scale as its costs
         # Partial matching with a cost `miss` per unassigned report: a pair is worth
         # taking only if c < 2*miss, and
         #   min over partial matchings of sum(c - 2 miss)
         #     = min over full assignments of sum(min(c - 2 miss, 0)),
         # so one rectangular assignment of the clipped matrix is exact (no augmentation).
         work = np.where(allowed, np.minimum(c - 2.0 * miss, 0.0), 0.0)     # |work| < 4
-        useful = allowed & (work < 0)
-    elif allowed.all():
-        work, useful = c, allowed                 # the plain complete assignment
-    else:
-        # Maximum number of allowed pairs first, then the smallest cost among those:
-        # forbidden pairs get a cost larger than any possible saving, so every
-        # assignment with fewer forbidden pairs is cheaper (exact lexicographic order).
-        lo = np.min(c, axis=(1, 2), where=allowed, initial=np.inf)
-        hi = np.max(c, axis=(1, 2), where=allowed, initial=-np.inf)
-        lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
-        big = (min(n1, n2) + 1) * (hi - lo + 1.0)            # hi - lo < 2 after scaling
-        work = np.where(allowed, c - lo[:, None, None], big[:, None, None])
-        useful = allowed
-    k = min(n1, n2)
-    rows = np.empty((nb, k), dtype=int)
-    cols = np.empty((nb, k), dtype=int)
-    for b in range(nb):
-        rows[b], cols[b] = linear_sum_assignment(work[b])
-    keep = useful[np.arange(nb)[:, None], rows, cols]
-    out = np.full((nb, n1), -1, dtype=int)
-    bb, kk = np.nonzero(keep)
-    out[bb, rows[bb, kk]] = cols[bb, kk]
-    return out
+        return work, allowed & (work < 0)
+    if allowed.all():
+        return c, allowed                          # the plain complete assignment
+    # Maximum number of allowed pairs first, then the smallest cost among those:
+    # forbidden pairs get a cost larger than any possible saving, so every
+    # assignment with fewer forbidden pairs is cheaper (exact lexicographic order).
+    lo = np.min(c, axis=(-2, -1), where=allowed, initial=np.inf)
+    hi = np.max(c, axis=(-2, -1), where=allowed, initial=-np.inf)
+    lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
+    big = (min(n1, n2) + 1) * (hi - lo + 1.0)            # hi - lo < 2 after scaling
+    return np.where(allowed, c - lo[..., None, None], big[..., None, None]), allowed
 
 
 # --------------------------------------------------------------------------- 2-D sparse (gated)
@@ -225,55 +211,29 @@ def _associate_sparse(cost, threshold, miss_cost) -> Association:
 
 
 def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
-    """The joint maximum-likelihood association: an exact linear assignment.
+    r"""The joint ML association :math:`\hat\pi = \arg\min_\pi \sum_i c_{i\pi(i)}`.
 
     The solver behind :func:`radarfusion_ref.association.associate_joint`, which
-    documents the arguments, the three problems it solves (complete, gated, with a
-    non-assignment cost), the sparse route and the errors: they are the same here.
-
-    Parameters
-    ----------
-    cost : array_like, shape (..., n1, n2), or scipy.sparse matrix (n1, n2)
-        Pair costs; ``+inf`` (dense) or a missing entry (sparse) forbids a pair.
-    threshold : float, optional
-        Gate: a pair is allowed only if its cost is strictly below it.
-    miss_cost : float, optional
-        Cost charged for each report left unassigned.
-
-    Returns
-    -------
-    Association
-
-    Raises
-    ------
-    ValueError, TypeError
-        As :func:`radarfusion_ref.association.associate_joint`.
+    documents the arguments (`cost` dense ``(..., n1, n2)`` or ``scipy.sparse``,
+    the gate `threshold`, the non-assignment cost `miss_cost`), the result and
+    the errors: they are the same here.
 
     Examples
     --------
-    >>> c = [[0.5, 0.1], [0.2, 3.0]]
-    >>> r = solve_2d(c)
-    >>> r.pairs.tolist(), r.cost
-    ([[0, 1], [1, 0]], 0.30000000000000004)
-    >>> r = solve_2d([[1.0, 9.0], [9.0, 9.0]], miss_cost=2.0)
-    >>> r.pairs.tolist(), r.unassigned_rows.tolist(), r.unassigned_cols.tolist(), r.cost
-    ([[0, 0]], [1], [1], 5.0)
-    >>> solve_2d([[5.0, 6.0]], threshold=1.0).n_assigned
-    0
-    >>> from scipy import sparse
-    >>> gated = sparse.csr_array(([0.5, 0.1, 0.2], ([0, 0, 1], [0, 1, 0])), shape=(2, 3))
-    >>> solve_2d(gated).pairs.tolist()
-    [[0, 1], [1, 0]]
+    >>> solve_2d([[0.5, 0.1], [0.2, 3.0]]).row_to_col
+    array([1, 0])
     """
     if sparse.issparse(cost):
-        return _associate_sparse(cost, threshold, miss_cost)
-    c = _as_cost(cost)
-    th = _as_threshold(threshold)
-    miss = _as_miss_cost(miss_cost)
-    n1, n2 = c.shape[-2:]
-    flat = c.reshape(-1, n1, n2)
-    out = _solve_batch(flat, th, miss)
-    return _make_result(c, out.reshape(*c.shape[:-2], n1), miss)
+        return _associate_sparse(cost, threshold, miss_cost)        # gated, scipy.sparse
+    c, gate, c0 = _as_cost(cost), _as_threshold(threshold), _as_miss_cost(miss_cost)
+    allowed = (c < gate) & np.isfinite(c)                 # the gate: kappa < gamma
+    work, useful = _work_costs(c, allowed, c0)            # one plain assignment per matrix
+    row_to_col = np.full(c.shape[:-1], -1)
+    for b in np.ndindex(c.shape[:-2]):                    # every matrix of a batch
+        rows, cols = linear_sum_assignment(work[b])       # argmin over pairings pi
+        keep = useful[b][rows, cols]                      # drop pairs not allowed / not worth it
+        row_to_col[b][rows[keep]] = cols[keep]
+    return _make_result(c, row_to_col, c0)
 
 
 # --------------------------------------------------------------------------- 2-D brute force
