@@ -26,9 +26,9 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   probabilities, exact (enumeration) or approximated from the :math:`k` best;
 * :func:`non_assignment_cost` — the non-assignment cost implied by the
   likelihood ratio (detection probabilities, false-report densities);
-* :func:`two_radar_clutter_scene` — the shared scene simulator
-  (:func:`radarfusion_ref.engine.scenes.two_radar_scene`) with missed detections and
-  false reports added (it lives in :mod:`radarfusion_ref.engine.scenes`);
+* the scenes of the chapter come from
+  :func:`radarfusion_ref.engine.scenes.two_radar_clutter_scene` (missed detections and
+  false reports included);
 * :func:`compare_decisions` — the Monte-Carlo decision-level comparison of the
   three procedures used by the chapter;
 * :func:`decision_outcome` and :func:`calibrate_gate` — every rule's decisions
@@ -69,7 +69,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .engine import assignment, scenes
+from .engine import assignment
 from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
@@ -99,7 +99,6 @@ from .engine.linalg import mahalanobis_sq_pairwise
 from .engine.montecarlo import Proportion, proportion
 
 __all__ = [
-    "ClutterScene",
     "DecisionComparison",
     "DecisionOutcome",
     "all_correct",
@@ -112,8 +111,8 @@ __all__ = [
     "decision_outcome",
     "k_best_assignments",
     "non_assignment_cost",
+    "outcome_by_gate",
     "proximity_matrix",
-    "two_radar_clutter_scene",
 ]
 
 def _scalar(arr: np.ndarray, name: str) -> float:
@@ -542,6 +541,40 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- non-assignment cost
+def _non_assignment_iv(p_detect1, p_detect2, false_density1, false_density2, object_density,
+                       innovation_cov, with_logdet):
+    """Validated, broadcast arguments of :func:`non_assignment_cost`, ``ln det(2 pi S)`` last."""
+    if innovation_cov is None and not with_logdet:
+        raise TypeError("`innovation_cov` is required with `logdet=False` (the covariance S of "
+                        "the difference of two reports of one object); received None")
+    p1 = as_probability(p_detect1, "p_detect1", open_interval=False)
+    p2 = as_probability(p_detect2, "p_detect2", open_interval=False)
+    for name, p, raw in (("p_detect1", p1, p_detect1), ("p_detect2", p2, p_detect2)):
+        if np.any(p <= 0):
+            raise ValueError(f"`{name}` must lie in (0, 1]; received {_describe(raw)}")
+    lam1 = as_positive(false_density1, "false_density1", strict=False)
+    lam2 = as_positive(false_density2, "false_density2", strict=False)
+    beta = as_positive(object_density, "object_density")
+    s = as_float_array(0.0 if innovation_cov is None else innovation_cov, "innovation_cov")
+    if innovation_cov is None:
+        logdet = s
+    elif s.ndim < 2:
+        s = as_positive(s, "innovation_cov")
+        logdet = np.log(2 * np.pi) + np.log(s)                 # no overflow of 2 pi S
+    else:
+        s = as_covariance(s, "innovation_cov")
+        d = s.shape[-1]
+        # ln det S = 2 sum ln sd_i + ln det R with the correlation matrix R: no overflow or
+        # underflow whatever the variances' scales (1e-300 beside 1e300 included).
+        sd = np.sqrt(np.diagonal(s, axis1=-2, axis2=-1))
+        corr = s / sd[..., :, None] / sd[..., None, :]
+        chol = np.linalg.cholesky(corr)
+        logdet = d * np.log(2 * np.pi) + 2 * np.sum(np.log(sd), axis=-1) + 2 * np.sum(
+            np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
+    return broadcast(p_detect1=p1, p_detect2=p2, false_density1=lam1, false_density2=lam2,
+                     object_density=beta, innovation_cov=logdet)
+
+
 def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
                         object_density, innovation_cov=None, logdet: bool = False):
     r"""Per-report non-assignment cost (in proximity units) from the likelihood ratio.
@@ -637,36 +670,9 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     -1.0371
     """
     with_logdet = as_bool(logdet, "logdet")
-    if innovation_cov is None and not with_logdet:
-        raise TypeError("`innovation_cov` is required with `logdet=False` (the covariance S of "
-                        "the difference of two reports of one object); received None")
-    p1 = as_probability(p_detect1, "p_detect1", open_interval=False)
-    p2 = as_probability(p_detect2, "p_detect2", open_interval=False)
-    for name, p, raw in (("p_detect1", p1, p_detect1), ("p_detect2", p2, p_detect2)):
-        if np.any(p <= 0):
-            raise ValueError(f"`{name}` must lie in (0, 1]; received {_describe(raw)}")
-    lam1 = as_positive(false_density1, "false_density1", strict=False)
-    lam2 = as_positive(false_density2, "false_density2", strict=False)
-    beta = as_positive(object_density, "object_density")
-    s = as_float_array(0.0 if innovation_cov is None else innovation_cov, "innovation_cov")
-    if innovation_cov is None:
-        logdet = s
-    elif s.ndim < 2:
-        s = as_positive(s, "innovation_cov")
-        logdet = np.log(2 * np.pi) + np.log(s)                 # no overflow of 2 pi S
-    else:
-        s = as_covariance(s, "innovation_cov")
-        d = s.shape[-1]
-        # ln det S = 2 sum ln sd_i + ln det R with the correlation matrix R: no overflow or
-        # underflow whatever the variances' scales (1e-300 beside 1e300 included).
-        sd = np.sqrt(np.diagonal(s, axis1=-2, axis2=-1))
-        corr = s / sd[..., :, None] / sd[..., None, :]
-        chol = np.linalg.cholesky(corr)
-        logdet = d * np.log(2 * np.pi) + 2 * np.sum(np.log(sd), axis=-1) + 2 * np.sum(
-            np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
-    p1, p2, lam1, lam2, beta, logdet = broadcast(
-        p_detect1=p1, p_detect2=p2, false_density1=lam1, false_density2=lam2,
-        object_density=beta, innovation_cov=logdet)
+    p1, p2, lam1, lam2, beta, ln_det_2pi_s = _non_assignment_iv(
+        p_detect1, p_detect2, false_density1, false_density2, object_density, innovation_cov,
+        with_logdet)
     # Log domain throughout: ln u_r = ln(rho_F,r + rho_T P_r (1 - P_other)) by logaddexp,
     # so neither tiny nor huge densities overflow or underflow.
     with np.errstate(divide="ignore"):
@@ -675,7 +681,7 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
         log_u2 = np.logaddexp(np.log(lam2), lb + np.log(p2) + np.log1p(-p1))
     m = lb + np.log(p1) + np.log(p2) - log_u1 - log_u2
     # with logdet=True a given `innovation_cov` only shapes the result (0 * its log det)
-    m = m + (0.0 if with_logdet else -0.5) * logdet
+    m = m + (0.0 if with_logdet else -0.5) * ln_det_2pi_s
     # (full costs kappa + ln det 2 pi S may be negative, so c_0 <= 0 is no alarm there)
     if not with_logdet and np.any(m <= 0):
         warnings.warn(
@@ -683,13 +689,6 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
             "reports unassigned (false-report density too high for this accuracy)",
             RadarFusionWarning, stacklevel=2)
     return float(m) if np.ndim(m) == 0 else m
-
-
-# --------------------------------------------------------------------------- scenes
-#: The two-radar scene with misses and false reports; its home is
-#: :mod:`radarfusion_ref.engine.scenes` (the same function and class, under their names here).
-ClutterScene = scenes.ClutterScene
-two_radar_clutter_scene = scenes.two_radar_clutter_scene
 
 
 def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False) -> np.ndarray:
@@ -966,22 +965,32 @@ def _as_gate(gate, name: str = "gate") -> float:
     return float(g)
 
 
-def _outcome_fn(c, t, rule):
-    """gate -> (correct, false accept); the joint decisions are computed once."""
+def outcome_by_gate(kappa, truth, rule: str):
+    r"""A rule's outcome as a function of its gate: ``gate -> DecisionOutcome`` per trial.
+
+    `kappa`, `truth` and `rule` as in :func:`decision_outcome` (which calls the returned
+    function once); a trial is correct when every pair is right and accepted, a false
+    accept when a wrong pair is accepted, rejected otherwise. The joint pairing does not
+    depend on the gate, so it is computed once, here.
+
+    >>> o = outcome_by_gate([[0.1, 4.0], [5.0, 0.2]], [0, 1], "joint")
+    >>> bool(o(1.0).correct), bool(o(0.2).rejected)
+    (True, True)
+    """
+    c, t, rule = _outcome_iv(kappa, truth, rule)
     if rule == "joint":
         res = associate_joint(c)
         right = all_correct(res.row_to_col, t)
         total = np.asarray(res.cost)
 
         def joint(gate):
-            passed = total < gate                       # the joint test, kappa*_n < gamma_n
+            passed = total < _as_gate(gate)             # the joint test, kappa*_n < gamma_n
             return DecisionOutcome(right & passed, ~right & passed)
         return joint
-
     order = "scan" if rule == "scan" else "best_first"
 
     def pointwise(gate):
-        decided = associate_pointwise(c, gate, order=order).row_to_col
+        decided = associate_pointwise(c, _as_gate(gate), order=order).row_to_col
         return DecisionOutcome(all_correct(decided, t),
                                np.any((decided >= 0) & (decided != t), axis=-1))
     return pointwise
@@ -1039,7 +1048,8 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
     (array([ True, False]), array([False,  True]), array([False, False]))
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
-    return _outcome_fn(c, t, rule)(_as_gate(gate))
+    gate = _as_gate(gate)
+    return outcome_by_gate(c, t, rule)(gate)
 
 
 def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept",
@@ -1100,7 +1110,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     c, t, rule = _outcome_iv(kappa, truth, rule)
     a = _scalar(as_probability(alpha, "alpha", open_interval=False), "alpha")
     error = as_choice(error, "error", ("false_accept", "false_reject"))
-    outcome = _outcome_fn(c, t, rule)
+    outcome = outcome_by_gate(c, t, rule)
     wide = error == "false_accept"
 
     def rate(g):

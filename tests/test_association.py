@@ -477,7 +477,7 @@ def test_miss_cost_inf_is_none():
 
 def test_clutter_scene_statistics():
     n, trials = 5, 20_000
-    s = A.two_radar_clutter_scene(n, spacing=2.0, sigma1=0.1, sigma2=0.1, p_detect1=0.8,
+    s = scenes.two_radar_clutter_scene(n, spacing=2.0, sigma1=0.1, sigma2=0.1, p_detect1=0.8,
                                   p_detect2=0.6, false_density1=0.1, false_density2=0.3,
                                   trials=trials, rng=11)
     assert s.volume == pytest.approx(n * 2.0)
@@ -501,7 +501,7 @@ def test_clutter_scene_statistics():
 
 
 def test_clutter_scene_defaults_reduce_to_base_scene():
-    s = A.two_radar_clutter_scene(4, spacing=1.0, sigma1=0.1, sigma2=0.1, trials=10, rng=1)
+    s = scenes.two_radar_clutter_scene(4, spacing=1.0, sigma1=0.1, sigma2=0.1, trials=10, rng=1)
     assert s.reports1.shape == (10, 4, 1) and s.reports2.shape == (10, 4, 1)
     assert np.all(s.true_row_to_col >= 0)
     k = s.mask_cost(A.proximity_matrix(s.reports1, s.reports2, 0.1, 0.1))
@@ -525,7 +525,7 @@ def test_joint_statistic_noncentral_chi2():
 
 
 def test_compare_decisions_separated_and_hand_case():
-    sc = A.two_radar_clutter_scene(5, spacing=1.0, sigma1=0.02, sigma2=0.02, trials=500, rng=3)
+    sc = scenes.two_radar_clutter_scene(5, spacing=1.0, sigma1=0.02, sigma2=0.02, trials=500, rng=3)
     kap = A.proximity_matrix(sc.reports1, sc.reports2, 0.02, 0.02)
     r = A.compare_decisions(kap, sc.true_row_to_col, threshold=stats.chi2.ppf(0.999, 1),
                             joint_threshold=stats.chi2.ppf(0.999, 5))
@@ -548,9 +548,9 @@ def test_all_correct():
 # the public argument. The example budget is the CI profile of tests/conftest.py.
 
 PUBLIC = ("associate_pointwise", "associate_joint", "associate_bruteforce", "k_best_assignments",
-          "association_probabilities", "non_assignment_cost", "two_radar_clutter_scene",
+          "association_probabilities", "non_assignment_cost",
           "proximity_matrix", "all_correct", "compare_decisions", "decision_outcome",
-          "calibrate_gate")
+          "calibrate_gate", "outcome_by_gate")
 
 
 def test_every_public_function_is_covered():
@@ -658,7 +658,7 @@ def test_property_non_assignment_cost_is_finite_and_matches_the_formula(p1, p2, 
 @given(st.integers(1, 5), st.integers(1, 4), st.floats(0.1, 3.0), st.floats(0.0, 0.5),
        st.floats(0.5, 1.0))
 def test_property_clutter_scene_and_decision_helpers(n, trials, spacing, rho_f, pd):
-    sc = A.two_radar_clutter_scene(n, spacing=spacing, sigma1=0.1, sigma2=0.2, p_detect1=pd,
+    sc = scenes.two_radar_clutter_scene(n, spacing=spacing, sigma1=0.1, sigma2=0.2, p_detect1=pd,
                                    p_detect2=pd, false_density1=rho_f, false_density2=rho_f,
                                    trials=trials, rng=n + trials)
     t2c = sc.true_row_to_col
@@ -671,7 +671,7 @@ def test_property_clutter_scene_and_decision_helpers(n, trials, spacing, rho_f, 
         r = A.compare_decisions(k, t2c, threshold=None, joint_threshold=None)
         for p in (r.pointwise, r.greedy, r.joint, r.joint_ml):
             assert p.trials == trials and 0 <= p.estimate <= 1
-    again = A.two_radar_clutter_scene(n, spacing=spacing, sigma1=0.1, sigma2=0.2, p_detect1=pd,
+    again = scenes.two_radar_clutter_scene(n, spacing=spacing, sigma1=0.1, sigma2=0.2, p_detect1=pd,
                                       p_detect2=pd, false_density1=rho_f, false_density2=rho_f,
                                       trials=trials, rng=n + trials)
     np.testing.assert_array_equal(again.reports1, sc.reports1)     # same seed, same scene
@@ -784,7 +784,7 @@ def test_enumeration_limits_are_checked_before_allocation():
     with pytest.raises(ValueError, match=r"`k`.*bytes of Murty"):
         A.k_best_assignments(np.zeros((1000, 1000)), 10_000)
     with pytest.raises(ValueError, match=r"`false_density1`.*bytes.*trials"):
-        A.two_radar_clutter_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.1,
+        scenes.two_radar_clutter_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.1,
                                   false_density1=1e12, trials=10)
     wide = np.broadcast_to(np.zeros(2), (100_000, 2))             # no memory behind it
     with pytest.raises(ValueError, match=r"`reports1`.*bytes.*split the batch"):
@@ -892,7 +892,7 @@ def test_fuzz_clutter_scene_bad_input(case):
     else:
         kw[name] = bad
     with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
-        A.two_radar_clutter_scene(n, **kw)
+        scenes.two_radar_clutter_scene(n, **kw)
 
 
 PM_BAD = [("reports1", [[np.nan, 0.0]]), ("reports1", [1.0, 2.0]), ("reports2", "x"),
@@ -1046,7 +1046,7 @@ def test_non_assignment_cost_logdet_closed_form(p1, p2, l1, l2, rho, var):
 
 def test_full_costs_and_kappa_costs_decide_alike_with_one_covariance():
     """With one S for every pair, (kappa, c_0) and (kappa + ln det 2 pi S, c_0 full) agree."""
-    sc = A.two_radar_clutter_scene(5, spacing=1.0, sigma1=0.3, sigma2=0.4, p_detect1=0.8,
+    sc = scenes.two_radar_clutter_scene(5, spacing=1.0, sigma1=0.3, sigma2=0.4, p_detect1=0.8,
                                    p_detect2=0.8, false_density1=0.3, false_density2=0.3,
                                    trials=200, dim=2, layout="uniform", rng=7)
     kw = dict(p_detect1=0.8, p_detect2=0.8, false_density1=0.3, false_density2=0.3,
@@ -1237,7 +1237,7 @@ def _loop_outcome(kappa, truth, rule, gate):
 
 
 def _kappa_scene(trials, n, sig, seed):
-    sc = A.two_radar_clutter_scene(n, spacing=1.0, sigma1=sig, sigma2=sig, trials=trials,
+    sc = scenes.two_radar_clutter_scene(n, spacing=1.0, sigma1=sig, sigma2=sig, trials=trials,
                                    rng=np.random.default_rng(seed))
     return A.proximity_matrix(sc.reports1, sc.reports2, sig, sig), sc.true_row_to_col
 
@@ -1316,3 +1316,35 @@ def test_calibrate_gate_scan_needs_a_grid_and_refuses_unreachable_targets():
         A.decision_outcome(k, truth[:, :2], "greedy", 1.0)
     with pytest.raises(ValueError, match="`kappa`"):
         A.decision_outcome(np.full_like(k, np.nan), truth, "greedy", 1.0)
+
+
+# ---------------------------------------------------------------- outcome_by_gate
+def test_outcome_by_gate_is_decision_outcome_at_every_gate():
+    sc = scenes.two_radar_clutter_scene(4, spacing=1.0, sigma1=0.4, sigma2=0.4, trials=200,
+                                        rng=12)
+    k = A.proximity_matrix(sc.reports1, sc.reports2, 0.4, 0.4)
+    for rule in ("scan", "greedy", "joint"):
+        f = A.outcome_by_gate(k, sc.true_row_to_col, rule)
+        for gate in (0.5, 3.0, 20.0):
+            a, b = f(gate), A.decision_outcome(k, sc.true_row_to_col, rule, gate)
+            assert np.array_equal(a.correct, b.correct)
+            assert np.array_equal(a.false_accept, b.false_accept)
+
+
+def test_outcome_by_gate_joint_test_by_hand():
+    """Joint rule, written out: right pairing, summed kappa 0.3 passes any gate above it."""
+    f = A.outcome_by_gate([[0.1, 4.0], [5.0, 0.2]], [0, 1], "joint")
+    assert bool(f(0.31).correct) and not bool(f(0.3).correct) and bool(f(0.3).rejected)
+    g = A.outcome_by_gate([[0.1, 4.0], [5.0, 0.2]], [1, 0], "joint")     # the wrong truth
+    assert bool(g(0.31).false_accept) and not bool(g(0.3).false_accept)
+
+
+@pytest.mark.parametrize(("args", "name"), [
+    (([[np.nan]], [0], "joint"), "kappa"), (([[1.0]], [2], "joint"), "truth"),
+    (([[1.0]], [0], "best"), "rule"),
+])
+def test_outcome_by_gate_bad_input_names_its_argument(args, name):
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        A.outcome_by_gate(*args)
+    with pytest.raises(ValueError, match="`gate`"):
+        A.outcome_by_gate([[1.0]], [0], "scan")(-1.0)
