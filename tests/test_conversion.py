@@ -20,7 +20,6 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 from radarfusion_ref import conversion as cv
-from radarfusion_ref.conversion._planar import _gain
 from radarfusion_ref.engine.errors import RadarFusionWarning
 
 ALL = (*cv.METHODS, "measurement_conditioned")     # every method that needs no prior
@@ -609,6 +608,8 @@ def test_moments_bias_independent_of_sigma_r_and_mse_psd(p, method):
 
 
 PUBLIC = ("polar_to_cartesian", "conversion_moments", "conversion_bias", "nonlinearity_index",
+          "conversion_gain", "principal_variances", "decorrelated_variances",
+          "spherical_covariance",
           "draw_polar", "nees", "nees_at_truth", "conversion_monte_carlo",
           "spherical_to_cartesian", "spherical_moments", "draw_spherical",
           "spherical_monte_carlo")
@@ -618,6 +619,36 @@ def test_public_functions_are_the_covered_ones():
     funcs = {n for n in cv.__all__ if callable(getattr(cv, n)) and not isinstance(
         getattr(cv, n), type)}
     assert funcs == set(PUBLIC)
+
+
+def test_gain_and_principal_variances_closed_forms():
+    """E cos w = exp(-s/2) (w ~ N(0, s)): the multiplicative gain undoes it exactly, the
+    measurement-conditioned one applies it once more; the linearized covariance is the
+    Jacobian's, diag(sigma_r^2, r^2 sigma_beta^2) in the line-of-sight frame."""
+    sb = np.array([1e-4, 0.01, 0.3, cv.SIGMA_BETA_MAX])
+    q = np.exp(-sb**2 / 2)
+    np.testing.assert_allclose(cv.conversion_gain(sb, method="multiplicative") * q, 1.0,
+                               rtol=1e-15)
+    np.testing.assert_allclose(cv.conversion_gain(sb, method="measurement_conditioned"), q,
+                               rtol=1e-15)
+    np.testing.assert_array_equal(cv.conversion_gain(sb), 1.0)
+    along, cross = cv.principal_variances(150.0, 0.1, sb)
+    np.testing.assert_allclose(along, 0.01, rtol=1e-15)
+    np.testing.assert_allclose(cross, (150.0 * sb) ** 2, rtol=1e-15)
+    with pytest.raises(ValueError, match="`method`"):
+        cv.principal_variances(150.0, 0.1, 0.01, method="decorrelated")
+    with pytest.raises(ValueError, match="`r`"):
+        cv.principal_variances(1e200, 0.1, 0.01)
+    # a prior exactly at the truth (zero spread): R^D is the multiplicative conversion's
+    # covariance given the truth, conversion_moments' cov (an independent formula)
+    r, sr = 150.0, 0.1
+    mom = cv.conversion_moments(r, 0.0, sr, sb, method="multiplicative").cov
+    along, cross = cv.decorrelated_variances(r**2, sr, sb, 0.0)
+    np.testing.assert_allclose(along, mom[..., 0, 0], rtol=1e-9)
+    np.testing.assert_allclose(cross, mom[..., 1, 1], rtol=1e-9)
+    # 3-D linearized at beta = eps = 0: diag(sigma_r^2, (r sigma_beta)^2, (r sigma_eps)^2)
+    np.testing.assert_allclose(cv.spherical_covariance(r, 0.0, 0.0, sr, 0.01, 0.02),
+                               np.diag([sr**2, (r * 0.01) ** 2, (r * 0.02) ** 2]), atol=1e-15)
 
 
 # --------------------------------------------------------------------------- σβ limit
@@ -842,7 +873,7 @@ def test_properties_of_the_deterministic_functions(p, method):
     with warnings_ignored():
         out = cv.polar_to_cartesian(r, b, sr, sb, method=method)
     assert out.xy.shape == (2,) and np.all(np.isfinite(out.xy)) and np.all(np.isfinite(out.cov))
-    np.testing.assert_allclose(np.hypot(*out.xy), _gain(method, sb**2) * r, rtol=1e-12)
+    np.testing.assert_allclose(np.hypot(*out.xy), cv.conversion_gain(sb, method=method) * r, rtol=1e-12)
     assert np.linalg.eigvalsh(out.cov)[0] >= -1e-12 * np.abs(out.cov).max()
     m = cv.conversion_moments(r, b, sr, sb, method=method)
     np.testing.assert_allclose(m.mean - m.bias, r * np.array([np.cos(b), np.sin(b)]),
@@ -890,6 +921,15 @@ CALLS = {
     "draw_polar": (lambda **k: cv.draw_polar(**k, trials=3, rng=1), BASE),
     "conversion_monte_carlo": (lambda **k: cv.conversion_monte_carlo(**k, trials=3, rng=1), BASE),
     "nees": (lambda **k: cv.nees(**k), {"error": [1.0, 2.0], "cov": np.eye(2)}),
+    "conversion_gain": (lambda **k: cv.conversion_gain(**k), {"sigma_beta": 0.01}),
+    "principal_variances": (lambda **k: cv.principal_variances(**k),
+                            {"r": 100.0, "sigma_r": 0.5, "sigma_beta": 0.01}),
+    "decorrelated_variances": (lambda **k: cv.decorrelated_variances(**k),
+                               {"mean_sq_range": 1e4, "sigma_r": 0.5, "sigma_beta": 0.01,
+                                "prior_azimuth_var": 1e-6}),
+    "spherical_covariance": (lambda **k: cv.spherical_covariance(**k),
+                             {"r": 100.0, "beta": 0.3, "epsilon": 0.1, "sigma_r": 0.5,
+                              "sigma_beta": 0.01, "sigma_epsilon": 0.02}),
 }
 BAD_VALUES = st.sampled_from([np.nan, np.inf, -np.inf, "1.5", True, None, [1.0, np.nan],
                               object(), 1 + 2j, [[1.0, 2.0], [3.0]]])

@@ -81,8 +81,9 @@ its eigenvectors point along range (variance :math:`a + b`) and across range
 
 .. rubric:: Where things are
 
-* 2-D conversion and its exact moments given the truth (:func:`polar_to_cartesian`,
-  :func:`conversion_moments`, :func:`conversion_bias`, :func:`nonlinearity_index`);
+* 2-D conversion and its exact moments given the truth (:func:`polar_to_cartesian`, built
+  from :func:`conversion_gain` and :func:`principal_variances`; :func:`conversion_moments`,
+  :func:`conversion_bias`, :func:`nonlinearity_index`);
 * consistency — noisy measurements (:func:`draw_polar`, trial axis first), NEES
   (:func:`nees`, :func:`nees_at_truth`) and the Monte Carlo of every method
   (:func:`conversion_monte_carlo`);
@@ -111,13 +112,17 @@ from ._planar import (
     ConversionMoments,
     ConvertedMeasurement,
     conversion_bias,
+    conversion_gain,
     conversion_moments,
+    decorrelated_variances,
     nonlinearity_index,
     polar_to_cartesian,
+    principal_variances,
 )
 from ._spherical import (
     ConvertedMeasurement3D,
     draw_spherical,
+    spherical_covariance,
     spherical_moments,
     spherical_monte_carlo,
     spherical_to_cartesian,
@@ -136,14 +141,18 @@ __all__ = [
     "ConvertedMeasurement",
     "ConvertedMeasurement3D",
     "conversion_bias",
+    "conversion_gain",
     "conversion_moments",
     "conversion_monte_carlo",
+    "decorrelated_variances",
     "draw_polar",
     "draw_spherical",
     "nees",
     "nees_at_truth",
     "nonlinearity_index",
     "polar_to_cartesian",
+    "principal_variances",
+    "spherical_covariance",
     "spherical_moments",
     "spherical_monte_carlo",
     "spherical_to_cartesian",

@@ -29,10 +29,10 @@ from ._planar import (
     _convert_decorrelated,
     _moments,
     _polar_iv,
-    _principal_variances,
     _prior_polar,
     _scale,
     _truth_variances,
+    principal_variances,
 )
 
 
@@ -308,11 +308,12 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
     s = sigma_beta**2
     e = _scale(r, sigma_r)
     rn, sr2 = np.ldexp(r, -e), np.ldexp(sigma_r, -e) ** 2
-    along_t, cross_t = _truth_variances(method, rn, sr2, s)
+    along_t, cross_t = _truth_variances(method, rn, sr2, sigma_beta)
     if method == "decorrelated":      # a prior exactly at the truth: R^D is Cov[x̂ | r, β]
         along_c, cross_c = along_t, cross_t
     else:
-        along_c, cross_c = _principal_variances(method, rn, sr2, s)
+        along_c, cross_c = principal_variances(rn, np.ldexp(sigma_r, -e), sigma_beta,
+                                               method=method)
     along_m = along_t + (_bias_factor(method, s) * rn) ** 2
     tiny = np.finfo(float).tiny
     if np.any(along_c <= tiny * along_m) or np.any(cross_c <= tiny * cross_t):

@@ -122,21 +122,47 @@ def _check_batch(trials: int, **arrays) -> int:
 
 
 # --------------------------------------------------------------------------- building blocks
-def _gain(method: str, s: np.ndarray) -> np.ndarray:
-    """Scalar factor g with converted position = g · r̂ (cos β̂, sin β̂); s = σβ²."""
-    t = s / 2                         # E cos w = e^{−t}
+def conversion_gain(sigma_beta, *, method: str = "linearized"):
+    r"""Gain :math:`g` of a conversion: its position is :math:`g\,\hat r\,(\cos\hat\beta, \sin\hat\beta)`.
+
+    Parameters
+    ----------
+    sigma_beta : array_like
+        Azimuth error standard deviation in radians, ``0 <= sigma_beta <=
+        SIGMA_BETA_MAX``.
+    method : str
+        One of :data:`ALL_METHODS` (keyword-only).
+
+    Returns
+    -------
+    numpy.ndarray
+        With :math:`t = \sigma_\beta^2/2` (so :math:`E\cos\tilde\beta = e^{-t}`):
+        1 (linearized), :math:`1 - e^{-t}(e^{-t} - 1)` (additive), :math:`e^{t}`
+        (multiplicative, decorrelated), :math:`1 + t` (first order), :math:`1 - t`
+        (first order as printed), :math:`e^{-t}` (measurement-conditioned).
+
+    Raises
+    ------
+    ValueError
+        `sigma_beta` negative or above :data:`SIGMA_BETA_MAX`, or an unknown `method`.
+
+    Examples
+    --------
+    >>> round(float(conversion_gain(0.1, method="multiplicative")), 6)
+    1.005013
+    """
+    t = _sigma_beta_iv(sigma_beta) ** 2 / 2          # E cos w = e^{-t}
+    method = as_choice(method, "method", ALL_METHODS)
     if method == "linearized":        # eq. (1): no correction
-        return np.ones_like(s)
+        return np.ones_like(t)
     if method == "additive":          # r̂u − r̂u(e^{−s} − e^{−t}) = r̂u (1 + e^{−t}(1 − e^{−t}))
         return 1.0 - np.exp(-t) * np.expm1(-t)
-    if method == "multiplicative":    # e^{t} r̂u: exactly unbiased
+    if method in ("multiplicative", "decorrelated"):    # e^{t} r̂u: exactly unbiased
         return np.exp(t)
     if method == "first_order":       # eq. (3) with the derived sign
         return 1.0 + t
     if method == "measurement_conditioned":    # Duan et al.: E[x | r̂, β̂] = e^{−t} r̂u
         return np.exp(-t)
-    if method == "decorrelated":      # Bordonaro et al.: the multiplicative position
-        return np.exp(t)
     return 1.0 - t                    # "first_order_printed": eq. (3) as printed
 
 
@@ -160,11 +186,51 @@ def _bias_factor(method: str, s: np.ndarray) -> np.ndarray:
     return np.where(small, series, (1 + t) * np.exp(-t) - 1)
 
 
-def _principal_variances(method, r, sr2, s):
-    """Variances along the line of sight and across it of the method's covariance.
+#: The methods whose covariance is evaluated at the measurement (all but ``"decorrelated"``).
+_MEASURED_METHODS = (*METHODS, "measurement_conditioned")
+#: Largest `r` and `sigma_r` whose square :func:`principal_variances` forms directly.
+_SQUARE_MAX = 1e150
 
-    Evaluated at the measurement (r = r̂), s = σβ²; written with expm1 so that no
-    difference of nearly equal numbers loses the small cross-range variance."""
+
+def principal_variances(r, sigma_r, sigma_beta, *, method: str = "linearized"):
+    r"""Variances of a method's covariance along the line of sight and across it.
+
+    Every covariance of :func:`polar_to_cartesian` (but the decorrelated one) is
+    :math:`R(\hat\beta)\,\mathrm{diag}(\text{along}, \text{cross})\,R(\hat\beta)^\mathsf T`;
+    these are its two principal variances, evaluated at the measurement and written
+    with ``expm1`` so that no difference of nearly equal numbers loses the small
+    cross-range variance.
+
+    Parameters
+    ----------
+    r : array_like
+        Measured range :math:`\hat r \ge 0`, at most 1e150 (:func:`polar_to_cartesian`
+        scales larger ones by powers of two).
+    sigma_r : array_like
+        Range error standard deviation :math:`\ge 0`, at most 1e150.
+    sigma_beta : array_like
+        Azimuth error standard deviation in radians, at most :data:`SIGMA_BETA_MAX`.
+    method : str
+        One of :data:`ALL_METHODS` but ``"decorrelated"`` (keyword-only).
+
+    Returns
+    -------
+    along, cross : numpy.ndarray
+        The variances along :math:`u(\hat\beta)` and across it.
+
+    Raises
+    ------
+    ValueError
+        A negative or too large `r` or `sigma_r`, a bad `sigma_beta`, or an unknown
+        `method`.
+
+    Examples
+    --------
+    >>> along, cross = principal_variances(150.0, 0.1, 0.01)
+    >>> float(along), round(float(cross), 6)
+    (0.010000000000000002, 2.25)
+    """
+    r, sr2, s, method = _variances_iv(r, sigma_r, sigma_beta, method)
     em = -np.expm1(-s)                                 # 1 − e^{−s}
     if method == "linearized":                         # eq. (2a–c): J diag(σr², σβ²) Jᵀ
         return sr2, r**2 * s
@@ -184,9 +250,24 @@ def _principal_variances(method, r, sr2, s):
     return along, cross
 
 
-def _truth_variances(method, r, sr2, s):
-    """Principal variances of Cov[x̂ | r, β] (given the TRUE position), s = σβ²."""
-    g2 = _gain(method, s) ** 2
+
+
+def _variances_iv(r, sigma_r, sigma_beta, method):
+    method = as_choice(method, "method", _MEASURED_METHODS)
+    r = as_positive(r, "r", strict=False)
+    sigma_r = as_positive(sigma_r, "sigma_r", strict=False)
+    for name, v in (("r", r), ("sigma_r", sigma_r)):
+        if np.any(v > _SQUARE_MAX):
+            raise ValueError(f"`{name}` must be at most 1e150 here (its square must stay finite); "
+                             f"received largest entry {float(np.max(v)):.6g}; "
+                             "polar_to_cartesian scales larger values")
+    return r, sigma_r**2, _sigma_beta_iv(sigma_beta) ** 2, method
+
+
+def _truth_variances(method, r, sr2, sigma_beta):
+    """Principal variances of Cov[x̂ | r, β] (given the TRUE position)."""
+    s = sigma_beta**2
+    g2 = conversion_gain(sigma_beta, method=method) ** 2
     em = -np.expm1(-s)
     along = g2 * (0.5 * r**2 * em**2 + 0.5 * sr2 * (1 + np.exp(-2 * s)))
     return along, -0.5 * g2 * (r**2 + sr2) * np.expm1(-2 * s)
@@ -226,8 +307,7 @@ def _unscale(v_scaled, e, what):
 
 def _convert(method, r, beta, sigma_r, sigma_beta):
     """Position g r̂ u(β̂) and the principal variances of the method's covariance."""
-    s = sigma_beta**2
-    g = _gain(method, s)
+    g = conversion_gain(sigma_beta, method=method)
     with np.errstate(over="ignore"):
         gr = g * r
     if not np.all(np.isfinite(gr)):
@@ -235,7 +315,8 @@ def _convert(method, r, beta, sigma_r, sigma_beta):
                          f"received largest entry {float(np.max(r)):.6g}")
     xy = np.stack([gr * np.cos(beta), gr * np.sin(beta)], axis=-1)
     e = _scale(r, sigma_r)
-    along, cross = _principal_variances(method, np.ldexp(r, -e), np.ldexp(sigma_r, -e)**2, s)
+    along, cross = principal_variances(np.ldexp(r, -e), np.ldexp(sigma_r, -e), sigma_beta,
+                                       method=method)
     along = _unscale(along, e, "along-range variance")
     cross = _unscale(cross, e, "cross-range variance")
     return xy, along, cross
@@ -283,14 +364,48 @@ def _prior_polar(xp, pc):
     return r_p, b_p, var_r, var_b
 
 
-def _decorrelated_variances(r_p2, sr2, s, sp):
-    """Principal variances of R^D = E[Cov(x̂_mult | r, β) | prior], along u(β_p) and across.
+def decorrelated_variances(mean_sq_range, sigma_r, sigma_beta, prior_azimuth_var):
+    r"""Principal variances of the decorrelated covariance, along :math:`u(\beta_p)` and across.
 
-    `r_p2` is E r² = r_p² + σ_rp² over the prior, `sr2` = σr², s = σβ², `sp` = σ_βp²:
+    Bordonaro et al.'s :math:`R^D = E[\operatorname{Cov}(\hat x_{\text{mult}} \mid r, \beta)
+    \mid \text{prior}]`:
 
-        R^D = ½(E r² + σr²) e^{s} (I + e^{−2s−2sp} M(β_p)) − ½ E r² (I + e^{−2sp} M(β_p)),
+    .. math::
 
-    written with expm1 so that no difference of nearly equal numbers appears."""
+        R^D = \tfrac12(\overline{r^2} + \sigma_r^2)e^{s}(I + e^{-2s-2s_p}M(\beta_p))
+              - \tfrac12\overline{r^2}(I + e^{-2s_p}M(\beta_p)),
+
+    written with ``expm1`` so that no difference of nearly equal numbers appears.
+
+    Parameters
+    ----------
+    mean_sq_range : array_like
+        :math:`\overline{r^2} = r_p^2 + \sigma_{rp}^2`, the mean squared range over the prior.
+    sigma_r : array_like
+        Range error standard deviation :math:`\ge 0`, at most 1e150.
+    sigma_beta : array_like
+        Azimuth error standard deviation in radians, at most :data:`SIGMA_BETA_MAX`.
+    prior_azimuth_var : array_like
+        :math:`s_p = \sigma_{\beta p}^2`, the prior's azimuth variance (rad², :math:`\ge 0`).
+
+    Returns
+    -------
+    along, cross : numpy.ndarray
+        The variances along the prior's line of sight and across it.
+
+    Raises
+    ------
+    ValueError
+        A negative argument, a `sigma_r` above 1e150 or a `sigma_beta` above
+        :data:`SIGMA_BETA_MAX`.
+
+    Examples
+    --------
+    >>> along, cross = decorrelated_variances(150.0**2, 0.1, 0.01, 0.0)
+    >>> round(float(along), 6), round(float(cross), 4)
+    (0.010113, 2.25)
+    """
+    r_p2, sr2, s, sp = _decorrelated_iv(mean_sq_range, sigma_r, sigma_beta, prior_azimuth_var)
     with np.errstate(under="ignore"):
         d = np.exp(-2 * sp)
         along = 0.5 * (sr2 * (np.exp(s) + d * np.exp(-s))
@@ -298,6 +413,16 @@ def _decorrelated_variances(r_p2, sr2, s, sp):
         cross = 0.5 * (sr2 * (-np.exp(s) * np.expm1(-2 * s - 2 * sp))
                        + r_p2 * (np.expm1(s) - d * np.expm1(-s)))
     return along, cross
+
+
+def _decorrelated_iv(mean_sq_range, sigma_r, sigma_beta, prior_azimuth_var):
+    r_p2 = as_positive(mean_sq_range, "mean_sq_range", strict=False)
+    sigma_r = as_positive(sigma_r, "sigma_r", strict=False)
+    if np.any(sigma_r > _SQUARE_MAX):
+        raise ValueError("`sigma_r` must be at most 1e150 here (its square must stay finite); "
+                         f"received largest entry {float(np.max(sigma_r)):.6g}")
+    sp = as_positive(prior_azimuth_var, "prior_azimuth_var", strict=False)
+    return r_p2, sigma_r**2, _sigma_beta_iv(sigma_beta) ** 2, sp
 
 
 def _convert_decorrelated(r, beta, sigma_r, sigma_beta, r_p, var_r, var_b):
@@ -311,7 +436,7 @@ def _convert_decorrelated(r, beta, sigma_r, sigma_beta, r_p, var_r, var_b):
     xy = np.stack([gr * np.cos(beta), gr * np.sin(beta)], axis=-1)
     e = np.frexp(np.maximum(np.maximum(r_p, np.sqrt(var_r)), sigma_r))[1]
     rp2 = np.ldexp(r_p, -e) ** 2 + np.ldexp(np.sqrt(var_r), -e) ** 2
-    along, cross = _decorrelated_variances(rp2, np.ldexp(sigma_r, -e) ** 2, s, var_b)
+    along, cross = decorrelated_variances(rp2, np.ldexp(sigma_r, -e), sigma_beta, var_b)
     return (xy, _unscale(along, e, "along-range variance"),
             _unscale(cross, e, "cross-range variance"))
 
@@ -531,7 +656,7 @@ def _moments(method, r, beta, sigma_r, sigma_beta) -> ConversionMoments:
     bias = (bf * r)[..., None] * u
     e = _scale(r, sigma_r)
     rn, srn = np.ldexp(r, -e), np.ldexp(sigma_r, -e)
-    along, cross = _truth_variances(method, rn, srn**2, s)
+    along, cross = _truth_variances(method, rn, srn**2, sigma_beta)
     # the bias lies along the line of sight: it adds (bf r)² to the along-range MSE only
     along_mse = _unscale(along + (bf * rn) ** 2, e, "mean squared error")
     along = _unscale(along, e, "along-range variance")

@@ -115,8 +115,48 @@ def _outer(u, v):
     return u[..., :, None] * v[..., None, :]
 
 
-def _spherical_cov(method, r, beta, eps, sigma_r, sb2, se2):
-    """The method's covariance at the measurement (r̂, β̂, ε̂), in the units of r (scaled)."""
+def spherical_covariance(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, *,
+                         method: str = "linearized"):
+    r"""A 3-D method's covariance at the measurement :math:`(\hat r, \hat\beta, \hat\varepsilon)`.
+
+    With :math:`a = a(\hat\beta, \hat\varepsilon)` the line of sight and :math:`Z` the
+    damping of the angle errors (:math:`E[a(\beta, \varepsilon)] = Z a` given the
+    measurement), the truth given the measurement has
+    :math:`\operatorname{Cov} = (\hat r^2 + \sigma_r^2)E[aa^\mathsf T] - \hat r^2 Zaa^\mathsf T Z`
+    (measurement-conditioned); the multiplicative method adds the square of its offset from
+    that mean, the additive one is Lerro & Bar-Shalom's average of the covariance given the
+    truth, and the linearized one is :math:`J\,\mathrm{diag}(\sigma_r^2, \sigma_\beta^2,
+    \sigma_\varepsilon^2)J^\mathsf T`.
+
+    Parameters
+    ----------
+    r, beta, epsilon : array_like
+        Measured range (:math:`\ge 0`, at most 1e150; :func:`spherical_to_cartesian` scales
+        larger ones), azimuth and elevation (radians).
+    sigma_r, sigma_beta, sigma_epsilon : array_like
+        Error standard deviations (:math:`\sigma_r` at most 1e150, the angles' at most
+        :data:`SIGMA_BETA_MAX`).
+    method : str
+        One of :data:`METHODS_3D` (keyword-only).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3, 3)
+
+    Raises
+    ------
+    ValueError
+        Bad values or shapes (named), or an unknown `method`.
+
+    Examples
+    --------
+    >>> spherical_covariance(100.0, 0.0, 0.0, 0.1, 0.01, 0.02).round(6)
+    array([[0.01, 0.  , 0.  ],
+           [0.  , 1.  , 0.  ],
+           [0.  , 0.  , 4.  ]])
+    """
+    r, beta, eps, sigma_r, sb2, se2, method = _covariance_iv(
+        r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, method)
     a = _unit3(beta, eps)
     lam = _damping3(sb2, se2)
     sr2 = sigma_r**2
@@ -142,6 +182,19 @@ def _spherical_cov(method, r, beta, eps, sigma_r, sb2, se2):
             * lam[..., None, :])
 
 
+
+def _covariance_iv(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, method):
+    method = as_choice(method, "method", METHODS_3D)
+    r, beta, eps, sigma_r, sigma_beta, sigma_epsilon = _spherical_iv(
+        r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon)
+    for name, v in (("r", r), ("sigma_r", sigma_r)):
+        if np.any(v > 1e150):
+            raise ValueError(f"`{name}` must be at most 1e150 here (its square must stay finite); "
+                             f"received largest entry {float(np.max(v)):.6g}; "
+                             "spherical_to_cartesian scales larger values")
+    return r, beta, eps, sigma_r, sigma_beta**2, sigma_epsilon**2, method
+
+
 def _unscale3(m, e, what):
     with np.errstate(over="ignore", under="ignore"):
         v = np.ldexp(m, 2 * e[..., None, None])
@@ -160,7 +213,8 @@ def _convert3(method, r, beta, eps, sigma_r, sigma_beta, sigma_epsilon):
         raise ValueError(f"`r` is too large: the converted position overflows float64; "
                          f"received largest entry {float(np.max(r)):.6g}")
     e = _scale(r, sigma_r)
-    cov = _spherical_cov(method, np.ldexp(r, -e), beta, eps, np.ldexp(sigma_r, -e), sb2, se2)
+    cov = spherical_covariance(np.ldexp(r, -e), beta, eps, np.ldexp(sigma_r, -e), sigma_beta,
+                               sigma_epsilon, method=method)
     return xyz, _unscale3(cov, e, "covariance")
 
 
