@@ -84,7 +84,7 @@ class PipelineSettings:
         Keep the :math:`\ln|2\pi S|` term of the ML grouping cost (default). ``False``
         replaces it by its median over the scan's candidate groups of each size, so only
         its variation between groups is removed (:func:`radarfusion_ref.grouping.group_sd`
-        with ``logdet=False``).
+        with ``median_logdet=True``).
     use_features : bool
         Group on position and speed feature (4-D reports; default) or on position only.
     warmup : int
@@ -322,7 +322,8 @@ def _group(reports, radars, x, cov, linked, settings):
                 [xf[sel[i]] for i in active], [cf[sel[i]] for i in active],
                 method=settings.method, p_false_reject=settings.p_false_reject,
                 p_detect=pd_[active], false_density=false_density[active],
-                object_density=object_density, logdet=settings.logdet).groups
+                object_density=object_density,
+                median_logdet=not settings.logdet).groups
             tuples = np.full((g.shape[0], m), -1, dtype=np.int64)
             for c, i in enumerate(active):
                 ok = g[:, c] >= 0
@@ -463,17 +464,17 @@ def run_pipeline(reports, radars, settings=None) -> PipelineResult:
     """
     reports, radars, settings = _pipeline_iv(reports, radars, settings)
     clock = _Clock()
-    with clock("registration"):     # 2. range and azimuth offsets from the warm-up scans
+    with clock("registration"):     # 2. each radar's offsets, from the warm-up scans
         biases = _register(reports, radars, settings) if settings.register else None
-    with clock("conversion"):       # 1. every report, corrected, into the common frame
+    with clock("conversion"):       # 1. every report, corrected, to the common frame
         x, cov = _convert(reports, radars, biases, settings.debias)
-    with clock("gating"):           # 3. keep reports another radar's report could join
+    with clock("gating"):           # 3. keep the reports another radar's report can join
         linked = _gate(reports, x, cov, len(radars), settings)
     with clock("grouping"):         # 4. S-D grouping with dummies, scan by scan
         group_of, members = _group(reports, radars, x, cov, linked, settings)
     with clock("fusion"):           # 5. ML fusion of every group of min_reports or more
         objects = _fuse(reports, radars, x, cov, members, settings.min_reports)
-    with clock("recognition"):      # 6. speed-class posterior of every object
+    with clock("recognition"):      # 6. the speed-class posterior of every object
         class_prob = _recognise(objects["speed"], objects["speed_var"])
     return PipelineResult(
         **objects, class_prob=class_prob, group_of=group_of,

@@ -272,15 +272,24 @@ class PurityResult:
     fraction: Proportion | None
 
 
+def _array_of(value, kinds):
+    """`value` as an array if it is one of the dtype kinds `kinds`, else None."""
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):                                # ragged lists
+        return None
+    return a if a.dtype.kind in kinds else None
+
+
 def _purity_iv(sources, present):
-    s = np.asarray(sources) if not isinstance(sources, (str, bytes)) else None
-    if s is None or s.dtype.kind not in "iu" or s.ndim != 2:
+    s = _array_of(sources, "iu")
+    if s is None or s.ndim != 2:
         raise TypeError(f"`sources` must be an integer array of shape (G, m); received "
                         f"{_describe(sources)}")
     if present is None:
         return s, np.ones(s.shape, dtype=bool)
-    m = np.asarray(present) if not isinstance(present, (str, bytes)) else None
-    if m is None or m.dtype.kind != "b":
+    m = _array_of(present, "b")
+    if m is None:
         raise TypeError(f"`present` must be a boolean array; received {_describe(present)}")
     if m.shape != s.shape:
         raise ValueError(f"`present` must have the shape of `sources` {s.shape}; received "
