@@ -375,3 +375,24 @@ def test_bad_input_names_the_argument(call, exc, text):
         warnings.simplefilter("ignore", RadarFusionWarning)
         with pytest.raises(exc, match=text):
             call()
+
+
+def test_reduced_information_is_the_bias_block_of_the_full_information():
+    """Eliminating the objects (Schur complement) equals inverting the full normal matrix
+    of biases and positions and reading off the bias block of the inverse."""
+    g = np.random.default_rng(3)
+    m, n = 2, 4
+    B, G = g.normal(size=(m, n, 2, 3)), g.normal(size=(m, n, 2, 2))
+    rows = []
+    for i in range(m):
+        for k in range(n):
+            J = np.zeros((2, 3 * m + 2 * n))        # one report: its radar's biases, its object
+            J[:, 3 * i:3 * i + 3] = B[i, k]
+            J[:, 3 * m + 2 * k:3 * m + 2 * k + 2] = G[i, k]
+            rows.append(J)
+    J = np.concatenate(rows)
+    full = J.T @ J
+    want = np.linalg.inv(np.linalg.inv(full)[:3 * m, :3 * m])
+    np.testing.assert_allclose(rg.reduced_information(B, G), want, rtol=1e-8, atol=1e-10)
+    with pytest.raises(ValueError, match="`jac_bias`.*`jac_object`"):
+        rg.reduced_information(B, G[:, :3])

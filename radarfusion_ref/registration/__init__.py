@@ -52,6 +52,7 @@ from ._estimation import (
     bias_information,
     estimate_biases,
     observability,
+    reduced_information,
 )
 from ._joint import (
     AccuracyComparison,
@@ -99,6 +100,7 @@ __all__ = [
     "estimate_biases",
     "noncentrality",
     "observability",
+    "reduced_information",
     "register_and_associate",
     "remove_biases",
     "simulate_scene",

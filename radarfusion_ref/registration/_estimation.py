@@ -10,6 +10,7 @@ import numpy as np
 
 from ..engine._validation import (
     _describe,
+    as_float_array,
     as_int,
 )
 from ..engine.errors import RadarFusionWarning
@@ -51,25 +52,87 @@ def _blocks(s, x, b, sr, sb):
     return pred, B, G
 
 
-def _reduced(B, G, e=None):
-    """Schur complement over the objects: the bias information and (optionally) gradient.
+def reduced_information(jac_bias, jac_object):
+    r"""Fisher information of the biases with every object's position eliminated.
+
+    With the whitened Jacobians :math:`B_{ik}` (report of object :math:`k` by radar
+    :math:`i` against that radar's biases) and :math:`G_{ik}` (against the object's
+    position), the normal equations have the blocks :math:`U = \operatorname{blockdiag}_i
+    \sum_k B_{ik}^\mathsf T B_{ik}`, :math:`W_k = \sum_i B_{ik}^\mathsf T G_{ik}` and
+    :math:`V_k = \sum_i G_{ik}^\mathsf T G_{ik}`; eliminating the objects (a Schur
+    complement, the bundle-adjustment trick) leaves
+
+    .. math::
+
+        \mathcal J_b = U - \sum_k W_k V_k^{-1} W_k^\mathsf T
+
+    (book eq. ``eq-registration-fim``).
+
+    Parameters
+    ----------
+    jac_bias : array_like, shape (..., m, n, 2, 3)
+        :math:`B_{ik}`, whitened (divided by the error standard deviations).
+    jac_object : array_like, shape (..., m, n, 2, 2)
+        :math:`G_{ik}`, whitened.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3m, 3m)
+        :math:`\mathcal J_b`, symmetric.
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not describe the same reports, non-finite entries, or an object
+        whose position its reports do not determine (:math:`V_k` singular).
+
+    Examples
+    --------
+    >>> B = np.zeros((2, 1, 2, 3)); B[0, 0, 0, 0] = B[1, 0, 0, 0] = 1.0
+    >>> reduced_information(B, np.broadcast_to(np.eye(2), (2, 1, 2, 2)))[[0, 3]][:, [0, 3]]
+    array([[ 0.5, -0.5],
+           [-0.5,  0.5]])
+    """
+    B, G = _jacobians_iv(jac_bias, jac_object)
+    *lead, m, _, _, _ = B.shape
+    U = np.einsum("...ikab,...ikac->...ibc", B, B)                    # per radar, summed over k
+    info = np.zeros((*lead, 3 * m, 3 * m))
+    for i in range(m):                                               # U is block-diagonal
+        info[..., 3 * i:3 * i + 3, 3 * i:3 * i + 3] = U[..., i, :, :]
+    W, V = _object_blocks(B, G)                                      # (…, n, 3m, 2), (…, n, 2, 2)
+    try:
+        Vinv_Wt = np.linalg.solve(V, np.swapaxes(W, -1, -2))
+    except np.linalg.LinAlgError:
+        raise ValueError("`jac_object`: an object's position is not determined by its reports "
+                         "(a V_k is singular)") from None
+    info = info - np.einsum("...kpa,...kaq->...pq", W, Vinv_Wt)      # U - sum_k W V^-1 W^T
+    return 0.5 * (info + np.swapaxes(info, -1, -2))
+
+
+def _jacobians_iv(jac_bias, jac_object):
+    B = as_float_array(jac_bias, "jac_bias", ndim_min=4, last_dims=(2, 3))
+    G = as_float_array(jac_object, "jac_object", ndim_min=4, last_dims=(2, 2))
+    if B.shape[:-1] != G.shape[:-1]:
+        raise ValueError("`jac_bias` (..., m, n, 2, 3) and `jac_object` (..., m, n, 2, 2) must "
+                         f"describe the same reports; received shapes {B.shape} and {G.shape}")
+    return B, G
+
+
+def _object_blocks(B, G):
+    """W_k = sum_i B_ik^T G_ik, laid out (…, n, 3m, 2), and V_k = sum_i G_ik^T G_ik."""
+    *lead, m, n, _, _ = B.shape
+    W = np.einsum("...ikab,...ikac->...kibc", B, G).reshape(*lead, n, 3 * m, 2)
+    return W, np.einsum("...ikab,...ikac->...kbc", G, G)
+
+
+def _reduced(B, G, e):
+    """The reduced information, the reduced gradient and the per-object pieces of one step.
 
     B (…, m, n, 2, 3), G (…, m, n, 2, 2), e (…, m, n, 2) whitened residuals.
-    Returns (info (…, 3m, 3m), grad (…, 3m) or None, per-object pieces).
     """
-    *lead, m, n, _, _ = B.shape
-    # U: block-diagonal per radar; W_k: (…, n, 3m, 2); V_k: (…, n, 2, 2)
-    U = np.einsum("...ikab,...ikac->...ibc", B, B)
-    info = np.zeros((*lead, 3 * m, 3 * m))
-    for i in range(m):
-        info[..., 3 * i:3 * i + 3, 3 * i:3 * i + 3] = U[..., i, :, :]
-    W = np.einsum("...ikab,...ikac->...kibc", B, G).reshape(*lead, n, 3 * m, 2)
-    V = np.einsum("...ikab,...ikac->...kbc", G, G)
-    Vinv_Wt = np.linalg.solve(V, np.swapaxes(W, -1, -2))           # (…, n, 2, 3m)
-    info = info - np.einsum("...kpa,...kaq->...pq", W, Vinv_Wt)
-    info = 0.5 * (info + np.swapaxes(info, -1, -2))
-    if e is None:
-        return info, None, (W, V)
+    *lead, m, _, _, _ = B.shape
+    info = reduced_information(B, G)
+    W, V = _object_blocks(B, G)
     gb = np.einsum("...ikab,...ika->...ib", B, e).reshape(*lead, 3 * m)
     gx = np.einsum("...ikab,...ika->...kb", G, e)                   # (…, n, 2)
     Vinv_gx = np.linalg.solve(V, gx[..., None])[..., 0]
@@ -198,7 +261,7 @@ def bias_information(sensors, targets, sigma_r, sigma_beta, *, biases=None):
     t = np.broadcast_to(t, (*lead, *t.shape[-2:]))
     b = np.broadcast_to(b, (*lead, m, 3))
     _, B, G = _blocks(s, t, b, sr, sb)
-    return _reduced(B, G)[0]
+    return reduced_information(B, G)
 
 
 @dataclass(frozen=True)
