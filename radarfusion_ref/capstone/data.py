@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine._validation import MEMORY_LIMIT, _describe, as_float_array, check_size
+from ..engine._validation import MEMORY_LIMIT, _describe, as_positive, check_size
 from ..engine.geodesy import geodetic_to_enu
 
 __all__ = [
@@ -233,12 +233,9 @@ class TruthScans:
 
 def _scalar(value, name, *, positive=True):
     """A single finite number, > 0 (or >= 0 with ``positive=False``)."""
-    v = as_float_array(value, name)
+    v = as_positive(value, name, strict=positive)
     if v.ndim:
         raise ValueError(f"`{name}` must be a number; received {_describe(value)}")
-    if (v <= 0) if positive else (v < 0):
-        raise ValueError(f"`{name}` must be {'> 0' if positive else '>= 0'}; received "
-                         f"{_describe(value)}")
     return float(v)
 
 

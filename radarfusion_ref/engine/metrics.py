@@ -25,7 +25,14 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from ._validation import MEMORY_LIMIT, _describe, as_float_array, as_probability, check_size
+from ._validation import (
+    MEMORY_LIMIT,
+    _describe,
+    as_float_array,
+    as_positive,
+    as_probability,
+    check_size,
+)
 from .linalg import mahalanobis_sq
 from .montecarlo import Proportion, proportion
 
@@ -68,11 +75,9 @@ def _points(value, name):
 
 def _number(value, name):
     """A single finite number > 0."""
-    v = as_float_array(value, name)
+    v = as_positive(value, name)
     if v.ndim:
         raise ValueError(f"`{name}` must be a number; received {_describe(value)}")
-    if v <= 0:
-        raise ValueError(f"`{name}` must be > 0; received {_describe(value)}")
     return float(v)
 
 
