@@ -4,10 +4,10 @@ Run ``python benchmarks/bench_gating.py [--quick]``. Everything is measured in
 this one run, on one core (the process is pinned to one CPU where the OS
 allows it; numpy's element-wise ufuncs are single-threaded anyway):
 
-1. ``gating.gate_mahalanobis_2d`` — chunked, in-place ufuncs, closed-form
-   2x2 Cholesky — for 10^6 and 10^7 pairs sharing one S = C1 + C2;
-2. plain numpy broadcasting: ``proximity.mahalanobis_sq`` (the same closed
-   form, no chunking) and the textbook ``einsum`` + ``np.linalg.solve``;
+1. ``gating.gate_mahalanobis_2d`` — chunked, in-place ufuncs, the 2x2
+   LDL^T kernel of ``engine.linalg`` — for 10^6 and 10^7 pairs sharing one S = C1 + C2;
+2. plain numpy broadcasting: ``proximity.proximity_gaussian`` (the same
+   kernel, no chunking) and the textbook ``einsum`` + ``np.linalg.solve``;
 3. a pure-Python loop over pairs (the same closed form with ``math``);
 4. a loop calling ``scipy.spatial.distance.mahalanobis`` (which takes S^-1);
 5. the machine's memory bandwidth, from a large ``np.add`` (2 reads + 1 write),
@@ -17,8 +17,8 @@ allows it; numpy's element-wise ufuncs are single-threaded anyway):
    by the chunked kernel and by plain broadcasting, per pair;
 7. per-report covariances in the Monte-Carlo layout of chapter 07 (issue 13):
    T = 10^5 trials, n = 10 reports per radar, all n^2 pairs, every report
-   with its own 2x2 covariance — ``gating.pairwise_mahalanobis_2d`` and
-   ``gating.gate_pairwise_2d`` against ``proximity.mahalanobis_sq`` with the
+   with its own 2x2 covariance — ``linalg.mahalanobis_sq_pairwise`` and
+   ``gating.gate_pairwise_2d`` against ``proximity.proximity_gaussian`` with the
    covariances broadcast per report (the baseline) and
    ``separated.pair_statistic``; rates by wall clock and by CPU time (the
    machine is shared), and the ratio against the baseline.
@@ -43,6 +43,7 @@ import numpy as np
 from scipy.spatial import distance
 
 from radarfusion_ref import gating, proximity, separated
+from radarfusion_ref.engine import linalg
 
 P_LO = 0.01
 S = np.array([[1.3, 0.4], [0.4, 0.7]])      # S = C1 + C2, shared by all pairs
@@ -96,7 +97,7 @@ def numpy_einsum(x1, x2, s, threshold):
 
 def numpy_plain(x1, x2, threshold):
     """The package's unchunked closed form, then the gate."""
-    return proximity.mahalanobis_sq(x1, x2, C1, C2) < threshold
+    return proximity.proximity_gaussian(x1, x2, C1, C2) < threshold
 
 
 def memory_bandwidth(repeats, n=2**24):
@@ -136,32 +137,32 @@ def per_report_section(rng, trials, n, repeats):
     th = gating.gate_threshold(P_LO, 2)
 
     def baseline():
-        return proximity.mahalanobis_sq(x1[:, :, None], x2[:, None], c1[:, :, None],
-                                        c2[:, None])
+        return proximity.proximity_gaussian(x1[:, :, None], x2[:, None], c1[:, :, None],
+                                            c2[:, None])
 
-    kappa = gating.pairwise_mahalanobis_2d(x1, x2, c1, c2)
+    kappa = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2)
     ref = baseline()
     rel = float(np.max(np.abs(kappa - ref) / ref))
     same_sep = np.array_equal(kappa, separated.pair_statistic(x1, c1, x2, c2))
     if not np.array_equal(gating.gate_pairwise_2d(x1, x2, c1, c2), ref < th) and rel > 1e-12:
-        raise AssertionError("per-report kernel disagrees with mahalanobis_sq")
+        raise AssertionError("per-report kernel disagrees with proximity_gaussian")
     methods = {
-        "gate_pairwise_2d (1 B/pair)": lambda: gating.gate_pairwise_2d(x1, x2, c1, c2),
-        "pairwise_mahalanobis_2d (kappa)": lambda: gating.pairwise_mahalanobis_2d(x1, x2, c1, c2),
+        "gate_pairwise_2d": lambda: gating.gate_pairwise_2d(x1, x2, c1, c2),
+        "mahalanobis_sq_pairwise (kappa)": lambda: linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2),
         "separated.pair_statistic": lambda: separated.pair_statistic(x1, c1, x2, c2),
-        "mahalanobis_sq, broadcast (baseline)": lambda: baseline() < th,
+        "proximity_gaussian, broadcast (baseline)": lambda: baseline() < th,
     }
     print(f"\n7. per-report covariances: T = {trials} trials x n^2 = {n * n} pairs "
-          f"({pairs / 1e6:.0f} M pairs); kernel vs mahalanobis_sq: max rel. difference "
+          f"({pairs / 1e6:.0f} M pairs); kernel vs proximity_gaussian: max rel. difference "
           f"{rel:.1e}; kernel == separated.pair_statistic bit for bit: {same_sep}")
     print(f"{'method':<38} {'wall M pairs/s':>15} {'CPU M pairs/s':>14} {'x baseline':>11}")
     rates = {}
     for name, func in methods.items():
-        reps = 1 if name.startswith("mahalanobis_sq") else repeats
+        reps = 1 if name.startswith("proximity_gaussian") else repeats
         wall = pairs / best_time(func, reps)
         cpu = pairs / max(best_cpu_time(func, reps), 1e-9)
         rates[name] = (wall, cpu)
-    base_wall = rates["mahalanobis_sq, broadcast (baseline)"][0]
+    base_wall = rates["proximity_gaussian, broadcast (baseline)"][0]
     for name, (wall, cpu) in rates.items():
         print(f"{name:<38} {wall / 1e6:15.1f} {cpu / 1e6:14.1f} {wall / base_wall:11.1f}")
     return rates
@@ -225,7 +226,7 @@ def main(argv=None):
             raise AssertionError("vectorized methods disagree")
         methods = {
             KERNEL: lambda a=x1, b=x2: gating.gate_mahalanobis_2d(a, b, S),
-            "plain numpy (mahalanobis_sq)": lambda a=x1, b=x2: numpy_plain(a, b, th),
+            "plain numpy (proximity_gaussian)": lambda a=x1, b=x2: numpy_plain(a, b, th),
             "numpy einsum + linalg.solve": lambda a=x1, b=x2: numpy_einsum(a, b, S, th),
         }
         for name, func in methods.items():
@@ -234,7 +235,7 @@ def main(argv=None):
             print(f"{n:>10} {name:<34} {rate / 1e6:10.1f} {rate / rate_py:9.0f} "
                   f"{rate / rate_sp:9.0f} {100 * rate / bound:13.0f}%")
         mem_k = peak_bytes(methods[KERNEL])
-        mem_p = peak_bytes(methods["plain numpy (mahalanobis_sq)"])
+        mem_p = peak_bytes(methods["plain numpy (proximity_gaussian)"])
         results[(n, "mem_kernel")], results[(n, "mem_plain")] = mem_k, mem_p
         print(f"{'':>10} peak memory allocated: kernel {mem_k / 2**20:.1f} MiB "
               f"({mem_k / n:.2f} B/pair; the boolean result alone is 1 B/pair), "
@@ -254,12 +255,12 @@ def main(argv=None):
     rates = per_report_section(rng, trials, 10, repeats)
     results["per_report"] = rates
     print("\ntargets (issue 13, per-report covariances):")
-    base = rates["mahalanobis_sq, broadcast (baseline)"][0]
-    for name in ("gate_pairwise_2d (1 B/pair)", "pairwise_mahalanobis_2d (kappa)"):
+    base = rates["proximity_gaussian, broadcast (baseline)"][0]
+    for name in ("gate_pairwise_2d", "mahalanobis_sq_pairwise (kappa)"):
         wall, cpu = rates[name]
         print(f"  {name}: {wall / 1e6:.1f} M pairs/s wall ({cpu / 1e6:.1f} by CPU time) "
               f">= 60: {'yes' if wall >= 60e6 else 'NO'} (by CPU time: "
-              f"{'yes' if cpu >= 60e6 else 'NO'}); {wall / base:.0f}x mahalanobis_sq")
+              f"{'yes' if cpu >= 60e6 else 'NO'}); {wall / base:.0f}x proximity_gaussian")
     return results
 
 

@@ -1,21 +1,21 @@
-"""Feature (attribute) measurements: type recognition and feature-aided association.
+r"""Feature (attribute) measurements: type recognition and feature-aided association.
 
-Besides a coordinate :math:`\\hat x_i`, each radar reports a *feature*
-:math:`\\hat\\Pi_i = \\Pi + \\Delta\\Pi_i` (a signal, trajectory or behaviour
-parameter), :math:`\\Delta\\Pi_i \\sim \\mathcal N(0, \\sigma_{\\Pi i}^2)`. An
+Besides a coordinate :math:`\hat x_i`, each radar reports a *feature*
+:math:`\hat\Pi_i = \Pi + \Delta\Pi_i` (a signal, trajectory or behaviour
+parameter), :math:`\Delta\Pi_i \sim \mathcal N(0, \sigma_{\Pi i}^2)`. An
 object of type :math:`T_k` has a feature value drawn from the type-conditional
 density (Grachov & Korneev 2010, eq. (8), corrected — see the chapter)
 
 .. math::
 
-    f(\\Pi \\mid T_k) = \\mathcal N(\\Pi;\\ \\Pi_k, \\sigma_{\\Pi k}^2),
-    \\qquad k = 1, \\dots, K.
+    f(\Pi \mid T_k) = \mathcal N(\Pi;\ \Pi_k, \sigma_{\Pi k}^2),
+    \qquad k = 1, \dots, K.
 
 .. rubric:: Public functions
 
 * :func:`fused_feature` — the maximum-likelihood fused feature of two reports
   and its variance;
-* :func:`type_likelihood` — :math:`f(\\hat\\Pi \\mid T_k)` for a feature measured
+* :func:`type_likelihood` — :math:`f(\hat\Pi \mid T_k)` for a feature measured
   with variance :math:`v` (the type density convolved with the error);
 * :func:`type_posterior` — the type posterior (13), computed in the log domain;
 * :func:`pair_type_posterior` — the type posterior from both radars' reports,
@@ -24,13 +24,13 @@ density (Grachov & Korneev 2010, eq. (8), corrected — see the chapter)
   (vector coordinates allowed), for both feature observation models;
 * :func:`typed_scene` — two-radar scenes of typed objects (builds on
   :func:`radarfusion_ref.engine.scenes.two_radar_scene`);
-* :func:`association_costs` — the :math:`n \\times n` cost matrices of a scene;
+* :func:`association_costs` — the :math:`n \times n` cost matrices of a scene;
 * :func:`triune` — the association – estimation – recognition outcome of a
   given association, with accuracy, RMSE and a confusion matrix;
 * :func:`reliability_curve` — binned calibration of predicted probabilities.
 
 Two feature observation models are supported (the paper's closing discussion):
-``"shared"`` (model 1: both radars see the same value :math:`\\Pi`, their
+``"shared"`` (model 1: both radars see the same value :math:`\Pi`, their
 reports differ only by measurement error) and ``"spread"`` (model 2: each
 radar sees its own value, drawn from the type's density, so the reports of
 one object differ by the type's spread as well).
@@ -69,7 +69,7 @@ from .engine.scenes import (  # the scene simulator lives in scenes; re-exported
     typed_scene,
 )
 from .fusion import fuse
-from .proximity import mahalanobis_sq
+from .proximity import proximity_gaussian
 
 __all__ = [
     "FEATURE_MODELS",
@@ -176,7 +176,7 @@ def _signed_log(a, b):
 
 
 def _relative_log_joint(xs, means, log_vars, log_priors, ref):
-    """``log_joint[..., k] - log_joint[..., ref]`` of the Gaussian type model, exactly.
+    r"""``log_joint[..., k] - log_joint[..., ref]`` of the Gaussian type model, exactly.
 
     ``log_joint[k] = log p_k - 1/2 sum_j (log V_jk + (x_j - m_k)**2 / V_jk)`` with
     ``V_jk = exp(log_vars[j][..., k])``. The difference of the quadratic terms
@@ -185,8 +185,8 @@ def _relative_log_joint(xs, means, log_vars, log_priors, ref):
 
     .. math::
 
-        D_{jk} = V_{jk}^{-1}\\,[e_k^2 - 2 u e_k - u^2 \\operatorname{expm1}(\\ln V_{jk} - \\ln V_{jr})],
-        \\qquad u = x_j - m_r,\\ e_k = m_k - m_r,
+        D_{jk} = V_{jk}^{-1}\,[e_k^2 - 2 u e_k - u^2 \operatorname{expm1}(\ln V_{jk} - \ln V_{jr})],
+        \qquad u = x_j - m_r,\ e_k = m_k - m_r,
 
     which stays exact when the means nearly coincide relative to the feature
     (no ``x - m`` cancellation); otherwise as the difference of the two terms.
@@ -267,14 +267,14 @@ def _log_posterior(xs, means, log_vars, log_priors):
 # ----------------------------------------------------------------------------- fusion
 @dataclass(frozen=True)
 class FusedFeature:
-    """The fused feature of two reports of one object.
+    r"""The fused feature of two reports of one object.
 
     Attributes
     ----------
     value : numpy.ndarray or float
-        :math:`\\tilde\\Pi`, the inverse-variance weighted mean of the two reports.
+        :math:`\tilde\Pi`, the inverse-variance weighted mean of the two reports.
     var : numpy.ndarray or float
-        Its variance :math:`\\sigma_{\\Pi1}^2\\sigma_{\\Pi2}^2/(\\sigma_{\\Pi1}^2+\\sigma_{\\Pi2}^2)`.
+        Its variance :math:`\sigma_{\Pi1}^2\sigma_{\Pi2}^2/(\sigma_{\Pi1}^2+\sigma_{\Pi2}^2)`.
     """
 
     value: np.ndarray | float
@@ -282,14 +282,14 @@ class FusedFeature:
 
 
 def fused_feature(feature1, feature_var1, feature2, feature_var2) -> FusedFeature:
-    """Maximum-likelihood fused feature of two reports (model 1) and its variance.
+    r"""Maximum-likelihood fused feature of two reports (model 1) and its variance.
 
     Parameters
     ----------
     feature1, feature2 : array_like
-        Feature reports :math:`\\hat\\Pi_1, \\hat\\Pi_2` (broadcast together).
+        Feature reports :math:`\hat\Pi_1, \hat\Pi_2` (broadcast together).
     feature_var1, feature_var2 : array_like
-        Their error variances :math:`\\sigma_{\\Pi1}^2, \\sigma_{\\Pi2}^2` (> 0).
+        Their error variances :math:`\sigma_{\Pi1}^2, \sigma_{\Pi2}^2` (> 0).
 
     Returns
     -------
@@ -302,16 +302,16 @@ def fused_feature(feature1, feature_var1, feature2, feature_var2) -> FusedFeatur
 
     Notes
     -----
-    Maximising the feature factor of the likelihood (9) over :math:`\\Pi` gives
+    Maximising the feature factor of the likelihood (9) over :math:`\Pi` gives
     (the estimate printed after (9))
 
     .. math::
 
-        \\tilde\\Pi = \\frac{\\sigma_{\\Pi2}^2\\hat\\Pi_1 + \\sigma_{\\Pi1}^2\\hat\\Pi_2}
-                           {\\sigma_{\\Pi1}^2 + \\sigma_{\\Pi2}^2},
-        \\qquad
-        \\operatorname{Var}\\tilde\\Pi = \\frac{\\sigma_{\\Pi1}^2\\sigma_{\\Pi2}^2}
-                                          {\\sigma_{\\Pi1}^2 + \\sigma_{\\Pi2}^2}.
+        \tilde\Pi = \frac{\sigma_{\Pi2}^2\hat\Pi_1 + \sigma_{\Pi1}^2\hat\Pi_2}
+                           {\sigma_{\Pi1}^2 + \sigma_{\Pi2}^2},
+        \qquad
+        \operatorname{Var}\tilde\Pi = \frac{\sigma_{\Pi1}^2\sigma_{\Pi2}^2}
+                                          {\sigma_{\Pi1}^2 + \sigma_{\Pi2}^2}.
 
     It is the same rule as the fused coordinate (3); under model 1 it is a
     sufficient statistic for the type (see :func:`type_posterior`).
@@ -356,16 +356,16 @@ def _fuse_two(f1, v1, f2, v2):
 
 # ----------------------------------------------------------------------------- recognition
 def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = False):
-    """Likelihood of each type given a feature measured with error variance `feature_var`.
+    r"""Likelihood of each type given a feature measured with error variance `feature_var`.
 
     Parameters
     ----------
     feature : array_like, shape (...)
-        Measured (or fused) feature :math:`\\hat\\Pi`.
+        Measured (or fused) feature :math:`\hat\Pi`.
     feature_var : array_like, broadcastable to `feature`
-        Variance :math:`v \\ge 0` of its error; ``0`` treats the feature as exact.
+        Variance :math:`v \ge 0` of its error; ``0`` treats the feature as exact.
     type_means, type_vars : array_like, shape (K,)
-        :math:`\\Pi_k` and :math:`\\sigma_{\\Pi k}^2 > 0` of the type densities (8).
+        :math:`\Pi_k` and :math:`\sigma_{\Pi k}^2 > 0` of the type densities (8).
     log : bool, optional
         Return the log-likelihood (default: the likelihood).
 
@@ -386,14 +386,14 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
     Notes
     -----
     The feature value of a type-:math:`k` object is
-    :math:`\\Pi \\sim \\mathcal N(\\Pi_k, \\sigma_{\\Pi k}^2)` (the corrected (8)) and it
+    :math:`\Pi \sim \mathcal N(\Pi_k, \sigma_{\Pi k}^2)` (the corrected (8)) and it
     is measured with independent error of variance :math:`v`, so
 
     .. math::
 
-        f(\\hat\\Pi \\mid T_k) = \\int \\mathcal N(\\hat\\Pi; \\Pi, v)\\,
-        \\mathcal N(\\Pi; \\Pi_k, \\sigma_{\\Pi k}^2)\\, d\\Pi
-        = \\mathcal N(\\hat\\Pi;\\ \\Pi_k,\\ \\sigma_{\\Pi k}^2 + v).
+        f(\hat\Pi \mid T_k) = \int \mathcal N(\hat\Pi; \Pi, v)\,
+        \mathcal N(\Pi; \Pi_k, \sigma_{\Pi k}^2)\, d\Pi
+        = \mathcal N(\hat\Pi;\ \Pi_k,\ \sigma_{\Pi k}^2 + v).
 
     References
     ----------
@@ -422,27 +422,27 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
 
 def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
                    log: bool = False):
-    """Posterior probability of each type, eq. (13) done properly.
+    r"""Posterior probability of each type, eq. (13) done properly.
 
     Parameters
     ----------
     feature : array_like, shape (...)
-        The fused feature :math:`\\tilde\\Pi` (or a single report).
+        The fused feature :math:`\tilde\Pi` (or a single report).
     feature_var : array_like, broadcastable to `feature`
-        Its error variance :math:`v \\ge 0` (for the fused feature,
+        Its error variance :math:`v \ge 0` (for the fused feature,
         :attr:`FusedFeature.var`). ``0`` with ``priors=None`` reproduces the
         paper's plug-in rule (13).
     type_means, type_vars : array_like, shape (K,)
-        :math:`\\Pi_k` and :math:`\\sigma_{\\Pi k}^2 > 0` of the type densities.
+        :math:`\Pi_k` and :math:`\sigma_{\Pi k}^2 > 0` of the type densities.
     priors : array_like, shape (K,), optional
-        Prior type probabilities :math:`p_k \\ge 0` summing to 1 (default uniform).
+        Prior type probabilities :math:`p_k \ge 0` summing to 1 (default uniform).
     log : bool, optional
         Return log-probabilities (useful for log-loss: no underflow to 0).
 
     Returns
     -------
     numpy.ndarray, shape (..., K)
-        :math:`P(T_k \\mid \\tilde\\Pi)`; sums to 1 over the last axis.
+        :math:`P(T_k \mid \tilde\Pi)`; sums to 1 over the last axis.
 
     Raises
     ------
@@ -455,20 +455,20 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
     Notes
     -----
     With two reports of one object (model 1) the type likelihood factorises
-    into a type-free factor in :math:`\\hat\\Pi_1 - \\hat\\Pi_2` and a factor in the
-    fused feature :math:`\\tilde\\Pi` alone, so :math:`\\tilde\\Pi` is sufficient and
+    into a type-free factor in :math:`\hat\Pi_1 - \hat\Pi_2` and a factor in the
+    fused feature :math:`\tilde\Pi` alone, so :math:`\tilde\Pi` is sufficient and
 
     .. math::
 
-        P(T_k \\mid \\hat\\Pi_1, \\hat\\Pi_2)
-        = \\frac{p_k\\, \\mathcal N(\\tilde\\Pi;\\ \\Pi_k,\\ \\sigma_{\\Pi k}^2 + v)}
-               {\\sum_{j=1}^K p_j\\, \\mathcal N(\\tilde\\Pi;\\ \\Pi_j,\\ \\sigma_{\\Pi j}^2 + v)},
-        \\qquad v = \\operatorname{Var}\\tilde\\Pi.
+        P(T_k \mid \hat\Pi_1, \hat\Pi_2)
+        = \frac{p_k\, \mathcal N(\tilde\Pi;\ \Pi_k,\ \sigma_{\Pi k}^2 + v)}
+               {\sum_{j=1}^K p_j\, \mathcal N(\tilde\Pi;\ \Pi_j,\ \sigma_{\Pi j}^2 + v)},
+        \qquad v = \operatorname{Var}\tilde\Pi.
 
-    The paper's (13) plugs :math:`\\tilde\\Pi` into :math:`f(\\Pi \\mid T_k)`, i.e.
+    The paper's (13) plugs :math:`\tilde\Pi` into :math:`f(\Pi \mid T_k)`, i.e.
     takes :math:`v = 0` and uniform priors; that is overconfident unless
-    :math:`v \\ll \\sigma_{\\Pi k}^2`. (The book writes :math:`v` as
-    :math:`\\tilde\\sigma_\\Pi^2`.)
+    :math:`v \ll \sigma_{\Pi k}^2`. (The book writes :math:`v` as
+    :math:`\tilde\sigma_\Pi^2`.)
 
     *Numerical range.* The posterior is formed from the exact differences of
     the log-joint against the best type (:func:`_relative_log_joint`): the
@@ -504,7 +504,7 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
 
 def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_means, type_vars,
                         priors=None, *, model: str = "shared", log: bool = False):
-    """Type posterior from the two feature reports of one object, under either model.
+    r"""Type posterior from the two feature reports of one object, under either model.
 
     Parameters
     ----------
@@ -531,9 +531,9 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
 
     .. math::
 
-        P(T_k \\mid \\hat\\Pi_1, \\hat\\Pi_2) \\propto p_k\\,
-        \\mathcal N(\\hat\\Pi_1; \\Pi_k, \\sigma_{\\Pi k}^2 + \\sigma_{\\Pi 1}^2)\\,
-        \\mathcal N(\\hat\\Pi_2; \\Pi_k, \\sigma_{\\Pi k}^2 + \\sigma_{\\Pi 2}^2).
+        P(T_k \mid \hat\Pi_1, \hat\Pi_2) \propto p_k\,
+        \mathcal N(\hat\Pi_1; \Pi_k, \sigma_{\Pi k}^2 + \sigma_{\Pi 1}^2)\,
+        \mathcal N(\hat\Pi_2; \Pi_k, \sigma_{\Pi k}^2 + \sigma_{\Pi 2}^2).
 
     References
     ----------
@@ -566,23 +566,23 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
 # ----------------------------------------------------------------------------- proximity
 @dataclass(frozen=True)
 class CombinedProximity:
-    """The combined coordinate + feature proximity measure of report pairs.
+    r"""The combined coordinate + feature proximity measure of report pairs.
 
     Attributes
     ----------
     total : numpy.ndarray
-        :math:`\\kappa = \\kappa^x + \\kappa^\\Pi`.
+        :math:`\kappa = \kappa^x + \kappa^\Pi`.
     coordinate : numpy.ndarray
-        :math:`\\kappa^x = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (\\Sigma_1+\\Sigma_2)^{-1}
-        (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)`.
+        :math:`\kappa^x = (\hat{\mathbf x}_1-\hat{\mathbf x}_2)^\top (\Sigma_1+\Sigma_2)^{-1}
+        (\hat{\mathbf x}_1-\hat{\mathbf x}_2)`.
     feature : numpy.ndarray
-        :math:`\\kappa^\\Pi`, the feature term (see :func:`combined_proximity`).
+        :math:`\kappa^\Pi`, the feature term (see :func:`combined_proximity`).
     dof : int or None
-        Degrees of freedom of the :math:`\\chi^2` law of `total` under a true
+        Degrees of freedom of the :math:`\chi^2` law of `total` under a true
         hypothesis: ``d + 1`` for the profile measure of model 1, ``d`` for the
         profile measure of model 2 (whose feature term is zero); ``None`` for
         the marginal measures, which are log-likelihood ratios, not
-        :math:`\\chi^2`.
+        :math:`\chi^2`.
     model : str
         ``"shared"`` or ``"spread"``.
     kind : str
@@ -628,7 +628,7 @@ def _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors):
 def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, feature_var2, *,
                        model: str = "shared", kind: str = "profile", type_means=None,
                        type_vars=None, priors=None) -> CombinedProximity:
-    """Combined coordinate + feature proximity measure of report pairs, eq. (12) corrected.
+    r"""Combined coordinate + feature proximity measure of report pairs, eq. (12) corrected.
 
     Parameters
     ----------
@@ -665,37 +665,37 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
 
     Notes
     -----
-    The coordinate part is :func:`radarfusion_ref.proximity.mahalanobis_sq`.
+    The coordinate part is :func:`radarfusion_ref.proximity.proximity_gaussian`.
 
     *Profile, model 1* — minus twice the log of the profile likelihood (11)
     is, up to a constant,
 
     .. math::
 
-        \\kappa = (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)^\\top (\\Sigma_1+\\Sigma_2)^{-1}
-                  (\\hat{\\mathbf x}_1-\\hat{\\mathbf x}_2)
-                + \\frac{(\\hat\\Pi_1-\\hat\\Pi_2)^2}{\\sigma_{\\Pi1}^2+\\sigma_{\\Pi2}^2},
+        \kappa = (\hat{\mathbf x}_1-\hat{\mathbf x}_2)^\top (\Sigma_1+\Sigma_2)^{-1}
+                  (\hat{\mathbf x}_1-\hat{\mathbf x}_2)
+                + \frac{(\hat\Pi_1-\hat\Pi_2)^2}{\sigma_{\Pi1}^2+\sigma_{\Pi2}^2},
 
-    :math:`\\chi^2(d+1)` under a true hypothesis and noncentral
-    :math:`\\chi'^2(d+1, \\lambda_x + \\lambda_\\Pi)` under a false one (given the two objects'
+    :math:`\chi^2(d+1)` under a true hypothesis and noncentral
+    :math:`\chi'^2(d+1, \lambda_x + \lambda_\Pi)` under a false one (given the two objects'
     positions and feature values). The paper prints (12) without the squares.
 
     *Profile, model 2* — each radar's value is a separate unknown, fitted
     exactly by its own report: the feature term is zero (features say nothing
     about association — the paper's conclusion for model 2).
 
-    *Marginal* — with :math:`g_{ik} = \\mathcal N(\\,\\cdot\\,; \\Pi_k, \\sigma_{\\Pi k}^2 +
-    \\sigma_{\\Pi i}^2)` and :math:`p(\\hat\\Pi_i) = \\sum_k p_k g_{ik}(\\hat\\Pi_i)`,
+    *Marginal* — with :math:`g_{ik} = \mathcal N(\,\cdot\,; \Pi_k, \sigma_{\Pi k}^2 +
+    \sigma_{\Pi i}^2)` and :math:`p(\hat\Pi_i) = \sum_k p_k g_{ik}(\hat\Pi_i)`,
 
     .. math::
 
-        \\kappa^\\Pi = -2 \\ln \\frac{p(\\hat\\Pi_1, \\hat\\Pi_2 \\mid \\text{one object})}
-                                 {p(\\hat\\Pi_1)\\, p(\\hat\\Pi_2)},
+        \kappa^\Pi = -2 \ln \frac{p(\hat\Pi_1, \hat\Pi_2 \mid \text{one object})}
+                                 {p(\hat\Pi_1)\, p(\hat\Pi_2)},
 
-    where the numerator is :math:`\\sum_k p_k\\, g_{1k}(\\hat\\Pi_1)\\, g_{2k}(\\hat\\Pi_2)`
+    where the numerator is :math:`\sum_k p_k\, g_{1k}(\hat\Pi_1)\, g_{2k}(\hat\Pi_2)`
     under model 2 (the reports share only the type) and
-    :math:`\\mathcal N(\\hat\\Pi_1-\\hat\\Pi_2; 0, \\sigma_{\\Pi1}^2+\\sigma_{\\Pi2}^2)
-    \\sum_k p_k\\, \\mathcal N(\\tilde\\Pi; \\Pi_k, \\sigma_{\\Pi k}^2 + v)` under model 1.
+    :math:`\mathcal N(\hat\Pi_1-\hat\Pi_2; 0, \sigma_{\Pi1}^2+\sigma_{\Pi2}^2)
+    \sum_k p_k\, \mathcal N(\tilde\Pi; \Pi_k, \sigma_{\Pi k}^2 + v)` under model 1.
     The model-1 marginal term is the profile term plus a correction that
     matters when the feature noise is not small against the type spread.
 
@@ -716,7 +716,7 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     """
     model = as_choice(model, "model", FEATURE_MODELS)
     kind = as_choice(kind, "kind", ("profile", "marginal"))
-    kx = np.asarray(mahalanobis_sq(x1, x2, cov1, cov2), dtype=float)
+    kx = np.asarray(proximity_gaussian(x1, x2, cov1, cov2), dtype=float)
     d = np.shape(x1)[-1]
 
     f1 = as_float_array(feature1, "feature1")
@@ -759,13 +759,13 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
 
 def association_costs(scene: TypedScene, *, features: str = "shared",
                       kind: str = "profile") -> np.ndarray:
-    """Cost matrices ``cost[t, i, j]`` of pairing radar-1 report i with radar-2 report j.
+    r"""Cost matrices ``cost[t, i, j]`` of pairing radar-1 report i with radar-2 report j.
 
     Parameters
     ----------
     scene : TypedScene
     features : {"none", "shared", "spread"}, optional
-        ``"none"``: coordinates only (:math:`\\kappa^x`); otherwise coordinates
+        ``"none"``: coordinates only (:math:`\kappa^x`); otherwise coordinates
         plus the feature term of :func:`combined_proximity` for that model.
         The model need not match the scene's own — using ``"shared"`` on a
         ``"spread"`` scene is the mistake the chapter shows.

@@ -1,7 +1,7 @@
-"""The maximum-likelihood fused estimate of one object seen by several sensors.
+r"""The maximum-likelihood fused estimate of one object seen by several sensors.
 
-Under a pointwise association hypothesis the reports :math:`\\hat x_1, \\dots,
-\\hat x_k` of different radars belong to one object at the unknown coordinate
+Under a pointwise association hypothesis the reports :math:`\hat x_1, \dots,
+\hat x_k` of different radars belong to one object at the unknown coordinate
 :math:`x`. With independent Gaussian errors the likelihood is the product of
 the sensors' densities (Grachov & Korneev, eqs. (1)–(2)); its maximum — the
 root of the likelihood equation (3) — is the inverse-variance weighted mean,
@@ -74,17 +74,17 @@ def _scalar(a: np.ndarray):
 
 @dataclass(frozen=True)
 class FusedEstimate:
-    """The ML fused estimate of a scalar coordinate.
+    r"""The ML fused estimate of a scalar coordinate.
 
     Attributes
     ----------
     estimate : numpy.ndarray or float, shape (...)
-        The fused estimate :math:`\\tilde x = \\sum_i w_i \\hat x_i`.
+        The fused estimate :math:`\tilde x = \sum_i w_i \hat x_i`.
     variance : numpy.ndarray or float, shape (...)
-        Its variance :math:`\\tilde\\sigma^2 = (\\sum_i \\sigma_i^{-2})^{-1}`, equal to
+        Its variance :math:`\tilde\sigma^2 = (\sum_i \sigma_i^{-2})^{-1}`, equal to
         the Cramér–Rao bound.
     weights : numpy.ndarray, shape (..., m)
-        The weights :math:`w_i = \\sigma_i^{-2} / \\sum_j \\sigma_j^{-2}` (they sum to 1).
+        The weights :math:`w_i = \sigma_i^{-2} / \sum_j \sigma_j^{-2}` (they sum to 1).
     """
 
     estimate: np.ndarray | float
@@ -93,28 +93,28 @@ class FusedEstimate:
 
     @property
     def information(self):
-        """Fisher information :math:`\\sum_i \\sigma_i^{-2} = 1/\\tilde\\sigma^2`."""
+        r"""Fisher information :math:`\sum_i \sigma_i^{-2} = 1/\tilde\sigma^2`."""
         return 1.0 / np.asarray(self.variance)
 
     @property
     def std(self):
-        """Standard deviation :math:`\\tilde\\sigma` of the fused estimate."""
+        r"""Standard deviation :math:`\tilde\sigma` of the fused estimate."""
         return np.sqrt(self.variance)
 
 
 @dataclass(frozen=True)
 class GaussianFusion:
-    """The ML fused estimate of a vector position, in information form.
+    r"""The ML fused estimate of a vector position, in information form.
 
     Attributes
     ----------
     estimate : numpy.ndarray, shape (..., d)
-        :math:`\\tilde{\\mathbf x} = \\tilde\\Sigma \\sum_i \\Sigma_i^{-1} \\hat{\\mathbf x}_i`.
+        :math:`\tilde{\mathbf x} = \tilde\Sigma \sum_i \Sigma_i^{-1} \hat{\mathbf x}_i`.
     covariance : numpy.ndarray, shape (..., d, d)
-        :math:`\\tilde\\Sigma = (\\sum_i \\Sigma_i^{-1})^{-1}`, the covariance of the estimate (and the
+        :math:`\tilde\Sigma = (\sum_i \Sigma_i^{-1})^{-1}`, the covariance of the estimate (and the
         Cramér–Rao bound).
     information : numpy.ndarray, shape (..., d, d)
-        The Fisher information matrix :math:`\\tilde\\Sigma^{-1} = \\sum_i \\Sigma_i^{-1}`.
+        The Fisher information matrix :math:`\tilde\Sigma^{-1} = \sum_i \Sigma_i^{-1}`.
     """
 
     estimate: np.ndarray
@@ -124,18 +124,18 @@ class GaussianFusion:
 
 @dataclass(frozen=True)
 class Misweighting:
-    """The inverse-variance weighted mean computed with assumed variances.
+    r"""The inverse-variance weighted mean computed with assumed variances.
 
     Attributes
     ----------
     weights : numpy.ndarray, shape (..., m)
-        Weights built from the assumed variances, :math:`w_i = a_i^{-1}/\\sum_j a_j^{-1}`.
+        Weights built from the assumed variances, :math:`w_i = a_i^{-1}/\sum_j a_j^{-1}`.
     actual_variance : numpy.ndarray or float, shape (...)
-        True variance of the resulting estimate, :math:`\\sum_i w_i^2 \\sigma_i^2`.
+        True variance of the resulting estimate, :math:`\sum_i w_i^2 \sigma_i^2`.
     reported_variance : numpy.ndarray or float, shape (...)
-        The variance the fusion centre believes, :math:`(\\sum_i a_i^{-1})^{-1}`.
+        The variance the fusion centre believes, :math:`(\sum_i a_i^{-1})^{-1}`.
     bound : numpy.ndarray or float, shape (...)
-        The Cramér–Rao bound :math:`(\\sum_i \\sigma_i^{-2})^{-1}` of the true model.
+        The Cramér–Rao bound :math:`(\sum_i \sigma_i^{-2})^{-1}` of the true model.
     """
 
     weights: np.ndarray
@@ -253,15 +253,15 @@ def _gaussian_iv(x, cov):
 
 
 def fuse(x, var) -> FusedEstimate:
-    """Maximum-likelihood fused estimate of one coordinate from `m` sources.
+    r"""Maximum-likelihood fused estimate of one coordinate from `m` sources.
 
     Parameters
     ----------
     x : array_like, shape (..., m)
-        Reports :math:`\\hat x_i` of the same object by `m` sources (the last
+        Reports :math:`\hat x_i` of the same object by `m` sources (the last
         axis); leading axes are batch axes (trials, hypotheses, ...).
     var : array_like, broadcastable to ``x``
-        Error variances :math:`\\sigma_i^2 > 0` of the sensors (variances, not
+        Error variances :math:`\sigma_i^2 > 0` of the sensors (variances, not
         standard deviations).
 
     Returns
@@ -287,27 +287,27 @@ def fuse(x, var) -> FusedEstimate:
 
     .. math::
 
-        \\ell(x) = -\\frac12 \\sum_{i=1}^m \\left[\\ln(2\\pi\\sigma_i^2)
-                   + \\frac{(\\hat x_i - x)^2}{\\sigma_i^2}\\right],
+        \ell(x) = -\frac12 \sum_{i=1}^m \left[\ln(2\pi\sigma_i^2)
+                   + \frac{(\hat x_i - x)^2}{\sigma_i^2}\right],
 
     is a concave parabola. The likelihood equation (3),
-    :math:`\\ell'(\\tilde x) = 0`, has the single root
+    :math:`\ell'(\tilde x) = 0`, has the single root
 
     .. math::
 
-        \\tilde x = \\frac{\\sum_i \\hat x_i/\\sigma_i^2}{\\sum_i 1/\\sigma_i^2},
-        \\qquad
-        \\operatorname{Var}\\tilde x = \\Big(\\sum_i \\sigma_i^{-2}\\Big)^{-1}
-        = \\frac{1}{I(x)},
+        \tilde x = \frac{\sum_i \hat x_i/\sigma_i^2}{\sum_i 1/\sigma_i^2},
+        \qquad
+        \operatorname{Var}\tilde x = \Big(\sum_i \sigma_i^{-2}\Big)^{-1}
+        = \frac{1}{I(x)},
 
     which for :math:`m = 2` is the paper's
-    :math:`\\tilde x = (\\sigma_2^2\\hat x_1 + \\sigma_1^2\\hat x_2)/(\\sigma_1^2+\\sigma_2^2)`.
+    :math:`\tilde x = (\sigma_2^2\hat x_1 + \sigma_1^2\hat x_2)/(\sigma_1^2+\sigma_2^2)`.
     The variance equals the inverse Fisher information, so the estimate is
     efficient (it attains the Cramér–Rao bound) [2]_.
 
     Numerically the informations are never summed as they are (for variances
     near 1e-308 the sum would overflow and every weight collapse to 0): each is
-    scaled by the smallest variance, :math:`\\sigma_{\\min}^2/\\sigma_i^2 \\in (0, 1]`,
+    scaled by the smallest variance, :math:`\sigma_{\min}^2/\sigma_i^2 \in (0, 1]`,
     so their sum lies in :math:`[1, m]`; and the reports are scaled by an exact
     power of two, so the weighted sum cannot overflow. The result is accurate
     to a few units in the last place over the whole float range.
@@ -338,7 +338,7 @@ def fuse(x, var) -> FusedEstimate:
 
 
 def log_likelihood(x, var, position):
-    """Log-likelihood of a pointwise hypothesis as a function of the coordinate.
+    r"""Log-likelihood of a pointwise hypothesis as a function of the coordinate.
 
     Parameters
     ----------
@@ -353,7 +353,7 @@ def log_likelihood(x, var, position):
     Returns
     -------
     numpy.ndarray or float
-        :math:`\\ell(x) = \\sum_i \\ln \\mathcal N(\\hat x_i; x, \\sigma_i^2)`.
+        :math:`\ell(x) = \sum_i \ln \mathcal N(\hat x_i; x, \sigma_i^2)`.
 
     Raises
     ------
@@ -367,8 +367,8 @@ def log_likelihood(x, var, position):
 
     .. math::
 
-        \\ell(x) = -\\frac12\\sum_{i=1}^m\\left[\\ln 2\\pi + \\ln\\sigma_i^2
-                   + \\frac{(\\hat x_i - x)^2}{\\sigma_i^2}\\right].
+        \ell(x) = -\frac12\sum_{i=1}^m\left[\ln 2\pi + \ln\sigma_i^2
+                   + \frac{(\hat x_i - x)^2}{\sigma_i^2}\right].
 
     Examples
     --------
@@ -397,12 +397,12 @@ def log_likelihood(x, var, position):
 
 
 def misweighted(var_true, var_assumed) -> Misweighting:
-    """Accuracy of the weighted mean when the weights use wrong variances.
+    r"""Accuracy of the weighted mean when the weights use wrong variances.
 
     Parameters
     ----------
     var_true : array_like, shape (..., m)
-        The sensors' true error variances :math:`\\sigma_i^2 > 0`.
+        The sensors' true error variances :math:`\sigma_i^2 > 0`.
     var_assumed : array_like, broadcastable to ``var_true``
         The variances :math:`a_i > 0` the fusion centre uses to weight the reports.
 
@@ -417,16 +417,16 @@ def misweighted(var_true, var_assumed) -> Misweighting:
 
     Notes
     -----
-    With weights :math:`w_i = a_i^{-1}/\\sum_j a_j^{-1}` the estimate is still
+    With weights :math:`w_i = a_i^{-1}/\sum_j a_j^{-1}` the estimate is still
     unbiased (the weights sum to 1) but its variance is
 
     .. math::
 
-        \\operatorname{Var}\\tilde x = \\sum_i w_i^2\\sigma_i^2
-        \\;\\ge\\; \\Big(\\sum_i\\sigma_i^{-2}\\Big)^{-1},
+        \operatorname{Var}\tilde x = \sum_i w_i^2\sigma_i^2
+        \;\ge\; \Big(\sum_i\sigma_i^{-2}\Big)^{-1},
 
-    with equality iff :math:`a_i \\propto \\sigma_i^2`, while the centre
-    reports :math:`(\\sum_i a_i^{-1})^{-1}`.
+    with equality iff :math:`a_i \propto \sigma_i^2`, while the centre
+    reports :math:`(\sum_i a_i^{-1})^{-1}`.
 
     Examples
     --------
@@ -463,14 +463,14 @@ def misweighted(var_true, var_assumed) -> Misweighting:
 
 
 def fuse_gaussian(x, cov) -> GaussianFusion:
-    """Maximum-likelihood fusion of `m` vector reports with full error covariances.
+    r"""Maximum-likelihood fusion of `m` vector reports with full error covariances.
 
     Parameters
     ----------
     x : array_like, shape (..., m, d)
-        Reports :math:`\\hat{\\mathbf x}_i` of one object by `m` sources.
+        Reports :math:`\hat{\mathbf x}_i` of one object by `m` sources.
     cov : array_like, shape (..., m, d, d)
-        Their error covariances :math:`\\Sigma_i`, symmetric positive definite;
+        Their error covariances :math:`\Sigma_i`, symmetric positive definite;
         leading axes broadcast against those of `x`.
 
     Returns
@@ -489,33 +489,33 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
 
     Notes
     -----
-    The log-likelihood :math:`\\ell(\\mathbf x) = \\sum_i \\ln\\mathcal N(\\hat{\\mathbf x}_i;
-    \\mathbf x, \\Sigma_i)` has gradient
-    :math:`\\sum_i \\Sigma_i^{-1}(\\hat{\\mathbf x}_i - \\mathbf x)` and Hessian
-    :math:`-\\sum_i \\Sigma_i^{-1}`; the likelihood equation gives the information form
+    The log-likelihood :math:`\ell(\mathbf x) = \sum_i \ln\mathcal N(\hat{\mathbf x}_i;
+    \mathbf x, \Sigma_i)` has gradient
+    :math:`\sum_i \Sigma_i^{-1}(\hat{\mathbf x}_i - \mathbf x)` and Hessian
+    :math:`-\sum_i \Sigma_i^{-1}`; the likelihood equation gives the information form
 
     .. math::
 
-        \\tilde\\Sigma^{-1}\\tilde{\\mathbf x} = \\sum_i \\Sigma_i^{-1}\\hat{\\mathbf x}_i, \\qquad
-        \\tilde\\Sigma^{-1} = \\sum_i \\Sigma_i^{-1}, \\qquad
-        \\operatorname{Cov}\\tilde{\\mathbf x} = \\tilde\\Sigma,
+        \tilde\Sigma^{-1}\tilde{\mathbf x} = \sum_i \Sigma_i^{-1}\hat{\mathbf x}_i, \qquad
+        \tilde\Sigma^{-1} = \sum_i \Sigma_i^{-1}, \qquad
+        \operatorname{Cov}\tilde{\mathbf x} = \tilde\Sigma,
 
-    and :math:`\\tilde\\Sigma^{-1}` is the Fisher information, so :math:`\\tilde\\Sigma` is
+    and :math:`\tilde\Sigma^{-1}` is the Fisher information, so :math:`\tilde\Sigma` is
     the Cramér–Rao bound.
 
     Numerically nothing is inverted explicitly, and no sum over- or underflows:
-    each :math:`\\Sigma_i = c_i \\Sigma_i'` is scaled by its largest variance
-    :math:`c_i`, Cholesky-factored, :math:`\\Sigma_i' = L_iL_i^{\\mathsf T}`, and
-    whitened with a triangular solve, :math:`W_i = \\sqrt{r_i}\\,L_i^{-1}` with
-    :math:`r_i = c_{\\min}/c_i \\in (0, 1]`, so that
-    :math:`c_{\\min}\\Sigma_i^{-1} = W_i^{\\mathsf T}W_i` is symmetric positive
+    each :math:`\Sigma_i = c_i \Sigma_i'` is scaled by its largest variance
+    :math:`c_i`, Cholesky-factored, :math:`\Sigma_i' = L_iL_i^{\mathsf T}`, and
+    whitened with a triangular solve, :math:`W_i = \sqrt{r_i}\,L_i^{-1}` with
+    :math:`r_i = c_{\min}/c_i \in (0, 1]`, so that
+    :math:`c_{\min}\Sigma_i^{-1} = W_i^{\mathsf T}W_i` is symmetric positive
     definite by construction; the scaled information
-    :math:`c_{\\min}\\tilde\\Sigma^{-1} = RR^{\\mathsf T}` is factored the same way,
-    :math:`\\tilde\\Sigma = c_{\\min}(R^{-1})^{\\mathsf T}R^{-1}`, and the reports are
+    :math:`c_{\min}\tilde\Sigma^{-1} = RR^{\mathsf T}` is factored the same way,
+    :math:`\tilde\Sigma = c_{\min}(R^{-1})^{\mathsf T}R^{-1}`, and the reports are
     scaled by an exact power of two. Results beyond the float range (a fused
     variance below the smallest normal float, an information above the largest)
     are refused. For :math:`m = 2` this equals the covariance form
-    :math:`\\hat{\\mathbf x}_1 + \\Sigma_1(\\Sigma_1+\\Sigma_2)^{-1}(\\hat{\\mathbf x}_2-\\hat{\\mathbf x}_1)`.
+    :math:`\hat{\mathbf x}_1 + \Sigma_1(\Sigma_1+\Sigma_2)^{-1}(\hat{\mathbf x}_2-\hat{\mathbf x}_1)`.
 
     References
     ----------
@@ -571,7 +571,7 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
 
 
 def sample_reports(truth, var, *, trials: int, rng=None) -> np.ndarray:
-    """Draw scalar reports :math:`\\hat x_i = x + \\Delta x_i`, :math:`\\Delta x_i\\sim\\mathcal N(0,\\sigma_i^2)`.
+    r"""Draw scalar reports :math:`\hat x_i = x + \Delta x_i`, :math:`\Delta x_i\sim\mathcal N(0,\sigma_i^2)`.
 
     Parameters
     ----------
@@ -619,7 +619,7 @@ def _check_memory(trials, per_trial, name):
 
 
 def sample_reports_gaussian(truth, cov, *, trials: int, rng=None) -> np.ndarray:
-    """Draw vector reports :math:`\\hat{\\mathbf x}_i = \\mathbf x + L_i\\mathbf z`, :math:`C_i = L_iL_i^{\\mathsf T}`.
+    r"""Draw vector reports :math:`\hat{\mathbf x}_i = \mathbf x + L_i\mathbf z`, :math:`C_i = L_iL_i^{\mathsf T}`.
 
     Parameters
     ----------

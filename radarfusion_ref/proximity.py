@@ -1,38 +1,39 @@
-"""Likelihood and proximity measures of a pointwise association hypothesis.
+r"""Likelihood and proximity measures of a pointwise association hypothesis.
 
-Hypothesis :math:`G_k`: report :math:`\\hat x_1` of radar 1 and report
-:math:`\\hat x_2` of radar 2 belong to one object with unknown position
-:math:`x`. With independent Gaussian errors of variances :math:`\\sigma_1^2,
-\\sigma_2^2` (covariances :math:`\\Sigma_1, \\Sigma_2` in :math:`d` dimensions):
+Hypothesis :math:`G_k`: report :math:`\hat x_1` of radar 1 and report
+:math:`\hat x_2` of radar 2 belong to one object with unknown position
+:math:`x`. With independent Gaussian errors of variances :math:`\sigma_1^2,
+\sigma_2^2` (covariances :math:`\Sigma_1, \Sigma_2` in :math:`d` dimensions):
 
-* the **proximity measure** is :math:`\\kappa = (\\hat x_1 - \\hat x_2)^2 /
-  (\\sigma_1^2 + \\sigma_2^2)`, in vector form the squared Mahalanobis distance
-  :math:`\\kappa = \\Delta^T S^{-1} \\Delta` with :math:`\\Delta = \\hat x_1 - \\hat x_2`
-  and :math:`S = \\Sigma_1 + \\Sigma_2` (the book's eq-proximity); it is
-  :math:`\\chi^2_\\nu` (:math:`\\nu = d`) under a true hypothesis and noncentral
-  :math:`\\chi'^2_\\nu(\\lambda)` under a false one, with :math:`\\lambda` the same
+* the **proximity measure** is :math:`\kappa = (\hat x_1 - \hat x_2)^2 /
+  (\sigma_1^2 + \sigma_2^2)`, in vector form the squared Mahalanobis distance
+  :math:`\kappa = \Delta^T S^{-1} \Delta` with :math:`\Delta = \hat x_1 - \hat x_2`
+  and :math:`S = \Sigma_1 + \Sigma_2` (the book's eq-proximity); it is
+  :math:`\chi^2_\nu` (:math:`\nu = d`) under a true hypothesis and noncentral
+  :math:`\chi'^2_\nu(\lambda)` under a false one, with :math:`\lambda` the same
   quadratic form of the two objects' true positions (eq-proximity-chi2; the
-  paper's :math:`V` and :math:`m` are :math:`\\lambda` and :math:`\\nu`);
+  paper's :math:`V` and :math:`m` are :math:`\lambda` and :math:`\nu`);
 * the **profile likelihood measure** (the paper's :math:`f_k^*`, eq. (4)) is the
-  likelihood (2) with the ML estimate :math:`\\tilde x` substituted,
-  :math:`\\exp(-\\kappa/2) / (2\\pi\\sigma_1\\sigma_2)`;
+  likelihood (2) with the ML estimate :math:`\tilde x` substituted,
+  :math:`\exp(-\kappa/2) / (2\pi\sigma_1\sigma_2)`;
 * the **marginal likelihood** integrates :math:`x` out (flat prior),
-  :math:`\\exp(-\\kappa/2) / \\sqrt{2\\pi(\\sigma_1^2 + \\sigma_2^2)}`.
+  :math:`\exp(-\kappa/2) / \sqrt{2\pi(\sigma_1^2 + \sigma_2^2)}`.
 
-Numerical range: :math:`\\kappa` is computed with exact power-of-two scaling, so
-it neither overflows nor underflows in intermediate steps; a :math:`\\kappa`
-beyond the largest double (about 1.8e308) is refused with a ``ValueError``
-instead of being returned as ``inf``. The densities of :func:`proximity_pdf`
+Numerical domain: :math:`\kappa` is computed by
+:mod:`radarfusion_ref.engine.linalg`, whose documented domain (coordinates of
+magnitude at most :math:`2^{150}`, variances in :math:`[2^{-150}, 2^{150}]`)
+is refused outside with a ``ValueError`` naming the argument; inside it no
+intermediate overflows or underflows. The densities of :func:`proximity_pdf`
 switch to the log domain where :mod:`scipy.stats` underflows or returns NaN.
 
 .. rubric:: Public functions
 
-* :func:`proximity` — scalar :math:`\\kappa` (paper, text after eq. (7));
-* :func:`mahalanobis_sq` — vector :math:`\\kappa`, batched over leading axes;
+* :func:`proximity` — scalar :math:`\kappa` (paper, text after eq. (7));
+* :func:`proximity_gaussian` — vector :math:`\kappa`, batched over leading axes;
 * :func:`log_likelihood_measure` — log profile / marginal likelihood, scalar model;
 * :func:`log_likelihood_measure_gaussian` — the same for vectors with covariances;
 * :func:`best_partner` — which candidate report maximises a likelihood measure;
-* :func:`proximity_pdf` — the density of :math:`\\kappa` (the paper's Fig. 1).
+* :func:`proximity_pdf` — the density of :math:`\kappa` (the paper's Fig. 1).
 
 .. rubric:: References
 
@@ -48,20 +49,20 @@ from scipy import special, stats
 
 from .engine._validation import (
     as_choice,
-    as_covariance,
     as_float_array,
     as_int,
     as_positive,
     broadcast,
     unwrap,
 )
+from .engine.linalg import _as_cov, _check_domain, _kappa
 
 __all__ = [
     "best_partner",
     "log_likelihood_measure",
     "log_likelihood_measure_gaussian",
-    "mahalanobis_sq",
     "proximity",
+    "proximity_gaussian",
     "proximity_pdf",
 ]
 
@@ -72,125 +73,68 @@ _PDF_FLOOR = 1e-200
 
 
 def _scalar_iv(x1, x2, var1, var2, names=("x1", "x2", "var1", "var2")):
+    """Scalar reports and variances, within the numeric domain of engine.linalg, broadcast."""
     n1, n2, n3, n4 = names
     a = as_float_array(x1, n1)
     b = as_float_array(x2, n2)
-    v1 = as_positive(var1, n3)
-    v2 = as_positive(var2, n4)
+    v1 = _as_variance(var1, n3)
+    v2 = _as_variance(var2, n4)
+    _check_domain(a, n1)
+    _check_domain(b, n2)
     return broadcast(**{n1: a, n2: b, n3: v1, n4: v2})
 
 
+def _as_variance(value, name):
+    """Positive variances within the numeric domain of engine.linalg."""
+    return _as_cov(as_positive(value, name)[..., None, None], name)[..., 0, 0]
+
+
 def _gaussian_iv(x1, x2, cov1, cov2):
+    """Vector reports and covariances (the positive-definiteness rule, the domain)."""
     a = as_float_array(x1, "x1", ndim_min=1)
-    b = as_float_array(x2, "x2", ndim_min=1)
-    c1 = as_covariance(cov1, "cov1")
-    c2 = as_covariance(cov2, "cov2")
     d = a.shape[-1]
+    b = as_float_array(x2, "x2", ndim_min=1)
+    c1 = _as_cov(cov1, "cov1")
+    c2 = _as_cov(cov2, "cov2")
     for name, arr, got in (("x2", b, b.shape[-1]), ("cov1", c1, c1.shape[-1]),
                            ("cov2", c2, c2.shape[-1])):
         if got != d:
             want = "(..., d)" if name == "x2" else "(..., d, d)"
-            raise ValueError(
-                f"`{name}` must have shape {want} with d = {d} (the last axis of `x1`); "
-                f"received shape {arr.shape}"
-            )
+            raise ValueError(f"`{name}` must have shape {want} with d = {d} (the last axis of "
+                             f"`x1`); received shape {arr.shape}")
+    _check_domain(a, "x1")
+    _check_domain(b, "x2")
     try:
-        lead = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], c1.shape[:-2], c2.shape[:-2])
+        np.broadcast_shapes(a.shape[:-1], b.shape[:-1], c1.shape[:-2], c2.shape[:-2])
     except ValueError:
         raise ValueError(
             "`x1`, `x2`, `cov1`, `cov2` must have broadcastable leading (batch) axes; received "
             f"shapes {a.shape}, {b.shape}, {c1.shape}, {c2.shape}"
         ) from None
-    return a, b, c1, c2, lead
-
-
-def _difference(a, b):
-    """``(a - b) / 2**k`` and the factor ``4**k`` for kappa: no overflow for finite inputs."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        delta = a - b
-    over = ~np.isfinite(delta)
-    if np.any(over):
-        delta = np.where(over, 0.5 * a - 0.5 * b, delta)
-    return delta, np.where(over, 4.0, 1.0)
-
-
-def _refuse_overflow(kappa, names):
-    if not np.all(np.isfinite(kappa)):
-        bad = int(np.count_nonzero(~np.isfinite(kappa)))
-        raise ValueError(
-            f"{names}: the proximity measure kappa exceeds the largest double (about 1.8e308) "
-            f"at {bad} entries — the reports differ by more than ~1.3e154 standard deviations; "
-            "rescale the coordinates or the covariances (for example to other units)"
-        )
-
-
-def _kappa_scalar(a, b, v1, v2, names="`x1`, `x2`"):
-    """(a - b)^2 / (v1 + v2) without intermediate overflow or underflow."""
-    delta, factor = _difference(a, b)
-    root_s = np.hypot(np.sqrt(v1), np.sqrt(v2))     # sqrt(v1 + v2), never overflows
-    with np.errstate(over="ignore"):
-        z = delta / root_s
-        kappa = factor * (z * z)
-    _refuse_overflow(kappa, names)
-    return kappa
-
-
-def _pow2_scale(c1, c2):
-    """A power of two near the largest entry of each pair of covariances (exact scaling)."""
-    big = np.maximum(np.max(np.abs(c1), axis=(-2, -1)), np.max(np.abs(c2), axis=(-2, -1)))
-    _, e = np.frexp(big)
-    return np.ldexp(1.0, e - 1)                       # 2**(e-1) <= big < 2**e
-
-
-def _kappa_vector(a, b, c1, c2, lead, names="`x1`, `x2`"):
-    """Delta' (c1 + c2)^-1 Delta by a Cholesky factor, scaled by powers of two."""
-    delta, factor = _difference(a, b)
-    factor = factor.max(axis=-1) if factor.ndim else factor
-    scale = _pow2_scale(c1, c2)                       # shape: broadcast of the batch axes
-    s = c1 / scale[..., None, None] + c2 / scale[..., None, None]
-    delta = delta / np.sqrt(scale)[..., None]
-    d = delta.shape[-1]
-    with np.errstate(over="ignore", invalid="ignore"):
-        if d == 1:
-            out = delta[..., 0] ** 2 / s[..., 0, 0]
-        elif d == 2:
-            l11 = np.sqrt(s[..., 0, 0])
-            l21 = s[..., 1, 0] / l11
-            l22 = np.sqrt(s[..., 1, 1] - l21**2)
-            z1 = delta[..., 0] / l11
-            z2 = (delta[..., 1] - l21 * z1) / l22
-            out = z1**2 + z2**2
-        else:
-            L = np.linalg.cholesky(s)
-            bshape = np.broadcast_shapes(L.shape[:-2], delta.shape[:-1])
-            z = np.linalg.solve(np.broadcast_to(L, (*bshape, d, d)),
-                                np.broadcast_to(delta, (*bshape, d))[..., None])[..., 0]
-            out = np.sum(z**2, axis=-1)
-        out = np.broadcast_to(out * factor, lead)
-    _refuse_overflow(out, names)
-    return out
+    return a, b, c1, c2
 
 
 def proximity(x1, x2, var1, var2):
-    """Proximity measure of two scalar reports, :math:`\\kappa = (\\hat x_1 - \\hat x_2)^2/(\\sigma_1^2 + \\sigma_2^2)`.
+    r"""Proximity measure of two scalar reports, :math:`\kappa = (\hat x_1 - \hat x_2)^2/(\sigma_1^2 + \sigma_2^2)`.
 
     Parameters
     ----------
     x1, x2 : float or array_like
-        Reports :math:`\\hat x_1` of radar 1 and :math:`\\hat x_2` of radar 2.
+        Reports :math:`\hat x_1` of radar 1 and :math:`\hat x_2` of radar 2,
+        of magnitude at most :math:`2^{150}`.
     var1, var2 : float or array_like
-        Error variances :math:`\\sigma_1^2, \\sigma_2^2 > 0`.
+        Error variances :math:`\sigma_1^2, \sigma_2^2` in :math:`[2^{-150}, 2^{150}]`.
 
     Returns
     -------
     float or numpy.ndarray
-        :math:`\\kappa \\ge 0`, broadcast over the arguments.
+        :math:`\kappa \ge 0`, broadcast over the arguments.
 
     Raises
     ------
     ValueError
-        If a variance is not positive, an entry is not finite, the shapes
-        do not broadcast, or :math:`\\kappa` exceeds the largest double.
+        If a variance is not positive, an entry is not finite or outside the
+        numeric domain, or the shapes do not broadcast.
     TypeError
         If an argument is not numeric (bools and strings included).
 
@@ -198,17 +142,15 @@ def proximity(x1, x2, var1, var2):
     -----
     .. math::
 
-        \\kappa = \\frac{(\\hat x_1 - \\hat x_2)^2}{\\sigma_1^2 + \\sigma_2^2}
-        \\sim \\chi^2_1 \\text{ under } G_k \\text{ true}, \\qquad
-        \\chi'^2_1\\!\\Bigl(\\lambda = \\tfrac{(x_1 - x_2)^2}{\\sigma_1^2 + \\sigma_2^2}\\Bigr)
-        \\text{ under } G_k \\text{ false},
+        \kappa = \frac{(\hat x_1 - \hat x_2)^2}{\sigma_1^2 + \sigma_2^2}
+        \sim \chi^2_1 \text{ under } G_k \text{ true}, \qquad
+        \chi'^2_1\!\Bigl(\lambda = \tfrac{(x_1 - x_2)^2}{\sigma_1^2 + \sigma_2^2}\Bigr)
+        \text{ under } G_k \text{ false},
 
     where :math:`x_1, x_2` are the true positions of the two different
-    objects. :math:`-\\kappa/2` is the exponent of the likelihood measure (7).
-    The ratio is formed as :math:`z^2`, :math:`z = \\Delta/\\sqrt{\\sigma_1^2 +
-    \\sigma_2^2}` with the square root taken as ``hypot(sigma1, sigma2)``, so
-    coordinates and variances anywhere in the float range give the correctly
-    rounded :math:`\\kappa` when it is representable.
+    objects. :math:`-\kappa/2` is the exponent of the likelihood measure (7).
+    It is the one-dimensional squared Mahalanobis distance of
+    :mod:`radarfusion_ref.engine.linalg`.
 
     References
     ----------
@@ -220,56 +162,54 @@ def proximity(x1, x2, var1, var2):
     1.0
     >>> proximity([0.0, 2.0], 0.0, 1.0, [1.0, 3.0])
     array([0., 1.])
-    >>> proximity(1e200, 0.0, 1e300, 1e300)
-    5e+99
     """
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
-    return unwrap(_kappa_scalar(a, b, v1, v2))
+    return unwrap(_kappa((a - b)[..., None], (v1 + v2)[..., None, None], "`x1`, `x2`"))
 
 
-def mahalanobis_sq(x1, x2, cov1, cov2):
-    """Squared Mahalanobis distance :math:`\\Delta^T (\\Sigma_1 + \\Sigma_2)^{-1} \\Delta` of paired reports.
+def proximity_gaussian(x1, x2, cov1, cov2):
+    r"""Proximity measure of two vector reports, :math:`\kappa = \Delta^T (\Sigma_1 + \Sigma_2)^{-1} \Delta`.
 
     Parameters
     ----------
     x1, x2 : array_like, shape (..., d)
-        Reports of radar 1 and radar 2 (:math:`d`-dimensional positions).
+        Reports of radar 1 and radar 2 (:math:`d`-dimensional positions),
+        coordinates of magnitude at most :math:`2^{150}`.
     cov1, cov2 : array_like, shape (..., d, d)
-        Error covariances :math:`\\Sigma_1, \\Sigma_2`, each symmetric positive
-        definite (checked: a non-symmetric, singular or indefinite matrix is
-        refused even when the sum would be positive definite).
+        Error covariances :math:`\Sigma_1, \Sigma_2`, each obeying the
+        positive-definiteness rule of
+        :func:`radarfusion_ref.engine.linalg.is_positive_definite` (checked:
+        a non-symmetric, singular or indefinite matrix is refused even when the
+        sum would be positive definite), variances in :math:`[2^{-150}, 2^{150}]`.
 
     Returns
     -------
     float or numpy.ndarray, shape (...)
-        :math:`\\kappa`, broadcast over the leading (batch) axes of all four
+        :math:`\kappa`, broadcast over the leading (batch) axes of all four
         arguments.
 
     Raises
     ------
     ValueError
-        If a covariance is not symmetric positive definite, the last axes do not
-        agree on :math:`d`, the batch axes do not broadcast, an entry is not
-        finite, or :math:`\\kappa` exceeds the largest double.
+        If a covariance breaks the rule, the last axes do not agree on
+        :math:`d`, the batch axes do not broadcast, or an entry is not finite
+        or outside the numeric domain.
     TypeError
         If an argument is not numeric.
 
     Notes
     -----
-    With :math:`S = \\Sigma_1 + \\Sigma_2 = L L^T` (Cholesky) and :math:`z = L^{-1}\\Delta`
-    (a triangular solve),
+    With :math:`\Delta = \hat x_1 - \hat x_2` and :math:`S = \Sigma_1 + \Sigma_2`,
 
     .. math::
 
-        \\kappa = \\Delta^T S^{-1} \\Delta = z^T z \\sim \\chi^2_d
-        \\text{ under a true hypothesis.}
+        \kappa = \Delta^T S^{-1} \Delta \sim \chi^2_d
+        \text{ under a true hypothesis,}
 
-    No inverse is formed. For :math:`d = 1` and :math:`d = 2` the Cholesky
-    factor is written out in closed form (one division; two square roots),
-    which is several times faster than the batched LAPACK path for large
-    batches of small matrices. Both covariances are divided by a power of two
-    near their largest entry (exact), and :math:`\\Delta` by its square root, so
-    entries anywhere in the float range neither overflow nor underflow.
+    the squared Mahalanobis distance of
+    :func:`radarfusion_ref.engine.linalg.mahalanobis_sq` (an :math:`LDL^T`
+    factorisation, no inverse). For every pair of two report sets use
+    :func:`radarfusion_ref.engine.linalg.mahalanobis_sq_pairwise`.
 
     References
     ----------
@@ -278,27 +218,28 @@ def mahalanobis_sq(x1, x2, cov1, cov2):
 
     Examples
     --------
-    >>> mahalanobis_sq([1.0, 0.0], [0.0, 0.0], np.eye(2), np.eye(2))
+    >>> proximity_gaussian([1.0, 0.0], [0.0, 0.0], np.eye(2), np.eye(2))
     0.5
-    >>> mahalanobis_sq(np.zeros((3, 2)), [[1.0, 1.0]], np.eye(2), 3 * np.eye(2)).round(3)
+    >>> proximity_gaussian(np.zeros((3, 2)), [[1.0, 1.0]], np.eye(2), 3 * np.eye(2)).round(3)
     array([0.5, 0.5, 0.5])
     """
-    a, b, c1, c2, lead = _gaussian_iv(x1, x2, cov1, cov2)
-    return unwrap(_kappa_vector(a, b, c1, c2, lead))
+    a, b, c1, c2 = _gaussian_iv(x1, x2, cov1, cov2)
+    delta, s = a - b, c1 + c2
+    return unwrap(_kappa(delta, s, "`x1`, `x2`"))
 
 
 def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
-    """Log likelihood measure of the hypothesis that two scalar reports share one object.
+    r"""Log likelihood measure of the hypothesis that two scalar reports share one object.
 
     Parameters
     ----------
     x1, x2 : float or array_like
-        Reports :math:`\\hat x_1, \\hat x_2`.
+        Reports :math:`\hat x_1, \hat x_2`.
     var1, var2 : float or array_like
-        Error variances :math:`\\sigma_1^2, \\sigma_2^2 > 0`.
+        Error variances :math:`\sigma_1^2, \sigma_2^2 > 0`.
     kind : {"profile", "marginal"}, optional
         ``"profile"`` (default): the paper's measure :math:`f_k^*`, the likelihood
-        (2) at the ML estimate :math:`\\tilde x` (eq. (4)). ``"marginal"``: the
+        (2) at the ML estimate :math:`\tilde x` (eq. (4)). ``"marginal"``: the
         likelihood with :math:`x` integrated out under a flat prior.
 
     Returns
@@ -310,23 +251,22 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
     ------
     ValueError
         If a variance is not positive, an entry is not finite, the shapes do
-        not broadcast, `kind` is unknown or :math:`\\kappa` exceeds the largest
+        not broadcast, `kind` is unknown or :math:`\kappa` exceeds the largest
         double.
 
     Notes
     -----
-    With :math:`\\kappa` from :func:`proximity`,
+    With :math:`\kappa` from :func:`proximity`,
 
     .. math::
 
-        \\ln f^*_{\\text{profile}} = -\\frac{\\kappa}{2} - \\ln(2\\pi\\sigma_1\\sigma_2),
-        \\qquad
-        \\ln f_{\\text{marginal}} = -\\frac{\\kappa}{2}
-            - \\frac12 \\ln\\bigl(2\\pi(\\sigma_1^2 + \\sigma_2^2)\\bigr).
+        \ln f^*_{\text{profile}} = -\frac{\kappa}{2} - \ln(2\pi\sigma_1\sigma_2),
+        \qquad
+        \ln f_{\text{marginal}} = -\frac{\kappa}{2}
+            - \frac12 \ln\bigl(2\pi(\sigma_1^2 + \sigma_2^2)\bigr).
 
-    :math:`\\ln(\\sigma_1^2 + \\sigma_2^2)` is taken as ``logaddexp`` of the two
-    log variances, so it does not overflow. The paper prints (7) with the
-    factor :math:`1/(2\\pi(\\sigma_1^2 + \\sigma_2^2))`, which is neither (see the
+    The paper prints (7) with the
+    factor :math:`1/(2\pi(\sigma_1^2 + \sigma_2^2))`, which is neither (see the
     errata). The two correct measures differ by a term that depends only on the
     variances, so they rank hypotheses that involve the same sensors identically
     and can disagree otherwise.
@@ -348,15 +288,14 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
 
 
 def _log_measure(a, b, v1, v2, kind, names):
-    kappa = _kappa_scalar(a, b, v1, v2, names)
-    lv1, lv2 = np.log(v1), np.log(v2)
+    kappa = _kappa((a - b)[..., None], (v1 + v2)[..., None, None], names)
     if kind == "profile":
-        return -0.5 * kappa - _LOG_2PI - 0.5 * (lv1 + lv2)
-    return -0.5 * kappa - 0.5 * (_LOG_2PI + np.logaddexp(lv1, lv2))
+        return -0.5 * kappa - _LOG_2PI - 0.5 * (np.log(v1) + np.log(v2))
+    return -0.5 * kappa - 0.5 * (_LOG_2PI + np.log(v1 + v2))
 
 
 def log_likelihood_measure_gaussian(x1, x2, cov1, cov2, *, kind="profile"):
-    """Log likelihood measure of a pointwise hypothesis for vector reports.
+    r"""Log likelihood measure of a pointwise hypothesis for vector reports.
 
     Parameters
     ----------
@@ -374,20 +313,20 @@ def log_likelihood_measure_gaussian(x1, x2, cov1, cov2, *, kind="profile"):
     Raises
     ------
     ValueError
-        As :func:`mahalanobis_sq`, or if `kind` is unknown.
+        As :func:`proximity_gaussian`, or if `kind` is unknown.
 
     Notes
     -----
-    With :math:`\\kappa` the squared Mahalanobis distance and :math:`S = \\Sigma_1 + \\Sigma_2`,
+    With :math:`\kappa` the squared Mahalanobis distance and :math:`S = \Sigma_1 + \Sigma_2`,
 
     .. math::
 
-        \\ln f^*_{\\text{profile}} = -\\frac{\\kappa}{2} - d\\ln 2\\pi
-            - \\tfrac12\\ln|\\Sigma_1| - \\tfrac12\\ln|\\Sigma_2|, \\qquad
-        \\ln f_{\\text{marginal}} = -\\frac{\\kappa}{2} - \\tfrac d2 \\ln 2\\pi
-            - \\tfrac12 \\ln|S|.
+        \ln f^*_{\text{profile}} = -\frac{\kappa}{2} - d\ln 2\pi
+            - \tfrac12\ln|\Sigma_1| - \tfrac12\ln|\Sigma_2|, \qquad
+        \ln f_{\text{marginal}} = -\frac{\kappa}{2} - \tfrac d2 \ln 2\pi
+            - \tfrac12 \ln|S|.
 
-    Log-determinants come from Cholesky factors (:math:`\\ln|\\Sigma| = 2\\sum_i \\ln
+    Log-determinants come from Cholesky factors (:math:`\ln|\Sigma| = 2\sum_i \ln
     L_{ii}`); :math:`S` is scaled by a power of two first, so it cannot overflow.
 
     Examples
@@ -397,32 +336,27 @@ def log_likelihood_measure_gaussian(x1, x2, cov1, cov2, *, kind="profile"):
     True
     """
     kind = as_choice(kind, "kind", _KINDS)
-    a, b, c1, c2, lead = _gaussian_iv(x1, x2, cov1, cov2)
-    kappa = _kappa_vector(a, b, c1, c2, lead)
+    a, b, c1, c2 = _gaussian_iv(x1, x2, cov1, cov2)
     d = a.shape[-1]
-
-    def logdet(c):
-        return 2.0 * np.sum(np.log(np.diagonal(np.linalg.cholesky(c), axis1=-2, axis2=-1)),
-                            axis=-1)
-
+    logdet_s = []
+    kappa = _kappa(a - b, c1 + c2, "`x1`, `x2`", logdet_s)
     if kind == "profile":
-        out = -0.5 * kappa - d * _LOG_2PI - 0.5 * (logdet(c1) + logdet(c2))
+        out = -0.5 * kappa - d * _LOG_2PI - 0.5 * (np.linalg.slogdet(c1)[1]
+                                                   + np.linalg.slogdet(c2)[1])
     else:
-        scale = _pow2_scale(c1, c2)
-        s = c1 / scale[..., None, None] + c2 / scale[..., None, None]
-        out = -0.5 * kappa - 0.5 * d * _LOG_2PI - 0.5 * (logdet(s) + d * np.log(scale))
-    return unwrap(np.broadcast_to(out, lead))
+        out = -0.5 * kappa - 0.5 * d * _LOG_2PI - 0.5 * logdet_s[0]
+    return unwrap(np.broadcast_to(out, kappa.shape))
 
 
 def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
-    """Index of the candidate report with the largest likelihood measure.
+    r"""Index of the candidate report with the largest likelihood measure.
 
     Parameters
     ----------
     x1 : float or array_like, shape (...)
         Report(s) of radar 1.
     candidates : array_like, shape (..., k)
-        For each radar-1 report, :math:`k \\ge 1` candidate partner reports
+        For each radar-1 report, :math:`k \ge 1` candidate partner reports
         (possibly from different sensors), along the last axis.
     var1 : float or array_like, shape (...)
         Variance of `x1`, > 0.
@@ -446,7 +380,7 @@ def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
     Notes
     -----
     When every candidate comes from sensors with the same variance both kinds
-    pick the nearest report (the smallest :math:`\\kappa`); when the candidates'
+    pick the nearest report (the smallest :math:`\kappa`); when the candidates'
     variances differ they can disagree, because the two measures differ by a
     variance-dependent term.
 
@@ -461,8 +395,10 @@ def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
     if c.shape[-1] < 1:
         raise ValueError(f"`candidates` must hold at least one candidate along its last axis; "
                          f"received shape {c.shape}")
-    v1 = as_positive(var1, "var1")
-    cv = as_positive(candidate_vars, "candidate_vars")
+    v1 = _as_variance(var1, "var1")
+    cv = _as_variance(candidate_vars, "candidate_vars")
+    _check_domain(a, "x1")
+    _check_domain(c, "candidates")
     try:
         np.broadcast_shapes(a.shape, v1.shape)
         np.broadcast_shapes((*a.shape, 1), (*v1.shape, 1), c.shape, cv.shape)
@@ -514,24 +450,24 @@ def _log_ncx2_pdf(k, nu, lam):
 
 
 def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
-    """Density of the proximity measure: :math:`\\chi^2_\\nu` or noncentral :math:`\\chi'^2_\\nu(\\lambda)`.
+    r"""Density of the proximity measure: :math:`\chi^2_\nu` or noncentral :math:`\chi'^2_\nu(\lambda)`.
 
     Parameters
     ----------
     kappa : float or array_like
-        Points :math:`\\kappa \\ge 0` at which to evaluate the density.
+        Points :math:`\kappa \ge 0` at which to evaluate the density.
     dof : int, optional
-        Degrees of freedom :math:`\\nu` (the dimension :math:`d`; the paper's
+        Degrees of freedom :math:`\nu` (the dimension :math:`d`; the paper's
         :math:`m`). Default 1.
     noncentrality : float or array_like, optional
-        :math:`\\lambda \\ge 0` (the paper's :math:`V`); 0 (default) gives the
+        :math:`\lambda \ge 0` (the paper's :math:`V`); 0 (default) gives the
         law under a true hypothesis.
 
     Returns
     -------
     float or numpy.ndarray
-        The density, finite everywhere except at :math:`\\kappa = 0` with
-        :math:`\\nu = 1`, where the density is infinite and ``inf`` is returned.
+        The density, finite everywhere except at :math:`\kappa = 0` with
+        :math:`\nu = 1`, where the density is infinite and ``inf`` is returned.
 
     Raises
     ------
@@ -544,18 +480,18 @@ def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
     -----
     .. math::
 
-        f_{\\chi'^2_\\nu(\\lambda)}(\\kappa) = \\sum_{j\\ge 0} \\frac{e^{-\\lambda/2}(\\lambda/2)^j}{j!}\\,
-        f_{\\chi^2_{\\nu + 2j}}(\\kappa)
-        = \\tfrac12 e^{-(\\sqrt\\kappa - \\sqrt\\lambda)^2/2}
-          (\\kappa/\\lambda)^{\\nu/4 - 1/2}\\, I_{\\nu/2 - 1}(\\sqrt{\\lambda\\kappa})\\,
-          e^{-\\sqrt{\\lambda\\kappa}},
+        f_{\chi'^2_\nu(\lambda)}(\kappa) = \sum_{j\ge 0} \frac{e^{-\lambda/2}(\lambda/2)^j}{j!}\,
+        f_{\chi^2_{\nu + 2j}}(\kappa)
+        = \tfrac12 e^{-(\sqrt\kappa - \sqrt\lambda)^2/2}
+          (\kappa/\lambda)^{\nu/4 - 1/2}\, I_{\nu/2 - 1}(\sqrt{\lambda\kappa})\,
+          e^{-\sqrt{\lambda\kappa}},
 
-    evaluated with :mod:`scipy.stats` (``chi2`` at :math:`\\lambda = 0`, ``ncx2``
-    otherwise). Where scipy returns NaN (very large :math:`\\lambda`), a value
+    evaluated with :mod:`scipy.stats` (``chi2`` at :math:`\lambda = 0`, ``ncx2``
+    otherwise). Where scipy returns NaN (very large :math:`\lambda`), a value
     below 1e-200 (where it may have underflowed) or the wrong limit at
-    :math:`\\kappa = 0`, the Bessel form on the right is evaluated in the log
+    :math:`\kappa = 0`, the Bessel form on the right is evaluated in the log
     domain (exponentially scaled Bessel function, or its uniform asymptotic
-    expansion). The two curves for :math:`\\lambda = 0` and :math:`\\lambda > 0`
+    expansion). The two curves for :math:`\lambda = 0` and :math:`\lambda > 0`
     are the paper's Fig. 1.
 
     Examples
@@ -582,3 +518,7 @@ def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
             lim = np.inf if nu == 1 else (0.5 * np.exp(-0.5 * v) if nu == 2 else 0.0)
             out = np.where(at0, lim, out)
     return unwrap(out)
+
+
+# The former name, kept only until registration calls engine.linalg (to be deleted).
+mahalanobis_sq = proximity_gaussian

@@ -1,10 +1,10 @@
-"""Track-to-track fusion: the cross-covariance of two tracks and three fusion rules.
+r"""Track-to-track fusion: the cross-covariance of two tracks and three fusion rules.
 
 Two radars track one object with Kalman filters. Each track carries a state
-estimate :math:`\\hat{\\mathbf x}_i` (position and velocity) and a covariance
+estimate :math:`\hat{\mathbf x}_i` (position and velocity) and a covariance
 :math:`P_i`. Both filters follow the same object, whose motion is driven by
-one process noise :math:`\\mathbf w`; the two track errors therefore share it and
-are **correlated**, with cross-covariance :math:`P_{12} = E[\\mathbf e_1\\mathbf e_2^\\mathsf T]`
+one process noise :math:`\mathbf w`; the two track errors therefore share it and
+are **correlated**, with cross-covariance :math:`P_{12} = E[\mathbf e_1\mathbf e_2^\mathsf T]`
 even though the radars' measurement errors are independent.
 
 .. rubric:: Functions
@@ -16,16 +16,16 @@ even though the radars' measurement errors are independent.
   independent reports, :func:`radarfusion_ref.fusion.fuse_gaussian`);
 * :func:`bar_shalom_campo` — the best linear fusion with a known :math:`P_{12}`;
 * :func:`covariance_intersection` — fusion that is consistent for *every*
-  :math:`P_{12}`, with the weight :math:`\\omega` minimising the determinant or the trace;
+  :math:`P_{12}`, with the weight :math:`\omega` minimising the determinant or the trace;
 * :func:`track_statistic` — the track-to-track association statistic
-  :math:`\\kappa = \\Delta^\\mathsf T(P_1 + P_2 - P_{12} - P_{21})^{-1}\\Delta`;
+  :math:`\kappa = \Delta^\mathsf T(P_1 + P_2 - P_{12} - P_{21})^{-1}\Delta`;
 * :func:`predict` — a track predicted to a later instant (time alignment);
 * :func:`simulate_tracks` — Monte-Carlo runs of the two filters on one simulated object.
 
 Notation (the book's): :math:`F` the transition matrix, :math:`Q` the process-noise
-covariance, :math:`H_i` radar *i*'s measurement matrix, :math:`\\Sigma_i` its
+covariance, :math:`H_i` radar *i*'s measurement matrix, :math:`\Sigma_i` its
 measurement error covariance (argument ``R1``/``R2``), :math:`K_i` the Kalman gain,
-:math:`P_{21} = P_{12}^\\mathsf T`, :math:`\\tilde{\\mathbf x}`, :math:`\\tilde P` a fused track.
+:math:`P_{21} = P_{12}^\mathsf T`, :math:`\tilde{\mathbf x}`, :math:`\tilde P` a fused track.
 
 .. rubric:: References
 
@@ -61,8 +61,8 @@ from .engine._validation import (
     as_rng,
     check_size,
 )
+from .engine.linalg import _check_domain, _kappa, is_positive_definite
 from .fusion import fuse_gaussian
-from .proximity import mahalanobis_sq
 
 __all__ = [
     "CRITERIA",
@@ -103,14 +103,14 @@ _OMEGA_STEPS = 60
 # --------------------------------------------------------------------------- results
 @dataclass(frozen=True)
 class TrackEstimate:
-    """A track (or fused track): state estimate and its covariance.
+    r"""A track (or fused track): state estimate and its covariance.
 
     Attributes
     ----------
     estimate : numpy.ndarray, shape (..., d)
-        The state estimate :math:`\\tilde{\\mathbf x}`.
+        The state estimate :math:`\tilde{\mathbf x}`.
     covariance : numpy.ndarray, shape (..., d, d)
-        The covariance :math:`\\tilde P` the rule attaches to it.
+        The covariance :math:`\tilde P` the rule attaches to it.
     """
 
     estimate: np.ndarray
@@ -119,17 +119,17 @@ class TrackEstimate:
 
 @dataclass(frozen=True)
 class CovarianceIntersection:
-    """The result of :func:`covariance_intersection`.
+    r"""The result of :func:`covariance_intersection`.
 
     Attributes
     ----------
     estimate : numpy.ndarray, shape (..., d)
-        :math:`\\tilde{\\mathbf x} = \\tilde P(\\omega P_1^{-1}\\hat{\\mathbf x}_1
-        + (1-\\omega)P_2^{-1}\\hat{\\mathbf x}_2)`.
+        :math:`\tilde{\mathbf x} = \tilde P(\omega P_1^{-1}\hat{\mathbf x}_1
+        + (1-\omega)P_2^{-1}\hat{\mathbf x}_2)`.
     covariance : numpy.ndarray, shape (..., d, d)
-        :math:`\\tilde P = (\\omega P_1^{-1} + (1-\\omega)P_2^{-1})^{-1}`.
+        :math:`\tilde P = (\omega P_1^{-1} + (1-\omega)P_2^{-1})^{-1}`.
     omega : numpy.ndarray or float, shape (...)
-        The weight :math:`\\omega \\in [0, 1]` of track 1.
+        The weight :math:`\omega \in [0, 1]` of track 1.
     criterion : str
         ``"det"``, ``"trace"`` (ω chosen by minimising it) or ``"given"``.
     """
@@ -142,8 +142,8 @@ class CovarianceIntersection:
 
 @dataclass(frozen=True)
 class MotionModel:
-    """A linear motion model :math:`\\mathbf x_k = F\\mathbf x_{k-1} + \\mathbf w_k`,
-    :math:`\\mathbf w_k \\sim \\mathcal N(0, Q)`.
+    r"""A linear motion model :math:`\mathbf x_k = F\mathbf x_{k-1} + \mathbf w_k`,
+    :math:`\mathbf w_k \sim \mathcal N(0, Q)`.
 
     Attributes
     ----------
@@ -159,7 +159,7 @@ class MotionModel:
 
 @dataclass(frozen=True)
 class TrackCovariances:
-    """Covariances and gains of two Kalman filters of one object.
+    r"""Covariances and gains of two Kalman filters of one object.
 
     With ``steps=None`` (the steady state) the arrays have shape ``(..., d, d)`` and
     ``(..., d, p_i)``; with ``steps=k`` they hold the first `k` updates along axis
@@ -170,7 +170,7 @@ class TrackCovariances:
     P1, P2 : numpy.ndarray
         Updated covariances :math:`P_1, P_2` of the two tracks.
     P12 : numpy.ndarray
-        Their cross-covariance :math:`P_{12} = E[\\mathbf e_1\\mathbf e_2^\\mathsf T]`.
+        Their cross-covariance :math:`P_{12} = E[\mathbf e_1\mathbf e_2^\mathsf T]`.
     K1, K2 : numpy.ndarray
         The Kalman gains :math:`K_1, K_2`.
     """
@@ -183,7 +183,7 @@ class TrackCovariances:
 
     @property
     def correlation(self) -> np.ndarray:
-        """Correlation coefficients :math:`[P_{12}]_{jj}/\\sqrt{[P_1]_{jj}[P_2]_{jj}}` of
+        r"""Correlation coefficients :math:`[P_{12}]_{jj}/\sqrt{[P_1]_{jj}[P_2]_{jj}}` of
         each state component, shape ``(..., d)``."""
         d1 = np.diagonal(self.P1, axis1=-2, axis2=-1)
         d2 = np.diagonal(self.P2, axis1=-2, axis2=-1)
@@ -212,12 +212,12 @@ class TrackRuns:
 
     @property
     def error1(self) -> np.ndarray:
-        """Track 1's error :math:`\\mathbf e_1 = \\hat{\\mathbf x}_1 - \\mathbf x`."""
+        r"""Track 1's error :math:`\mathbf e_1 = \hat{\mathbf x}_1 - \mathbf x`."""
         return self.estimate1 - self.truth
 
     @property
     def error2(self) -> np.ndarray:
-        """Track 2's error :math:`\\mathbf e_2 = \\hat{\\mathbf x}_2 - \\mathbf x`."""
+        r"""Track 2's error :math:`\mathbf e_2 = \hat{\mathbf x}_2 - \mathbf x`."""
         return self.estimate2 - self.truth
 
 
@@ -298,12 +298,12 @@ def _solve(a, b):
 
 # --------------------------------------------------------------------------- fusion rules
 def naive_fusion(x1, P1, x2, P2) -> TrackEstimate:
-    """Fuse two tracks as if their errors were independent (ignoring :math:`P_{12}`).
+    r"""Fuse two tracks as if their errors were independent (ignoring :math:`P_{12}`).
 
     Parameters
     ----------
     x1, x2 : array_like, shape (..., d)
-        The two track estimates :math:`\\hat{\\mathbf x}_1, \\hat{\\mathbf x}_2`.
+        The two track estimates :math:`\hat{\mathbf x}_1, \hat{\mathbf x}_2`.
     P1, P2 : array_like, shape (..., d, d)
         Their covariances, symmetric positive definite.
 
@@ -327,10 +327,10 @@ def naive_fusion(x1, P1, x2, P2) -> TrackEstimate:
 
     .. math::
 
-        \\tilde P = (P_1^{-1} + P_2^{-1})^{-1}, \\qquad
-        \\tilde{\\mathbf x} = \\tilde P(P_1^{-1}\\hat{\\mathbf x}_1 + P_2^{-1}\\hat{\\mathbf x}_2).
+        \tilde P = (P_1^{-1} + P_2^{-1})^{-1}, \qquad
+        \tilde{\mathbf x} = \tilde P(P_1^{-1}\hat{\mathbf x}_1 + P_2^{-1}\hat{\mathbf x}_2).
 
-    With correlated tracks (:math:`P_{12} \\ne 0`) the covariance it reports is too
+    With correlated tracks (:math:`P_{12} \ne 0`) the covariance it reports is too
     small: the rule is over-confident.
 
     References
@@ -349,7 +349,7 @@ def naive_fusion(x1, P1, x2, P2) -> TrackEstimate:
 
 
 def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
-    """Fuse two correlated tracks with the Bar-Shalom–Campo rule (known :math:`P_{12}`).
+    r"""Fuse two correlated tracks with the Bar-Shalom–Campo rule (known :math:`P_{12}`).
 
     Parameters
     ----------
@@ -358,8 +358,8 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
     P1, P2 : array_like, shape (..., d, d)
         Their covariances, symmetric positive definite.
     P12 : array_like, shape (..., d, d)
-        The cross-covariance :math:`P_{12} = E[\\mathbf e_1\\mathbf e_2^\\mathsf T]` (for
-        example from :func:`cross_covariance`); :math:`P_{21} = P_{12}^\\mathsf T`.
+        The cross-covariance :math:`P_{12} = E[\mathbf e_1\mathbf e_2^\mathsf T]` (for
+        example from :func:`cross_covariance`); :math:`P_{21} = P_{12}^\mathsf T`.
 
     Returns
     -------
@@ -379,18 +379,18 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
     Notes
     -----
     The best (minimum-variance) estimate of the form
-    :math:`\\hat{\\mathbf x}_1 + W(\\hat{\\mathbf x}_2 - \\hat{\\mathbf x}_1)`:
+    :math:`\hat{\mathbf x}_1 + W(\hat{\mathbf x}_2 - \hat{\mathbf x}_1)`:
 
     .. math::
 
-        U = P_1 + P_2 - P_{12} - P_{21}, \\qquad W = (P_1 - P_{12})U^{-1},
+        U = P_1 + P_2 - P_{12} - P_{21}, \qquad W = (P_1 - P_{12})U^{-1},
 
-        \\tilde{\\mathbf x} = \\hat{\\mathbf x}_1 + W(\\hat{\\mathbf x}_2 - \\hat{\\mathbf x}_1), \\qquad
-        \\tilde P = P_1 - (P_1 - P_{12})U^{-1}(P_1 - P_{21}).
+        \tilde{\mathbf x} = \hat{\mathbf x}_1 + W(\hat{\mathbf x}_2 - \hat{\mathbf x}_1), \qquad
+        \tilde P = P_1 - (P_1 - P_{12})U^{-1}(P_1 - P_{21}).
 
     It equals the best linear unbiased estimate (BLUE) from the stacked pair
-    :math:`[\\hat{\\mathbf x}_1; \\hat{\\mathbf x}_2]` with the joint covariance, and
-    :math:`\\tilde P` is its true error covariance. With :math:`P_{12} = 0` it is
+    :math:`[\hat{\mathbf x}_1; \hat{\mathbf x}_2]` with the joint covariance, and
+    :math:`\tilde P` is its true error covariance. With :math:`P_{12} = 0` it is
     :func:`naive_fusion`.
 
     References
@@ -454,7 +454,7 @@ def _ci_omega(I1, I2, criterion):
 
 def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
                             omega=None) -> CovarianceIntersection:
-    """Fuse two tracks whose cross-covariance is unknown: covariance intersection.
+    r"""Fuse two tracks whose cross-covariance is unknown: covariance intersection.
 
     Parameters
     ----------
@@ -463,7 +463,7 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     P1, P2 : array_like, shape (..., d, d)
         Their covariances, symmetric positive definite.
     criterion : {"det", "trace"}, optional
-        What ω minimises: the determinant (default) or the trace of :math:`\\tilde P`.
+        What ω minimises: the determinant (default) or the trace of :math:`\tilde P`.
         Ignored when `omega` is given.
     omega : float or array_like, optional
         A given weight in [0, 1] (broadcast over the batch) instead of the optimum.
@@ -485,15 +485,15 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     -----
     .. math::
 
-        \\tilde P^{-1} = \\omega P_1^{-1} + (1 - \\omega)P_2^{-1}, \\qquad
-        \\tilde P^{-1}\\tilde{\\mathbf x} = \\omega P_1^{-1}\\hat{\\mathbf x}_1
-        + (1-\\omega)P_2^{-1}\\hat{\\mathbf x}_2 .
+        \tilde P^{-1} = \omega P_1^{-1} + (1 - \omega)P_2^{-1}, \qquad
+        \tilde P^{-1}\tilde{\mathbf x} = \omega P_1^{-1}\hat{\mathbf x}_1
+        + (1-\omega)P_2^{-1}\hat{\mathbf x}_2 .
 
     For every ω in [0, 1] and **every** cross-covariance for which the joint
-    covariance is positive semi-definite, :math:`\\tilde P` is at least the true
-    error covariance of :math:`\\tilde{\\mathbf x}` (consistency without knowing
+    covariance is positive semi-definite, :math:`\tilde P` is at least the true
+    error covariance of :math:`\tilde{\mathbf x}` (consistency without knowing
     :math:`P_{12}`). ω is found by bisection on the derivative of the convex
-    criterion (:math:`-\\log\\det\\tilde P^{-1}` or :math:`\\operatorname{tr}\\tilde P`).
+    criterion (:math:`-\log\det\tilde P^{-1}` or :math:`\operatorname{tr}\tilde P`).
     When several ω give the same criterion (e.g. :math:`P_1 = P_2`), any of them
     may be returned; the covariance is then the same.
 
@@ -534,7 +534,7 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
 
 
 def track_statistic(x1, P1, x2, P2, P12=None):
-    """Track-to-track association statistic :math:`\\kappa`, with the cross-covariance.
+    r"""Track-to-track association statistic :math:`\kappa`, with the cross-covariance.
 
     Parameters
     ----------
@@ -549,7 +549,7 @@ def track_statistic(x1, P1, x2, P2, P12=None):
     Returns
     -------
     float or numpy.ndarray, shape (...)
-        :math:`\\kappa`, distributed :math:`\\chi^2_d` under the hypothesis when `P12`
+        :math:`\kappa`, distributed :math:`\chi^2_d` under the hypothesis when `P12`
         is right.
 
     Raises
@@ -563,15 +563,15 @@ def track_statistic(x1, P1, x2, P2, P12=None):
 
     Notes
     -----
-    Under "one object" :math:`\\Delta = \\hat{\\mathbf x}_1 - \\hat{\\mathbf x}_2 = \\mathbf e_1 - \\mathbf e_2`
+    Under "one object" :math:`\Delta = \hat{\mathbf x}_1 - \hat{\mathbf x}_2 = \mathbf e_1 - \mathbf e_2`
     has covariance :math:`S = P_1 + P_2 - P_{12} - P_{21}`, and
 
     .. math::
 
-        \\kappa = \\Delta^\\mathsf T S^{-1}\\Delta \\sim \\chi^2_d .
+        \kappa = \Delta^\mathsf T S^{-1}\Delta \sim \chi^2_d .
 
-    Computed by :func:`radarfusion_ref.proximity.mahalanobis_sq` with
-    :math:`S/2 + S/2` (halving is exact in floating point).
+    Computed by the kernel of :func:`radarfusion_ref.engine.linalg.mahalanobis_sq`
+    (inside its numeric domain: coordinates up to :math:`2^{150}`).
 
     References
     ----------
@@ -590,29 +590,29 @@ def track_statistic(x1, P1, x2, P2, P12=None):
     else:
         x1, P1, x2, P2, P12 = _pair_iv(x1, P1, x2, P2, P12)
         S = _sym(P1 + P2 - P12 - np.swapaxes(P12, -1, -2))
-    try:
-        np.linalg.cholesky(S)
-    except np.linalg.LinAlgError:
+    if not np.all(is_positive_definite(S)):
         raise ValueError("`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x1 - x2) is singular; "
-                         "the statistic is undefined") from None
-    return mahalanobis_sq(x1, x2, S / 2, S / 2)
+                         "the statistic is undefined")
+    _check_domain(x1, "x1")
+    _check_domain(x2, "x2")
+    return _kappa(x1 - x2, S, "`x1`, `x2`")
 
 
 # --------------------------------------------------------------------------- motion model
 def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
-    """The constant-velocity model over an interval `dt`, state ``[positions, velocities]``.
+    r"""The constant-velocity model over an interval `dt`, state ``[positions, velocities]``.
 
     Parameters
     ----------
     dt : float or array_like
-        Time interval(s) :math:`\\Delta t \\ge 0`.
+        Time interval(s) :math:`\Delta t \ge 0`.
     q : float or array_like
-        Process-noise intensity :math:`q \\ge 0`: the power spectral density of the
+        Process-noise intensity :math:`q \ge 0`: the power spectral density of the
         white acceleration (``"continuous"``, units length²/time³) or the variance of
         the acceleration held constant over each interval (``"discrete"``, length²/time⁴).
     dim : int, optional
         Number of spatial coordinates (1, 2 or 3). The state is
-        :math:`(p_1, \\dots, p_{\\text{dim}}, v_1, \\dots, v_{\\text{dim}})`.
+        :math:`(p_1, \dots, p_{\text{dim}}, v_1, \dots, v_{\text{dim}})`.
     noise : {"continuous", "discrete"}, optional
         Continuous white-noise acceleration (default) or piecewise-constant
         (discrete white-noise) acceleration.
@@ -631,16 +631,16 @@ def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
 
     Notes
     -----
-    Per coordinate, with :math:`\\Delta t` the interval,
+    Per coordinate, with :math:`\Delta t` the interval,
 
     .. math::
 
-        F = \\begin{pmatrix}1 & \\Delta t\\\\ 0 & 1\\end{pmatrix}, \\qquad
-        Q_{\\text{cont}} = q\\begin{pmatrix}\\Delta t^3/3 & \\Delta t^2/2\\\\ \\Delta t^2/2 & \\Delta t\\end{pmatrix}, \\qquad
-        Q_{\\text{disc}} = q\\begin{pmatrix}\\Delta t^4/4 & \\Delta t^3/2\\\\ \\Delta t^3/2 & \\Delta t^2\\end{pmatrix}.
+        F = \begin{pmatrix}1 & \Delta t\\ 0 & 1\end{pmatrix}, \qquad
+        Q_{\text{cont}} = q\begin{pmatrix}\Delta t^3/3 & \Delta t^2/2\\ \Delta t^2/2 & \Delta t\end{pmatrix}, \qquad
+        Q_{\text{disc}} = q\begin{pmatrix}\Delta t^4/4 & \Delta t^3/2\\ \Delta t^3/2 & \Delta t^2\end{pmatrix}.
 
-    The continuous model composes exactly: predicting over :math:`\\Delta t_1` then
-    :math:`\\Delta t_2` equals predicting over :math:`\\Delta t_1 + \\Delta t_2`.
+    The continuous model composes exactly: predicting over :math:`\Delta t_1` then
+    :math:`\Delta t_2` equals predicting over :math:`\Delta t_1 + \Delta t_2`.
 
     References
     ----------
@@ -689,7 +689,7 @@ def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
 
 
 def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
-    """Predict constant-velocity tracks forward by `dt` (time alignment).
+    r"""Predict constant-velocity tracks forward by `dt` (time alignment).
 
     Parameters
     ----------
@@ -698,7 +698,7 @@ def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
     P : array_like, shape (..., 2 dim, 2 dim)
         Their covariances, symmetric positive definite.
     dt : float or array_like, shape (...)
-        Time to predict forward, :math:`\\delta \\ge 0`.
+        Time to predict forward, :math:`\delta \ge 0`.
     q : float or array_like
         Process-noise intensity (see :func:`constant_velocity`).
     noise : {"continuous", "discrete"}, optional
@@ -707,7 +707,7 @@ def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
     Returns
     -------
     TrackEstimate
-        :math:`F(\\delta)\\hat{\\mathbf x}` and :math:`F(\\delta)PF(\\delta)^\\mathsf T + Q(\\delta)`.
+        :math:`F(\delta)\hat{\mathbf x}` and :math:`F(\delta)PF(\delta)^\mathsf T + Q(\delta)`.
 
     Raises
     ------
@@ -721,10 +721,10 @@ def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
     -----
     .. math::
 
-        \\hat{\\mathbf x}(t+\\delta) = F(\\delta)\\hat{\\mathbf x}(t), \\qquad
-        P(t+\\delta) = F(\\delta)P(t)F(\\delta)^\\mathsf T + Q(\\delta).
+        \hat{\mathbf x}(t+\delta) = F(\delta)\hat{\mathbf x}(t), \qquad
+        P(t+\delta) = F(\delta)P(t)F(\delta)^\mathsf T + Q(\delta).
 
-    The added :math:`Q(\\delta)` is the uncertainty of the motion between the two
+    The added :math:`Q(\delta)` is the uncertainty of the motion between the two
     instants; without it a predicted track would be over-confident.
 
     References
@@ -815,20 +815,20 @@ def _steady(F, Q, H, R, name):
 
 def cross_covariance(F, Q, H1, R1, H2, R2, *, steps=None, P1_0=None, P2_0=None,
                      P12_0=None) -> TrackCovariances:
-    """Covariances and cross-covariance of two Kalman filters tracking one object.
+    r"""Covariances and cross-covariance of two Kalman filters tracking one object.
 
     Parameters
     ----------
     F, Q : array_like, shape (..., d, d)
-        The motion model :math:`\\mathbf x_k = F\\mathbf x_{k-1} + \\mathbf w_k`,
-        :math:`\\mathbf w_k \\sim \\mathcal N(0, Q)` (``Q`` positive semi-definite), shared by
+        The motion model :math:`\mathbf x_k = F\mathbf x_{k-1} + \mathbf w_k`,
+        :math:`\mathbf w_k \sim \mathcal N(0, Q)` (``Q`` positive semi-definite), shared by
         the object and both filters.
     H1, R1, H2, R2 : array_like, shapes (..., p_i, d) and (..., p_i, p_i)
-        Radar *i* measures :math:`\\mathbf z_i = H_i\\mathbf x + \\mathbf v_i`,
-        :math:`\\mathbf v_i \\sim \\mathcal N(0, \\Sigma_i)` (``R_i`` = :math:`\\Sigma_i`,
-        positive definite), independent of the other radar and of :math:`\\mathbf w`.
+        Radar *i* measures :math:`\mathbf z_i = H_i\mathbf x + \mathbf v_i`,
+        :math:`\mathbf v_i \sim \mathcal N(0, \Sigma_i)` (``R_i`` = :math:`\Sigma_i`,
+        positive definite), independent of the other radar and of :math:`\mathbf w`.
     steps : int, optional
-        ``None`` (default): the steady state. An integer :math:`k \\ge 1`: the first
+        ``None`` (default): the steady state. An integer :math:`k \ge 1`: the first
         :math:`k` steps of the recursion from the initial covariances.
     P1_0, P2_0 : array_like, shape (..., d, d)
         Initial (updated) covariances of the two tracks; required with `steps`.
@@ -852,20 +852,20 @@ def cross_covariance(F, Q, H1, R1, H2, R2, *, steps=None, P1_0=None, P2_0=None,
 
     Notes
     -----
-    Track *i*'s error :math:`\\mathbf e_i = \\hat{\\mathbf x}_i - \\mathbf x` obeys
-    :math:`\\mathbf e_i(k) = A_i(F\\mathbf e_i(k-1) - \\mathbf w_k) + K_i\\mathbf v_i(k)` with
-    :math:`A_i = I - K_iH_i`. The common :math:`\\mathbf w_k` gives
+    Track *i*'s error :math:`\mathbf e_i = \hat{\mathbf x}_i - \mathbf x` obeys
+    :math:`\mathbf e_i(k) = A_i(F\mathbf e_i(k-1) - \mathbf w_k) + K_i\mathbf v_i(k)` with
+    :math:`A_i = I - K_iH_i`. The common :math:`\mathbf w_k` gives
 
     .. math::
 
-        P_{12}(k) = A_1\\,\\big(F P_{12}(k-1) F^\\mathsf T + Q\\big)\\,A_2^\\mathsf T,
+        P_{12}(k) = A_1\,\big(F P_{12}(k-1) F^\mathsf T + Q\big)\,A_2^\mathsf T,
 
-    beside each track's own :math:`P_i(k) = A_i(FP_i(k-1)F^\\mathsf T + Q)A_i^\\mathsf T +
-    K_i\\Sigma_iK_i^\\mathsf T`. The steady state takes the Riccati solution of each
+    beside each track's own :math:`P_i(k) = A_i(FP_i(k-1)F^\mathsf T + Q)A_i^\mathsf T +
+    K_i\Sigma_iK_i^\mathsf T`. The steady state takes the Riccati solution of each
     filter (:func:`scipy.linalg.solve_discrete_are`) and solves the linear equation
-    :math:`P_{12} = A_1(FP_{12}F^\\mathsf T + Q)A_2^\\mathsf T` for :math:`P_{12}` by
-    vectorisation, :math:`(I - (A_2F)\\otimes(A_1F))\\operatorname{vec}P_{12} =
-    \\operatorname{vec}(A_1QA_2^\\mathsf T)`.
+    :math:`P_{12} = A_1(FP_{12}F^\mathsf T + Q)A_2^\mathsf T` for :math:`P_{12}` by
+    vectorisation, :math:`(I - (A_2F)\otimes(A_1F))\operatorname{vec}P_{12} =
+    \operatorname{vec}(A_1QA_2^\mathsf T)`.
 
     References
     ----------
@@ -934,7 +934,7 @@ def cross_covariance(F, Q, H1, R1, H2, R2, *, steps=None, P1_0=None, P2_0=None,
 
 def simulate_tracks(F, Q, H1, R1, H2, R2, *, steps, trials, P1_0, P2_0, x0=None,
                     rng=None) -> TrackRuns:
-    """Monte-Carlo runs of two Kalman filters tracking one simulated object.
+    r"""Monte-Carlo runs of two Kalman filters tracking one simulated object.
 
     Parameters
     ----------
@@ -966,8 +966,8 @@ def simulate_tracks(F, Q, H1, R1, H2, R2, *, steps, trials, P1_0, P2_0, x0=None,
 
     Notes
     -----
-    Per step: :math:`\\mathbf x_k = F\\mathbf x_{k-1} + \\mathbf w_k`; each radar measures
-    :math:`\\mathbf z_i = H_i\\mathbf x_k + \\mathbf v_i`; each filter predicts and updates
+    Per step: :math:`\mathbf x_k = F\mathbf x_{k-1} + \mathbf w_k`; each radar measures
+    :math:`\mathbf z_i = H_i\mathbf x_k + \mathbf v_i`; each filter predicts and updates
     with its gain :math:`K_i(k)` from :func:`cross_covariance`.
 
     Examples

@@ -119,6 +119,22 @@ def _refuse_overflow(kappa: np.ndarray, names: str) -> None:
             "(about 1.8e308); change the unit of the coordinates")
 
 
+def _kappa(d: np.ndarray, s: np.ndarray, names: str, logdet: list | None = None) -> np.ndarray:
+    """kappa = d' S^-1 d for validated ``d (..., k)`` and ``S (..., k, k)``, broadcast.
+
+    The kernel of :func:`mahalanobis_sq` for callers that validated their own
+    arguments (their names, in `names`, head the overflow refusal); with `logdet` (a
+    list) ``ln det S`` is appended to it.
+    """
+    k = d.shape[-1]
+    with np.errstate(under="ignore"):
+        out = _ldl_kappa([d[..., i] for i in range(k)],
+                         [[s[..., i, j] for j in range(i + 1)] for i in range(k)], logdet)
+    out = np.broadcast_to(out, np.broadcast_shapes(d.shape[:-1], s.shape[:-2]))
+    _refuse_overflow(out, names)
+    return out
+
+
 def _mahalanobis_iv(d, cov):
     a = as_float_array(d, "d", ndim_min=1)
     k = a.shape[-1]
@@ -177,25 +193,44 @@ def _ldl_kappa(d, s, logdet=None):
     """
     k = len(d)
     g = [[s[i][j] for j in range(i + 1)] for i in range(k)]   # g[i][j] -> L_ij D_j
-    piv, w = [], []
+    low = [[None] * k for _ in range(k)]                        # L_ij
+    piv, w, kappa = [], [], None
     for j in range(k):
         dj = g[j][j]
         for m in range(j):
-            dj = dj - g[j][m] * (g[j][m] / piv[m])
+            dj = dj - g[j][m] * low[j][m]
         piv.append(dj)
         for i in range(j + 1, k):
             for m in range(j):
-                g[i][j] = g[i][j] - g[i][m] * (g[j][m] / piv[m])
+                g[i][j] = g[i][j] - g[i][m] * low[j][m]
+            low[i][j] = g[i][j] / dj
         wj = d[j]
         for m in range(j):
-            wj = wj - (g[j][m] / piv[m]) * w[m]
+            wj = wj - low[j][m] * w[m]
         w.append(wj)
-    kappa = w[0] * (w[0] / piv[0])
-    for j in range(1, k):
-        kappa = kappa + w[j] * (w[j] / piv[j])
+        term = wj * (wj / dj)
+        kappa = term if kappa is None else kappa + term
     if logdet is not None:
         logdet.append(sum((np.log(p) for p in piv[1:]), np.log(piv[0])))
     return kappa
+
+
+def _ldl2_shared(delta, s, out):
+    """kappa of 2-D differences against one 2x2 S, in place (the k = 2 case of :func:`_ldl_kappa`).
+
+    `delta`: a (2, m) work array of differences (overwritten); `s`: the validated
+    (2, 2) matrix; `out`: (m,) receives kappa = d0 (d0 / s00) + w (w / D2), w = d1 - u d0.
+    """
+    d0, d1 = delta
+    u = s[1, 0] / s[0, 0]
+    piv = s[1, 1] - s[1, 0] * u
+    np.multiply(d0, u, out=out)
+    np.subtract(d1, out, out=d1)             # w
+    np.divide(d0, s[0, 0], out=out)
+    np.multiply(out, d0, out=out)            # d0 (d0 / s00)
+    np.divide(d1, piv, out=d0)
+    np.multiply(d0, d1, out=d0)              # w (w / D2)
+    np.add(out, d0, out=out)
 
 
 def _ldl2_block(p, q, work, kk):
@@ -336,13 +371,8 @@ def mahalanobis_sq(d, cov, *, return_logdet=False):
     if not isinstance(return_logdet, (bool, np.bool_)):
         raise TypeError(f"`return_logdet` must be a bool; received {_describe(return_logdet)}")
     a, c = _mahalanobis_iv(d, cov)
-    k = a.shape[-1]
     ld = [] if return_logdet else None
-    with np.errstate(under="ignore"):
-        kappa = _ldl_kappa([a[..., i] for i in range(k)],
-                           [[c[..., i, j] for j in range(i + 1)] for i in range(k)], ld)
-    kappa = np.broadcast_to(kappa, np.broadcast_shapes(a.shape[:-1], c.shape[:-2]))
-    _refuse_overflow(kappa, "`d`, `cov`")
+    kappa = _kappa(a, c, "`d`, `cov`", ld)
     if return_logdet:
         return unwrap(kappa), unwrap(np.broadcast_to(ld[0], kappa.shape))
     return unwrap(kappa)
