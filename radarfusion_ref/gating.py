@@ -67,6 +67,7 @@ from scipy import optimize, special, stats
 from .engine._validation import (
     MEMORY_LIMIT,
     _describe,
+    as_float,
     as_float_array,
     as_int,
     as_positive,
@@ -415,9 +416,7 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
     pa = as_probability(p_accept, "p_accept")
     p = as_probability(p_false_reject, "p_false_reject")
     m = _as_dof(dof)
-    tol = float(as_positive(xtol, "xtol")) if np.ndim(xtol) == 0 else None
-    if tol is None:
-        raise ValueError(f"`xtol` must be a positive number; received {_describe(xtol)}")
+    tol = as_float(as_positive(xtol, "xtol"), "xtol")
     pa, m, p = broadcast(p_accept=pa, dof=m, p_false_reject=p)
     check_size(pa.size, MAX_ROOTS, what="roots (entries of the broadcast arguments)",
                alternative="a coarser grid of `p_accept` and interpolation")
@@ -449,9 +448,7 @@ def _gate_options(return_statistic, p_false_reject) -> float:
     if not isinstance(return_statistic, (bool, np.bool_)):
         raise TypeError(f"`return_statistic` must be a bool; received "
                         f"{_describe(return_statistic)}")
-    p = as_probability(p_false_reject, "p_false_reject")
-    if p.ndim != 0:
-        raise ValueError(f"`p_false_reject` must be a scalar; received {_describe(p)}")
+    p = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
     return float(_threshold(p, 2))
 
 

@@ -93,3 +93,43 @@ def test_check_size_refuses_before_allocating():
     with pytest.raises(ValueError, match=r"refused: 3628800 hypotheses n! requested, above the "
                                          r"limit of 1000; use the solver instead"):
         v.check_size(math.factorial(10), 1000, what="hypotheses n!", alternative="the solver")
+
+
+def test_seed_sequence_one_conversion():
+    assert v.as_seed_sequence(7).entropy == 7
+    seq = np.random.SeedSequence(3, spawn_key=(1,))
+    assert v.as_seed_sequence(seq) is seq
+    assert isinstance(v.as_seed_sequence(None), np.random.SeedSequence)
+    # a Generator gives 128 bits: the four 32-bit words it draws, and it advances
+    words = np.random.default_rng(5).integers(0, 2**32, size=4, dtype=np.uint64).tolist()
+    g = np.random.default_rng(5)
+    assert v.as_seed_sequence(g).entropy == words
+    assert v.as_seed_sequence(g).entropy != words
+    for bad in (-1, 1.5, True, "7", np.random.RandomState(0)):
+        with pytest.raises(TypeError, match="`rng` must be None, a non-negative int seed"):
+            v.as_seed_sequence(bad)
+
+
+def test_single_number_check():
+    assert v.as_float(np.float32(0.25), "p") == 0.25 and v.as_float(np.array(3), "p") == 3.0
+    assert isinstance(v.as_float(1, "p"), float)
+    with pytest.raises(ValueError, match=r"`p` must be a single number; received array"):
+        v.as_float([0.1, 0.2], "p")
+    with pytest.raises(ValueError, match="`p` must be finite"):
+        v.as_float(float("nan"), "p")
+    with pytest.raises(TypeError, match="`p`"):
+        v.as_float("0.5", "p")
+
+
+def test_covariance_rule_is_scale_free_and_refuses_singular_to_precision():
+    corr = np.array([[1.0, 0.0], [0.0, 1.0]])
+    for rho, ok in ((1 - 1e-11, True), (1 - 1e-13, False)):   # 1 - rho^2 about 2e-11, 2e-13
+        corr[0, 1] = corr[1, 0] = rho
+        for scale in (np.diag([1e-40, 1e40]), np.eye(2)):
+            c = scale @ corr @ scale
+            if ok:
+                v.as_covariance(c, "cov")
+            else:
+                with pytest.raises(ValueError, match="`cov` must be positive definite and not "
+                                                     "singular to working precision"):
+                    v.as_covariance(c, "cov")

@@ -21,7 +21,9 @@ __all__ = [
     "as_int",
     "as_covariance",
     "as_choice",
+    "as_float",
     "as_rng",
+    "as_seed_sequence",
     "broadcast",
     "unwrap",
     "check_size",
@@ -361,6 +363,58 @@ def as_rng(rng) -> np.random.Generator:
             "`rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; "
             f"received {_describe(value)}"
         ) from None
+
+
+def as_seed_sequence(rng) -> np.random.SeedSequence:
+    """The one seed conversion: ``None``, a seed, a SeedSequence or a Generator → a SeedSequence.
+
+    ``None`` gives fresh OS entropy; a non-negative int ``s`` gives
+    ``SeedSequence(s)``; a SeedSequence is used as it is; a Generator
+    contributes 128 bits drawn from it (four 32-bit words, which advances it as
+    any draw would), so consecutive calls with one Generator are independent and
+    a seeded Generator is reproducible. Anything else — a negative int, a float,
+    a legacy RandomState — is refused.
+
+    Examples
+    --------
+    >>> as_seed_sequence(7).entropy
+    7
+    >>> as_seed_sequence(-1)
+    Traceback (most recent call last):
+    ...
+    TypeError: `rng` must be None, a non-negative int seed, a numpy.random.SeedSequence or a numpy.random.Generator; received -1
+    """
+    if isinstance(rng, np.random.SeedSequence):
+        return rng
+    if isinstance(rng, np.random.Generator):
+        return np.random.SeedSequence(rng.integers(0, 2**32, size=4, dtype=np.uint64).tolist())
+    if rng is None:
+        return np.random.SeedSequence()
+    if isinstance(rng, numbers.Integral) and not isinstance(rng, (bool, np.bool_)) and rng >= 0:
+        return np.random.SeedSequence(int(rng))
+    raise TypeError("`rng` must be None, a non-negative int seed, a numpy.random.SeedSequence "
+                    f"or a numpy.random.Generator; received {_describe(rng)}")
+
+
+def as_float(value, name: str) -> float:
+    """The one "single number" check: a finite real given as a scalar or 0-d array → float.
+
+    Range rules stay with :func:`as_positive` and :func:`as_probability`
+    (``as_float(as_positive(v, "v"), "v")`` for a single positive number).
+
+    Examples
+    --------
+    >>> as_float(np.float32(0.5), "p")
+    0.5
+    >>> as_float([0.01, 0.02], "p")
+    Traceback (most recent call last):
+    ...
+    ValueError: `p` must be a single number; received array [0.01 0.02] with shape (2,)
+    """
+    arr = as_float_array(value, name)
+    if arr.ndim != 0:
+        raise ValueError(f"`{name}` must be a single number; received {_describe(arr)}")
+    return float(arr)
 
 
 def broadcast(**arrays: np.ndarray) -> tuple[np.ndarray, ...]:

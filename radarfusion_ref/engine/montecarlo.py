@@ -46,6 +46,7 @@ from ._validation import (
     as_float_array,
     as_int,
     as_probability,
+    as_seed_sequence,
     check_size,
     unwrap,
 )
@@ -559,26 +560,6 @@ def _as_grid(grid):
                     f"or a sequence of dicts; received {_describe(grid)}")
 
 
-def _seed_root(rng) -> np.random.SeedSequence:
-    """The root SeedSequence of a sweep (SPEC 7 input, no global state).
-
-    A Generator is not reused: 256 bits drawn from it become the root entropy
-    (this advances that Generator, as any draw would).
-    """
-    if isinstance(rng, np.random.SeedSequence):
-        return rng
-    if isinstance(rng, np.random.Generator):
-        words = rng.integers(0, np.iinfo(np.uint64).max, size=4, dtype=np.uint64,
-                             endpoint=True)
-        return np.random.SeedSequence(sum(int(w) << (64 * k) for k, w in enumerate(words)))
-    if rng is None:
-        return np.random.SeedSequence()
-    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool) and int(rng) >= 0:
-        return np.random.SeedSequence(int(rng))
-    raise TypeError("`rng` must be None, a non-negative int seed, a numpy.random.SeedSequence "
-                    f"or a numpy.random.Generator; received {_describe(rng)}")
-
-
 def _unit_rng(entropy, spawn_key, pool_size, point: int, unit: int) -> np.random.Generator:
     """The generator of seed unit `unit` of grid point `point`: a PCG64 (pinned, not
     ``default_rng``'s choice) on the SeedSequence with spawn key ``(point, unit)``."""
@@ -828,7 +809,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
         raise ValueError(f"`block` must be a positive multiple of SEED_BLOCK = {SEED_BLOCK} "
                          f"trials (the seed unit); received {block} (use "
                          f"{max(1, round(block / SEED_BLOCK)) * SEED_BLOCK})")
-    root = _seed_root(rng)
+    root = as_seed_sequence(rng)
     show = _want_progress(progress)
     if client is not None:
         client, workers = _as_client(client)
