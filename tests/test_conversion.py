@@ -772,15 +772,18 @@ def test_coordinates_near_1e154_no_longer_overflow_in_silence():
         cv.polar_to_cartesian(1e160, 0.3, 1.0, 0.01)
     with pytest.raises(ValueError, match="float range"):
         cv.nonlinearity_index(1e300, 1e-300, 0.1)
-    with pytest.raises(ValueError, match="NEES exceeds"):
-        cv.nees([1e200, 0.0], np.eye(2) * 1e-200)
+    with pytest.raises(ValueError, match=r"`error`.*numeric domain"):
+        cv.nees([1e200, 0.0], np.eye(2))
+    with pytest.raises(ValueError, match=r"`cov`.*numeric domain"):
+        cv.nees([1.0, 0.0], np.eye(2) * 1e-200)
     with pytest.raises(ValueError, match="`r`"):
         cv.draw_polar(1.7e308, 0.0, 1e307, 0.01, trials=50, rng=0)
 
 
-@given(st.floats(-150, 150, **finite), st.floats(-150, 150, **finite))
+@given(st.floats(-40, 40, **finite), st.floats(-40, 40, **finite))
 def test_nees_is_invariant_to_the_unit(le, lc):
-    """NEES is scale free: error × k, cov × k² gives the same value (no overflow on the way)."""
+    """NEES is scale free: error × k, cov × k² gives the same value, over the engine's
+    numeric domain (variances within 2**-150 .. 2**150)."""
     err = np.array([0.3, -1.2])
     cov = np.array([[2.0, 0.4], [0.4, 0.5]])
     ref = cv.nees(err, cov)

@@ -2,6 +2,7 @@ r"""Is a converted covariance right? Noisy polar measurements, NEES, and the Mon
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,7 +11,6 @@ from ..engine._validation import (
     MEMORY_LIMIT,
     _describe,
     as_choice,
-    as_covariance,
     as_float_array,
     as_int,
     as_positive,
@@ -18,6 +18,7 @@ from ..engine._validation import (
     broadcast,
     check_size,
 )
+from ..engine.linalg import mahalanobis_sq
 from ..engine.montecarlo import MeanEstimate, mean
 from ._planar import (
     ALL_METHODS,
@@ -176,17 +177,20 @@ def _draw_range_azimuth(r, beta, sigma_r, sigma_beta, trials, rng):
 def nees(error, cov) -> np.ndarray:
     r"""Normalized estimation error squared :math:`\mathbf e^\mathsf T C^{-1}\mathbf e`.
 
-    Computed through a Cholesky factor :math:`C = LL^\mathsf T`:
-    :math:`\|L^{-1}\mathbf e\|^2`. If :math:`C` is the true error covariance,
-    the mean is the dimension :math:`d`; for Gaussian errors NEES is
+    The package's one squared Mahalanobis distance,
+    :func:`radarfusion_ref.engine.linalg.mahalanobis_sq` (a factorisation of
+    :math:`C`, forward substitution, no inverse). If :math:`C` is the true error
+    covariance, the mean is the dimension :math:`d`; for Gaussian errors NEES is
     :math:`\chi^2_d`.
 
     Parameters
     ----------
     error : array_like, shape (..., d)
-        Estimate minus truth.
+        Estimate minus truth, within the engine's numeric domain (entries of
+        magnitude at most :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`).
     cov : array_like, shape (..., d, d)
-        Symmetric positive-definite covariances, broadcasting with `error`.
+        Symmetric positive-definite covariances, broadcasting with `error`, variances
+        within the numeric domain.
 
     Returns
     -------
@@ -195,8 +199,8 @@ def nees(error, cov) -> np.ndarray:
     Raises
     ------
     ValueError
-        If `cov` is not symmetric positive definite (Cholesky fails), or the
-        shapes disagree.
+        If `cov` is not symmetric positive definite, the shapes disagree, or a value
+        lies outside the numeric domain.
 
     Examples
     --------
@@ -204,46 +208,19 @@ def nees(error, cov) -> np.ndarray:
     2.0
     """
     e = as_float_array(error, "error", ndim_min=1)
-    d = e.shape[-1]
-    if d < 1:
+    if e.shape[-1] < 1:
         raise ValueError(f"`error` must have shape (..., d) with d >= 1; received shape {e.shape}")
-    c = as_float_array(cov, "cov", ndim_min=2, last_dims=(d, d))
     try:
-        shape = np.broadcast_shapes(e.shape[:-1], c.shape[:-2])
+        batch = np.broadcast_shapes(e.shape[:-1], np.shape(cov)[:-2])
     except ValueError:
-        raise ValueError(
-            f"`error` (..., d) and `cov` (..., d, d) must have broadcasting batch shapes; "
-            f"received shapes {e.shape} and {c.shape}") from None
-    check_size(int(np.prod(shape, dtype=object)) * d * d, MAX_BATCH,
+        batch = ()                # a shape the engine refuses, naming it
+    check_size(math.prod(batch) * e.shape[-1] ** 2, MAX_BATCH,
                what="broadcast `error` × `cov` entries",
                alternative="several calls on slices of the batch")
-    # scale each matrix by a power of 4 (and its error by the power of 2): exact, and the
-    # factorisation then never overflows or underflows, whatever the unit
-    big = np.max(np.abs(c), axis=(-2, -1))
-    k = np.frexp(np.where(big > 0, big, 1.0))[1] // 2
-    c = np.ldexp(c, -2 * k[..., None, None])
-    e = np.ldexp(e, -np.broadcast_to(k, shape)[..., None]) if shape else np.ldexp(e, -k)
-    if d != 2:
-        chol = np.linalg.cholesky(np.broadcast_to(as_covariance(c, "cov"), (*shape, d, d)))
-        z = np.linalg.solve(chol, np.broadcast_to(e, (*shape, d))[..., None])[..., 0]
-        return _finite_nees(np.sum(z**2, axis=-1))
-    # d = 2: the Cholesky factor in closed form (fast on millions of trials)
-    c00, c01, c10, c11 = c[..., 0, 0], c[..., 0, 1], c[..., 1, 0], c[..., 1, 1]
-    scale = np.maximum(np.abs(c).max(axis=(-2, -1)), np.finfo(float).tiny)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        l00 = np.sqrt(c00)
-        l10 = c10 / l00
-        schur = c11 - l10**2
-        ok = (c00 > 0) & (schur > 0) & (np.abs(c01 - c10) <= 1e-9 * scale)
-    if not np.all(ok):
-        as_covariance(cov, "cov", dim=2)     # raises the package's standard message
-        raise ValueError("`cov` must be symmetric positive definite; the Cholesky "
-                         f"factorisation failed for {int(np.count_nonzero(~ok))} matrices "
-                         "(numerically singular)")
-    with np.errstate(over="ignore"):
-        z0 = e[..., 0] / l00
-        z1 = (e[..., 1] - l10 * z0) / np.sqrt(schur)
-        return _finite_nees(z0**2 + z1**2)
+    try:
+        return mahalanobis_sq(e, cov)
+    except ValueError as exc:     # the engine names its own argument `d`; this one is `error`
+        raise ValueError(str(exc).replace("`d`", "`error`")) from None
 
 
 def _finite_nees(value):
