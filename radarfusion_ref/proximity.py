@@ -518,7 +518,3 @@ def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
             lim = np.inf if nu == 1 else (0.5 * np.exp(-0.5 * v) if nu == 2 else 0.0)
             out = np.where(at0, lim, out)
     return unwrap(out)
-
-
-# The former name, kept only until registration calls engine.linalg (to be deleted).
-mahalanobis_sq = proximity_gaussian
