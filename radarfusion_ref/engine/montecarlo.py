@@ -417,7 +417,7 @@ class SweepResult:
     trials: int
     block: int
     seed_block: int
-    entropy: int | tuple
+    entropy: int | Sequence[int] | None  # as numpy types SeedSequence.entropy
     spawn_key: tuple
     tasks: int
     wall_time: float
