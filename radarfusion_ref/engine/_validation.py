@@ -261,13 +261,13 @@ def _pd_mask(arr: np.ndarray) -> np.ndarray:
         if k > 8:                                   # LAPACK: pivots are diag(L)^2
             r = arr / np.stack(root, -1)[..., :, None] / np.stack(root, -1)[..., None, :]
             flat = r.reshape(-1, k, k)
-            piv = np.zeros((flat.shape[0], k))
+            diag = np.zeros((flat.shape[0], k))
             for i, m in enumerate(flat):
                 with contextlib.suppress(np.linalg.LinAlgError):
-                    piv[i] = np.diagonal(np.linalg.cholesky(m)) ** 2
-            return ok & np.all(piv.reshape(*arr.shape[:-2], k) > SINGULAR_RTOL, axis=-1)
+                    diag[i] = np.diagonal(np.linalg.cholesky(m)) ** 2
+            return ok & np.all(diag.reshape(*arr.shape[:-2], k) > SINGULAR_RTOL, axis=-1)
         low = [[arr[..., i, j] / (root[i] * root[j]) for j in range(i)] for i in range(k)]
-        piv = []                                    # D_j; low[i][j] becomes L_ij D_j
+        piv: list = []                              # D_j; low[i][j] becomes L_ij D_j
         for j in range(k):
             d = 1.0
             for m in range(j):
@@ -390,7 +390,7 @@ def as_seed_sequence(rng) -> np.random.SeedSequence:
         return np.random.SeedSequence(rng.integers(0, 2**32, size=4, dtype=np.uint64).tolist())
     if rng is None:
         return np.random.SeedSequence()
-    if isinstance(rng, numbers.Integral) and not isinstance(rng, (bool, np.bool_)) and rng >= 0:
+    if isinstance(rng, numbers.Integral) and not isinstance(rng, (bool, np.bool_)) and int(rng) >= 0:
         return np.random.SeedSequence(int(rng))
     raise TypeError("`rng` must be None, a non-negative int seed, a numpy.random.SeedSequence "
                     f"or a numpy.random.Generator; received {_describe(rng)}")
