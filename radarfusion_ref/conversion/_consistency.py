@@ -1,4 +1,4 @@
-r"""Is a converted covariance right? Noisy polar measurements, NEES, and the Monte Carlo of every method."""
+r"""Is a converted covariance right? Noisy polar measurements, NEES, and the Monte Carlo."""
 
 from __future__ import annotations
 

@@ -1,4 +1,8 @@
-r"""Polar to Cartesian in 2-D: the gains, the covariances (linearized, debiased, unbiased, decorrelated), the exact moments given the truth."""
+r"""Polar to Cartesian in 2-D: gains, covariances and the exact moments given the truth.
+
+The linearized, debiased (additive), unbiased (multiplicative), first-order,
+measurement-conditioned and decorrelated conversions.
+"""
 
 from __future__ import annotations
 
@@ -123,7 +127,7 @@ def _check_batch(trials: int, **arrays) -> int:
 
 # --------------------------------------------------------------------------- building blocks
 def conversion_gain(sigma_beta, *, method: str = "linearized"):
-    r"""Gain :math:`g` of a conversion: its position is :math:`g\,\hat r\,(\cos\hat\beta, \sin\hat\beta)`.
+    r"""Gain :math:`g` of a conversion: its position is :math:`g\,\hat r\,u(\hat\beta)`.
 
     Parameters
     ----------

@@ -99,7 +99,7 @@ def reduced_information(jac_bias, jac_object):
     info = np.zeros((*lead, 3 * m, 3 * m))
     for i in range(m):                                               # U is block-diagonal
         info[..., 3 * i:3 * i + 3, 3 * i:3 * i + 3] = U[..., i, :, :]
-    W, V = _object_blocks(B, G)                                      # (…, n, 3m, 2), (…, n, 2, 2)
+    W, V = _object_blocks(B, G)                           # (…, n, 3m, 2), (…, n, 2, 2)
     try:
         Vinv_Wt = np.linalg.solve(V, np.swapaxes(W, -1, -2))
     except np.linalg.LinAlgError:

@@ -1,4 +1,4 @@
-r"""The bias model: biased polar reports, their Cartesian form, and what the biases do to a true pair."""
+r"""The bias model: biased polar reports, their Cartesian form, their effect on a true pair."""
 
 from __future__ import annotations
 
@@ -433,18 +433,21 @@ def noncentrality(sensors, targets, biases, sigma_r, sigma_beta):
     ...                           [[0.1, 0, 0], [0, 0, 0]], 0.1, 1e-3)[0]), 6)
     0.5
     """
+    s, sr, sb = _two_radars_iv(sensors, sigma_r, sigma_beta)
+    polar = true_polar(s, targets)
+    mu = bias_displacement(s, targets, biases)              # each radar's mean position error
+    cov = conversion.polar_to_cartesian(polar[..., 0], polar[..., 1], sr[:, None], sb[:, None]).cov
+    # lambda = (mu1 - mu2)^T (Sigma1 + Sigma2)^-1 (mu1 - mu2)
+    delta, summed = mu[..., 0, :, :] - mu[..., 1, :, :], cov[..., 0, :, :, :] + cov[..., 1, :, :, :]
+    return np.asarray(mahalanobis_sq(delta, summed), dtype=float)
+
+
+def _two_radars_iv(sensors, sigma_r, sigma_beta):
     s = _sensors_iv(sensors)
     if s.shape[0] != 2:
         raise ValueError(f"`sensors` must hold exactly two radar sites, shape (2, 2); received "
                          f"shape {s.shape}")
-    sr, sb = _sigmas_iv(sigma_r, sigma_beta, 2)
-    polar = true_polar(s, targets)
-    mu = bias_displacement(s, targets, biases)
-    cov = conversion.polar_to_cartesian(polar[..., 0], polar[..., 1], sr[:, None], sb[:, None]).cov
-    # lambda = (mu1 - mu2)^T (Sigma1 + Sigma2)^-1 (mu1 - mu2)
-    delta = mu[..., 0, :, :] - mu[..., 1, :, :]
-    return np.asarray(mahalanobis_sq(delta, cov[..., 0, :, :, :] + cov[..., 1, :, :, :]),
-                      dtype=float)
+    return (s, *_sigmas_iv(sigma_r, sigma_beta, 2))
 
 
 def cost_matrix(sensors, reports1, reports2, sigma_r, sigma_beta, *, biases=None):
@@ -481,13 +484,9 @@ def cost_matrix(sensors, reports1, reports2, sigma_r, sigma_beta, *, biases=None
     >>> k.shape
     (1, 2)
     """
-    s = _sensors_iv(sensors)
-    if s.shape[0] != 2:
-        raise ValueError(f"`sensors` must hold exactly two radar sites, shape (2, 2); received "
-                         f"shape {s.shape}")
+    s, sr, sb = _two_radars_iv(sensors, sigma_r, sigma_beta)
     z1 = _polar_reports_iv(reports1, "reports1")
     z2 = _polar_reports_iv(reports2, "reports2")
-    sr, sb = _sigmas_iv(sigma_r, sigma_beta, 2)
     try:
         batch = np.broadcast_shapes(z1.shape[:-2], z2.shape[:-2])
     except ValueError:

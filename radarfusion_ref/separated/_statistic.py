@@ -1,4 +1,4 @@
-r"""From polar reports to decisions: conversion into radar 1's frame, the quadratic form, the rules."""
+r"""From polar reports to decisions: radar 1's frame, the quadratic form, the decision rules."""
 
 from __future__ import annotations
 
@@ -172,10 +172,10 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False,
     Raises
     ------
     ValueError
-        If shapes do not match, entries are not finite, a covariance is not
-        symmetric or not positive definite (:func:`radarfusion_ref.engine._validation.as_covariance`),
-        the sums are too many for :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`,
-        or a summed covariance is numerically singular.
+        If shapes do not match, entries are not finite or lie outside the engine's
+        numeric domain, a covariance breaks the package's positive-definiteness rule
+        (:func:`radarfusion_ref.engine.linalg.is_positive_definite`), or the pairs are
+        too many for :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`.
     TypeError
         If an argument is not numeric.
 
