@@ -25,6 +25,7 @@ from scipy.optimize import linear_sum_assignment
 from radarfusion_ref import grouping
 from radarfusion_ref.engine import scenes
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
+from radarfusion_ref.grouping._solve import _scene_candidates
 
 
 def rand_spd(rng, shape, d, *, floor=0.2):
@@ -772,7 +773,7 @@ def test_gate_keeps_exactly_the_tuples_whose_pairs_pass(m, n, p):
            for i, k in itertools.combinations(range(m), 2)}
     expected = {t for t in itertools.product(range(n), repeat=m)
                 if all(kap[i, k][t[i], t[k]] <= gamma for i, k in kap)}
-    T, c = grouping._scene_candidates(list(x), list(cov), cost="ml", gamma=gamma, det=None)
+    T, c = _scene_candidates(list(x), list(cov), cost="ml", gamma=gamma, det=None)
     assert {tuple(t) for t in T.tolist()} == expected
     assert len(expected) < n**m                         # the gate prunes
     # the gated groups carry the full-tensor ML cost
@@ -784,7 +785,7 @@ def test_gate_keeps_exactly_the_tuples_whose_pairs_pass(m, n, p):
 @pytest.mark.parametrize("cost", ["ml", "pairwise"])
 def test_wide_gate_is_the_ungated_problem(seed, cost):
     x, cov = rand_problem(seed, 3, 5)
-    T, _ = grouping._scene_candidates(list(x), list(cov), cost=cost,
+    T, _ = _scene_candidates(list(x), list(cov), cost=cost,
                                       gamma=stats.chi2.isf(1e-300, 2), det=None)
     assert T.shape[0] == 5**3                           # nothing gated out
     dense = grouping.group_sd(x, cov, cost=cost)
@@ -799,7 +800,7 @@ def test_gated_memory_follows_the_candidates_not_n_to_the_m():
     x, cov = geometric_scene(4, 60, seed=1)
     with pytest.raises(ValueError, match="candidate groups"):
         grouping.group_sd(x, cov)
-    T, _ = grouping._scene_candidates(list(x), list(cov), cost="ml",
+    T, _ = _scene_candidates(list(x), list(cov), cost="ml",
                                       gamma=stats.chi2.isf(1e-3, 2), det=None)
     assert T.shape[0] < 60**4 / 500                  # 1.3e7 candidate groups without a gate
     r = grouping.group_sd(x, cov, method="lagrangian", gap=0.01, p_false_reject=1e-3)
@@ -1051,7 +1052,7 @@ def test_dummy_index_group_costs_carry_the_full_density_with_its_2pi():
     cs = [np.stack([np.eye(d) * (0.2 + 0.1 * k + 0.05 * i) for k in range(2)]) for i in range(m)]
     pd, rf, rt = np.array([0.9, 0.8, 0.7]), np.array([0.01, 0.02, 0.03]), 0.05
     det = {"p_detect": pd, "false_density": rf, "object_density": np.asarray(rt)}
-    T, c = grouping._scene_candidates(xs, cs, cost="ml", gamma=None, det=det)
+    T, c = _scene_candidates(xs, cs, cost="ml", gamma=None, det=det)
     checked = 0
     for t, cost in zip(T, c, strict=True):
         S = [i for i in range(m) if t[i] >= 0]
