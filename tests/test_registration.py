@@ -394,5 +394,5 @@ def test_reduced_information_is_the_bias_block_of_the_full_information():
     full = J.T @ J
     want = np.linalg.inv(np.linalg.inv(full)[:3 * m, :3 * m])
     np.testing.assert_allclose(rg.reduced_information(B, G), want, rtol=1e-8, atol=1e-10)
-    with pytest.raises(ValueError, match="`jac_bias`.*`jac_object`"):
+    with pytest.raises(ValueError, match=r"`jac_bias`.*`jac_object`"):
         rg.reduced_information(B, G[:, :3])
