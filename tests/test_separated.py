@@ -875,3 +875,23 @@ def test_the_full_ml_pair_cost_is_one_cost_in_association_separated_and_grouping
             assert a[i, j] == pytest.approx(ref, rel=1e-12)
             assert p[i, j] == pytest.approx(ref, rel=1e-12)
             assert grp + 2 * np.log(2 * np.pi) == pytest.approx(ref, rel=1e-10)
+
+
+def test_one_sigma_beta_rule_one_message():
+    """The limit on sigma_beta is checked in one place (the engine's geometry): the
+    conversion, the separated radars and the registration refuse 1 rad (degrees passed
+    by mistake) with the same message."""
+    from radarfusion_ref import registration
+
+    calls = (lambda: conversion.polar_to_cartesian(100.0, 0.0, 0.1, 1.0),
+             lambda: conversion.spherical_to_cartesian(100.0, 0.0, 0.0, 0.1, 0.01, 1.0),
+             lambda: sep.polar_scene(GEO, sigma_r=0.1, sigma_beta=1.0),
+             lambda: registration.draw_biased_reports([[0, 0], [10, 0]], [[5.0, 50.0]],
+                                                      [[0, 0, 0]] * 2, 0.05, 1.0))
+    tails = set()
+    for call in calls:
+        with pytest.raises(ValueError, match="must be an angle standard deviation") as info:
+            call()
+        tails.add(str(info.value).split("0.5]", 1)[1])
+    assert tails == {" (SIGMA_BETA_MAX); received largest entry 1 — did you pass degrees? "
+                     "Use np.deg2rad."}
