@@ -86,6 +86,7 @@ __all__ = [
     "pair_type_posterior",
     "reliability_curve",
     "triune",
+    "type_agreement",
     "type_likelihood",
     "type_posterior",
     "typed_scene",
@@ -597,27 +598,80 @@ class CombinedProximity:
     kind: str
 
 
-def _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors):
-    """-2 ln LR("one object" vs "two objects") of two feature reports (Π integrated out)."""
+def type_agreement(feature1, feature_var1, feature2, feature_var2, type_means, type_vars,
+                   priors=None):
+    r"""Type agreement of two feature reports under model 2: :math:`-2 \ln \sum_k P(T_k \mid \hat\Pi_1) P(T_k \mid \hat\Pi_2) / p_k`.
+
+    Minus twice the log-likelihood ratio of "one object" against "two
+    objects" when each radar measures its own draw of the object's feature
+    (model 2), the feature values integrated out under the type description:
+
+    .. math::
+
+        \kappa^{\Pi}_{(2)} = -2 \ln rac{\sum_k p_k\, g_{1k}(\hat\Pi_1)\, g_{2k}(\hat\Pi_2)}
+        {\sum_k p_k\, g_{1k}(\hat\Pi_1)\ \sum_j p_j\, g_{2j}(\hat\Pi_2)}
+        = -2 \ln \sum_k rac{P(T_k \mid \hat\Pi_1)\, P(T_k \mid \hat\Pi_2)}{p_k},
+
+    with :math:`g_{ik} = \mathcal N(\,\cdot\,; \Pi_k, \sigma_{\Pi k}^2 + \sigma_{\Pi i}^2)`
+    (the second form by Bayes' rule on each report). Not :math:`\chi^2`; negative
+    when the reports agree on a rare type.
+
+    Parameters
+    ----------
+    feature1, feature2 : array_like
+        The two radars' feature reports (broadcast together).
+    feature_var1, feature_var2 : array_like
+        Their error variances (> 0).
+    type_means, type_vars, priors : array_like, shape (K,)
+        The type description, as in :func:`type_posterior`.
+
+    Returns
+    -------
+    float or numpy.ndarray
+
+    Raises
+    ------
+    ValueError, TypeError
+        For non-finite or non-numeric reports, non-positive variances, shapes
+        that do not broadcast or an invalid type description.
+
+    Examples
+    --------
+    >>> round(type_agreement(0.0, 0.01, 0.0, 0.01, [0.0, 5.0], [1.0, 1.0]), 4)   # both type 1
+    -1.3863
+    """
+    f1, v1, f2, v2 = _feature_pair_iv(feature1, feature_var1, feature2, feature_var2)
+    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    _check_memory(f1.shape, means.size, "type agreement")
+    log_p1 = _log_posterior([f1], means, [_log_var_sum(tvars, v1[..., None])], log_priors)
+    log_p2 = _log_posterior([f2], means, [_log_var_sum(tvars, v2[..., None])], log_priors)
+    with np.errstate(invalid="ignore"):              # a type of prior 0 contributes nothing
+        terms = np.where(np.isneginf(log_priors), -np.inf, log_p1 + log_p2 - log_priors)
+    return unwrap(-2.0 * logsumexp(terms, axis=-1))  # -2 ln sum_k P1_k P2_k / p_k
+
+
+def _feature_pair_iv(feature1, feature_var1, feature2, feature_var2):
+    """Two feature reports and their variances (> 0), broadcast together."""
+    f1 = as_float_array(feature1, "feature1")
+    f2 = as_float_array(feature2, "feature2")
+    v1 = as_positive(feature_var1, "feature_var1")
+    v2 = as_positive(feature_var2, "feature_var2")
+    f1, f2, v1, v2 = broadcast(feature1=f1, feature2=f2, feature_var1=v1, feature_var2=v2)
+    return f1, v1, f2, v2
+
+
+def _marginal_feature_term(f1, v1, f2, v2, means, tvars, log_priors):
+    """-2 ln LR("one object" vs "two objects") of two feature reports under model 1."""
     lv1, lv2 = _log_var_sum(tvars, v1[..., None]), _log_var_sum(tvars, v2[..., None])
-    if model == "spread":
-        # -2 ln sum_k P(T_k | Π̂1) P(T_k | Π̂2) / p_k, from the single-report posteriors
-        lp1 = _log_posterior([f1], means, [lv1], log_priors)
-        lp2 = _log_posterior([f2], means, [lv2], log_priors)
-        with np.errstate(invalid="ignore"):
-            terms = np.where(np.isneginf(log_priors), -np.inf, lp1 + lp2 - log_priors)
-        out = -2.0 * logsumexp(terms, axis=-1)
-    else:
-        # N(Π̂1 - Π̂2; 0, v1 + v2) sum_k p_k N(Π̃; Π_k, σ_Πk² + ṽ) over the two marginals
-        fused, fused_var = _fuse_two(f1, v1, f2, v2)
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            apart = (logsumexp(_log_normal(f1[..., None], means, np.exp(lv1)) + log_priors, -1)
-                     + logsumexp(_log_normal(f2[..., None], means, np.exp(lv2)) + log_priors,
-                                 -1))
-            same = (_log_normal(f1 - f2, 0.0, v1 + v2)
-                    + logsumexp(_log_normal(fused[..., None], means,
-                                            tvars + fused_var[..., None]) + log_priors, -1))
-            out = -2.0 * (same - apart)
+    # N(Π̂1 - Π̂2; 0, v1 + v2) sum_k p_k N(Π̃; Π_k, σ_Πk² + ṽ) over the two marginals
+    fused, fused_var = _fuse_two(f1, v1, f2, v2)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        apart = (logsumexp(_log_normal(f1[..., None], means, np.exp(lv1)) + log_priors, -1)
+                 + logsumexp(_log_normal(f2[..., None], means, np.exp(lv2)) + log_priors, -1))
+        same = (_log_normal(f1 - f2, 0.0, v1 + v2)
+                + logsumexp(_log_normal(fused[..., None], means,
+                                        tvars + fused_var[..., None]) + log_priors, -1))
+        out = -2.0 * (same - apart)
     if not np.all(np.isfinite(out)):
         raise ValueError("the marginal feature term is beyond the floating-point range for "
                          "some `feature1`, `feature2` (reports too far from every type "
@@ -719,11 +773,7 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
     kx = np.asarray(proximity_gaussian(x1, x2, cov1, cov2), dtype=float)
     d = np.shape(x1)[-1]
 
-    f1 = as_float_array(feature1, "feature1")
-    f2 = as_float_array(feature2, "feature2")
-    v1 = as_positive(feature_var1, "feature_var1")
-    v2 = as_positive(feature_var2, "feature_var2")
-    f1, f2, v1, v2 = broadcast(feature1=f1, feature2=f2, feature_var1=v1, feature_var2=v2)
+    f1, v1, f2, v2 = _feature_pair_iv(feature1, feature_var1, feature2, feature_var2)
     if kind == "profile":
         if model == "shared":
             # (Π̂1 - Π̂2)² / (σ_Π1² + σ_Π2²), formed in the log domain: no overflow of the
@@ -737,9 +787,12 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
         if type_means is None or type_vars is None:
             raise ValueError("`type_means` and `type_vars` are required with kind='marginal'; "
                              f"received type_means={type_means!r}, type_vars={type_vars!r}")
-        means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
-        _check_memory(f1.shape, means.size, "marginal feature term")
-        kf = _marginal_feature_term(f1, v1, f2, v2, model, means, tvars, log_priors)
+        if model == "spread":
+            kf = np.asarray(type_agreement(f1, v1, f2, v2, type_means, type_vars, priors))
+        else:
+            means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+            _check_memory(f1.shape, means.size, "marginal feature term")
+            kf = _marginal_feature_term(f1, v1, f2, v2, means, tvars, log_priors)
         dof = None
     try:
         kx, kf = np.broadcast_arrays(kx, kf)

@@ -53,6 +53,7 @@ __all__ = [
     "FusedEstimate",
     "GaussianFusion",
     "Misweighting",
+    "VAR_DOMAIN",
     "fuse",
     "fuse_gaussian",
     "log_likelihood",
@@ -174,7 +175,34 @@ def _ratio(num, den, what):
 # ----------------------------------------------------------------------------- validation
 
 
-def _scalar_iv(x, var):
+#: The scalar fusion's numeric domain: variances in [2**-1000, 2**1000] (about 9.3e-302 to
+#: 1.1e301), reports of magnitude at most 2**1000, at most 2**20 sources. Inside it the
+#: informations, their sum, the weights and the weighted sum are computed as written
+#: without overflow, and the fused variance is a normal float; outside it the input is
+#: refused, naming the argument.
+VAR_DOMAIN = (2.0**-1000, 2.0**1000)
+_MAX_SOURCES = 1 << 20
+#: Smallest positive normal float (about 2.2e-308). A derived variance below it would be
+#: subnormal, carried with fewer significant bits, so it is refused instead of returned.
+_TINY = float(np.finfo(float).tiny)
+
+
+def _in_domain(arr, name, lo, hi, what):
+    """Refuse entries of `arr` outside [lo, hi] (the numeric domain), naming `name`."""
+    if arr.size and not (float(arr.min()) >= lo and float(arr.max()) <= hi):
+        raise ValueError(f"`{name}` must have {what} within the numeric domain [{lo:.3g}, "
+                         f"{hi:.3g}]; received {_describe(arr)} (from {float(arr.min()):.6g} "
+                         f"to {float(arr.max()):.6g}); express the coordinates in other units")
+
+
+def _as_variances(value, name):
+    """Positive variances within :data:`VAR_DOMAIN`, at least one sensor on the last axis."""
+    var = as_positive(value, name)
+    _in_domain(var, name, *VAR_DOMAIN, "every variance")
+    return var
+
+
+def _reports_iv(x, var):
     """Validate `x` and `var` of shape (..., m); return them broadcast together."""
     x = as_float_array(x, "x", ndim_min=1)
     var = as_positive(var, "var")
@@ -185,47 +213,14 @@ def _scalar_iv(x, var):
     return x, var
 
 
-#: Smallest positive normal float (about 2.2e-308). A derived variance below it would be
-#: subnormal, carried with fewer significant bits, so it is refused instead of returned.
-_TINY = float(np.finfo(float).tiny)
-
-
-def _relative_information(var):
-    """Information scaled by the smallest variance: ``(var_min / var_i, var_min)``.
-
-    ``var_min / var_i`` lies in (0, 1] (exactly 1 for the best sensor), so its sum over
-    the sensors lies in [1, m] and can neither overflow nor underflow, whatever the
-    magnitude of the variances; a ratio below the float range rounds to 0, its correctly
-    rounded value. The true information is ``rel / var_min``.
-    """
-    vmin = np.min(var, axis=-1)
-    return vmin[..., None] / var, vmin
-
-
-def _normal_variance(value, name, what):
-    """Refuse a derived variance below the smallest normal float: it would have lost
-    precision (and its reciprocal, the information, may overflow)."""
-    value = np.asarray(value)
-    if not np.all(value >= _TINY):
-        raise ValueError(f"`{name}` has entries too small for floating point: the {what} "
-                         f"({np.min(value):.3g}) is below the smallest normal float "
-                         f"{_TINY:.3g} (its reciprocal, the information, would overflow or "
-                         "lose precision); express the coordinates in smaller units")
-
-
-def _weighted_sum(weights, x):
-    """``sum_i w_i x_i`` over the last axis, with `x` scaled by an exact power of two.
-
-    The weights are in [0, 1] and sum to 1, so the scaled sum lies in [-1, 1]: no term
-    and no partial sum overflows, even for reports near the largest float.
-    """
-    _, e = np.frexp(np.max(np.abs(x), axis=-1))
-    scaled = np.ldexp(x, -e[..., None])                    # |scaled| < 1, exact
-    out = np.ldexp(np.sum(weights * scaled, axis=-1), e)
-    if not np.all(np.isfinite(out)):
-        raise ValueError("`x` has reports so close to the largest float that their weighted "
-                         "mean rounds beyond it; express the coordinates in larger units")
-    return out
+def _fuse_iv(x, var):
+    """:func:`_reports_iv` and the numeric domain of :func:`fuse`."""
+    x, var = _reports_iv(x, var)
+    _in_domain(var, "var", *VAR_DOMAIN, "every variance")
+    check_size(x.shape[-1], _MAX_SOURCES, what="sources on the last axis of `x`",
+               alternative="fusing groups of sources one after the other")
+    _in_domain(np.abs(x), "x", 0.0, VAR_DOMAIN[1], "every report's magnitude")
+    return x, var
 
 
 def _gaussian_iv(x, cov):
@@ -273,10 +268,10 @@ def fuse(x, var) -> FusedEstimate:
     Raises
     ------
     ValueError
-        If `var` has a zero, negative or non-finite entry, or variances so small
-        that the fused variance falls below the smallest normal float (about
-        2.2e-308); if `x` is non-finite or has no reports, or the two do not
-        broadcast.
+        If `var` has a zero, negative or non-finite entry or one outside
+        :data:`VAR_DOMAIN`; if `x` is non-finite, beyond :math:`2^{1000}` in
+        magnitude or has no reports (or more than :math:`2^{20}`), or the two do
+        not broadcast.
     TypeError
         If an argument is not numeric.
 
@@ -305,12 +300,12 @@ def fuse(x, var) -> FusedEstimate:
     The variance equals the inverse Fisher information, so the estimate is
     efficient (it attains the Cramér–Rao bound) [2]_.
 
-    Numerically the informations are never summed as they are (for variances
-    near 1e-308 the sum would overflow and every weight collapse to 0): each is
-    scaled by the smallest variance, :math:`\sigma_{\min}^2/\sigma_i^2 \in (0, 1]`,
-    so their sum lies in :math:`[1, m]`; and the reports are scaled by an exact
-    power of two, so the weighted sum cannot overflow. The result is accurate
-    to a few units in the last place over the whole float range.
+    Numerically the formula is computed as written, inside a documented domain
+    (:data:`VAR_DOMAIN`: variances in :math:`[2^{-1000}, 2^{1000}]`, reports of
+    magnitude at most :math:`2^{1000}`, at most :math:`2^{20}` sources): there the
+    information sum cannot overflow, the fused variance is a normal float and no
+    partial weighted sum exceeds the largest report, so the result is accurate
+    to a few units in the last place. Input outside the domain is refused.
 
     References
     ----------
@@ -327,13 +322,12 @@ def fuse(x, var) -> FusedEstimate:
     >>> fuse([[0.0, 1.0], [2.0, 4.0]], 1.0).estimate   # a batch of two hypotheses
     array([0.5, 3. ])
     """
-    x, var = _scalar_iv(x, var)
-    rel, vmin = _relative_information(var)   # sigma_i^-2 scaled by sigma_min^2: in (0, 1]
-    total = rel.sum(axis=-1)                 # I sigma_min^2, in [1, m]
-    weights = rel / total[..., None]         # w_i = sigma_i^-2 / I
-    variance = vmin / total                  # sigma~^2 = 1 / I <= sigma_min^2
-    _normal_variance(variance, "var", "fused variance")
-    estimate = _weighted_sum(weights, x)     # x~ = sum_i w_i x_i, root of (3)
+    x, var = _fuse_iv(x, var)
+    info = 1.0 / var                                 # sigma_i^-2
+    total = info.sum(axis=-1)                        # I = sum_i sigma_i^-2
+    weights = info / total[..., None]                # w_i = sigma_i^-2 / I
+    estimate = np.sum(weights * x, axis=-1)          # x~ = sum_i w_i x_i, the root of (3)
+    variance = 1.0 / total                           # sigma~^2 = 1 / I
     return FusedEstimate(_scalar(estimate), _scalar(variance), weights)
 
 
@@ -377,7 +371,7 @@ def log_likelihood(x, var, position):
     >>> log_likelihood([1.0, 3.0], [1.0, 1.0], [1.0, 2.0, 3.0]).round(3)
     array([-3.838, -2.838, -3.838])
     """
-    x, var = _scalar_iv(x, var)
+    x, var = _reports_iv(x, var)
     position = as_float_array(position, "position")
     try:
         np.broadcast_shapes(position.shape, x.shape[:-1])
@@ -394,6 +388,20 @@ def log_likelihood(x, var, position):
         raise ValueError("`position` is so many standard deviations from the reports `x` that "
                          "the log-likelihood is below the float range (about -1.8e308)")
     return _scalar(out)
+
+
+def _misweighted_iv(var_true, var_assumed):
+    """Both variance sets within :data:`VAR_DOMAIN`, broadcast, at least one sensor."""
+    var_true = _as_variances(var_true, "var_true")
+    var_assumed = _as_variances(var_assumed, "var_assumed")
+    if var_true.ndim < 1:
+        raise ValueError(f"`var_true` must have shape (..., m); received shape {var_true.shape}")
+    var_true, var_assumed = broadcast(var_true=var_true, var_assumed=var_assumed)
+    if var_true.shape[-1] == 0:
+        raise ValueError("`var_true` must hold at least one sensor on its last axis")
+    check_size(var_true.shape[-1], _MAX_SOURCES, what="sensors on the last axis of `var_true`",
+               alternative="several calls on groups of sensors")
+    return var_true, var_assumed
 
 
 def misweighted(var_true, var_assumed) -> Misweighting:
@@ -436,26 +444,12 @@ def misweighted(var_true, var_assumed) -> Misweighting:
     >>> float(misweighted([1.0, 9.0], [2.0, 18.0]).efficiency)   # proportional: efficient
     1.0
     """
-    var_true = as_positive(var_true, "var_true")
-    var_assumed = as_positive(var_assumed, "var_assumed")
-    if var_true.ndim < 1:
-        raise ValueError(f"`var_true` must have shape (..., m); received shape {var_true.shape}")
-    var_true, var_assumed = broadcast(var_true=var_true, var_assumed=var_assumed)
-    if var_true.shape[-1] == 0:
-        raise ValueError("`var_true` must hold at least one sensor on its last axis")
-    rel_a, amin = _relative_information(var_assumed)
-    total_a = rel_a.sum(axis=-1)
-    weights = rel_a / total_a[..., None]                  # w_i = a_i^-1 / sum_j a_j^-1
-    reported = amin / total_a                             # (sum_i a_i^-1)^-1
-    _normal_variance(reported, "var_assumed", "reported variance")
-    rel_t, tmin = _relative_information(var_true)
-    bound = tmin / rel_t.sum(axis=-1)                     # (sum_i sigma_i^-2)^-1
-    _normal_variance(bound, "var_true", "Cramér–Rao bound")
-    with np.errstate(over="ignore"):                      # Var sum w_i x_i = sum (w_i sigma_i)^2
-        actual = np.sum((weights * np.sqrt(var_true)) ** 2, axis=-1)
-    if not np.all(np.isfinite(actual)):
-        raise ValueError("`var_true` has variances so close to the largest float that the "
-                         "actual variance overflows; express the coordinates in larger units")
+    var_true, var_assumed = _misweighted_iv(var_true, var_assumed)
+    info_a = 1.0 / var_assumed                              # a_i^-1
+    weights = info_a / info_a.sum(axis=-1)[..., None]       # w_i = a_i^-1 / sum_j a_j^-1
+    reported = 1.0 / info_a.sum(axis=-1)                    # (sum_i a_i^-1)^-1
+    bound = 1.0 / np.sum(1.0 / var_true, axis=-1)           # (sum_i sigma_i^-2)^-1
+    actual = np.sum(weights**2 * var_true, axis=-1)         # Var sum_i w_i x_i = sum_i w_i^2 sigma_i^2
     return Misweighting(weights, _scalar(actual), _scalar(reported), _scalar(bound))
 
 
@@ -534,37 +528,63 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
            [0. , 0.8]])
     """
     x, cov = _gaussian_iv(x, cov)
-    eye = np.eye(x.shape[-1])
-    # Scale each Sigma_i = c_i Sigma_i' by its largest variance c_i, and the information by the
-    # smallest c_i: r_i = c_min / c_i lies in (0, 1], so no sum overflows or underflows.
-    c = np.max(np.diagonal(cov, axis1=-2, axis2=-1), axis=-1)          # (..., m)
-    c_min = np.min(c, axis=-1)                                         # (...)
-    root_r = np.sqrt(c_min[..., None] / c)[..., None, None]            # sqrt(r_i)
-    _, e = np.frexp(np.max(np.abs(x), axis=(-2, -1)))                  # reports / 2^e: exact
-    x_s = np.ldexp(x, -e[..., None, None])
+    info_i, c = _scaled_informations(cov)                 # c Sigma_i^-1, c an exact power of two
+    x_s, e = _unit_reports(x)                             # x_i / 2^e, exact
+    information = info_i.sum(axis=-3)                     # c Sigma~^-1 = c sum_i Sigma_i^-1
+    y = np.sum(info_i @ x_s[..., None], axis=-3)          # c sum_i Sigma_i^-1 x_i / 2^e
+    covariance = _spd_inverse(information)                # Sigma~ / c
+    estimate = np.ldexp((covariance @ y)[..., 0], e[..., None])  # x~ = Sigma~ sum_i Sigma_i^-1 x_i
+    return _gaussian_result(estimate, covariance, information, c)
+
+
+def _scaled_informations(cov):
+    r"""``c Sigma_i^-1`` (symmetric positive definite by construction) and ``c``.
+
+    Each :math:`\Sigma_i = c_i \Sigma_i'` is scaled by a power of two near its largest
+    variance, Cholesky-factored and whitened, :math:`W_i = \sqrt{r_i} L_i^{-1}` with
+    :math:`r_i = c / c_i \in (0, 1]` and :math:`c = \min_i c_i`, so that
+    :math:`c \Sigma_i^{-1} = W_i^T W_i` and no sum over the sensors overflows.
+    """
+    _, k = np.frexp(np.max(np.diagonal(cov, axis1=-2, axis2=-1), axis=-1))
+    c_i = np.ldexp(1.0, k - 1)                                       # (..., m), exact
+    c = np.min(c_i, axis=-1)                                         # (...)
+    eye = np.eye(cov.shape[-1])
     try:
-        chol = np.linalg.cholesky(cov / c[..., None, None])            # Sigma_i' = L_i L_i^T
-        white = np.linalg.solve(chol, eye) * root_r                    # W_i = sqrt(r_i) L_i^-1
-        white_t = np.swapaxes(white, -1, -2)
-        wx = white @ x_s[..., None]                                    # W_i x_i
-        info_s = np.sum(white_t @ white, axis=-3)                      # c_min Sigma~^-1 = sum W_i^T W_i
-        y_s = np.sum(white_t @ wx, axis=-3)                            # c_min sum Sigma_i^-1 x_i
-        r = np.linalg.cholesky(info_s)                                 # c_min Sigma~^-1 = R R^T
+        chol = np.linalg.cholesky(cov / c_i[..., None, None])
     except np.linalg.LinAlgError:
         raise ValueError("`cov` is numerically singular: a covariance is too ill-conditioned "
                          "for floating point; rescale the coordinates") from None
-    r_inv = np.linalg.solve(r, eye)                                    # R^-1
-    cov_s = np.swapaxes(r_inv, -1, -2) @ r_inv                         # Sigma~ / c_min
+    white = np.linalg.solve(chol, eye) * np.sqrt(c[..., None] / c_i)[..., None, None]
+    return np.swapaxes(white, -1, -2) @ white, c
+
+
+def _unit_reports(x):
+    """Reports divided by an exact power of two ``2^e`` near their largest magnitude, and ``e``."""
+    _, e = np.frexp(np.max(np.abs(x), axis=(-2, -1)))
+    return np.ldexp(x, -e[..., None, None]), e
+
+
+def _spd_inverse(a):
+    """The inverse of symmetric positive definite matrices through their Cholesky factor."""
+    try:
+        r_inv = np.linalg.solve(np.linalg.cholesky(a), np.eye(a.shape[-1]))
+    except np.linalg.LinAlgError:
+        raise ValueError("`cov` is numerically singular: a covariance is too ill-conditioned "
+                         "for floating point; rescale the coordinates") from None
+    return np.swapaxes(r_inv, -1, -2) @ r_inv
+
+
+def _gaussian_result(estimate, covariance_s, information_s, c):
+    """Undo the scale ``c``; refuse results beyond the float range."""
     with np.errstate(over="ignore", under="ignore"):
-        estimate = np.ldexp((cov_s @ y_s)[..., 0], e[..., None])       # x~ = Sigma~ y
-        cov_f = cov_s * c_min[..., None, None]                         # Sigma~
-        info = info_s / c_min[..., None, None]                         # Sigma~^-1 = sum_i Sigma_i^-1
-    if not (np.isfinite(info).all() and np.isfinite(estimate).all()
-            and np.all(np.diagonal(cov_f, axis1=-2, axis2=-1) >= _TINY)):
+        covariance = covariance_s * c[..., None, None]               # Sigma~
+        information = information_s / c[..., None, None]             # sum_i Sigma_i^-1
+    if not (np.isfinite(information).all() and np.isfinite(estimate).all()
+            and np.all(np.diagonal(covariance, axis1=-2, axis2=-1) >= _TINY)):
         raise ValueError("`cov` is numerically singular for floating point: the fused "
                          "information overflows or the fused covariance underflows; rescale "
                          "the coordinates")
-    return GaussianFusion(estimate, cov_f, info)
+    return GaussianFusion(estimate, covariance, information)
 
 
 # ----------------------------------------------------------------------------- simulation

@@ -245,12 +245,7 @@ def gate_threshold(p_false_reject, dof=1):
     p = as_probability(p_false_reject, "p_false_reject")
     m = _as_dof(dof)
     p, m = broadcast(p_false_reject=p, dof=m)
-    return unwrap(_threshold(p, m))
-
-
-def _threshold(p, m):
-    """The gate's one formula on validated input: the upper `p` quantile of chi2_m."""
-    return stats.chi2.isf(p, m)
+    return unwrap(stats.chi2.isf(p, m))
 
 
 def in_gate(statistic, dof=1, p_false_reject=0.01):
@@ -294,7 +289,7 @@ def in_gate(statistic, dof=1, p_false_reject=0.01):
     p = as_probability(p_false_reject, "p_false_reject")
     m = _as_dof(dof)
     k, m, p = broadcast(statistic=k, dof=m, p_false_reject=p)
-    return unwrap(k < _threshold(p, m))
+    return unwrap(k < gate_threshold(p, m))
 
 
 def p_false_accept(noncentrality, dof=1, p_false_reject=0.01):
@@ -356,7 +351,7 @@ def p_false_accept(noncentrality, dof=1, p_false_reject=0.01):
     p = as_probability(p_false_reject, "p_false_reject")
     m = _as_dof(dof)
     v, m, p = broadcast(noncentrality=v, dof=m, p_false_reject=p)
-    th = _threshold(p, m)
+    th = np.asarray(gate_threshold(p, m))
     out = np.where(v > 0, 0.0, stats.chi2.cdf(th, m))
     pos = v > 0
     if np.any(pos):
@@ -428,7 +423,7 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
         )
     out = np.empty(pa.shape)
     for idx in np.ndindex(pa.shape):
-        th = _threshold(p[idx], m[idx])
+        th = gate_threshold(p[idx], m[idx])
         log_target = np.log(pa[idx])
 
         def f(v, th=th, idx=idx, log_target=log_target):
@@ -449,7 +444,7 @@ def _gate_options(return_statistic, p_false_reject) -> float:
         raise TypeError(f"`return_statistic` must be a bool; received "
                         f"{_describe(return_statistic)}")
     p = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
-    return float(_threshold(p, 2))
+    return float(gate_threshold(p, 2))
 
 
 def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,

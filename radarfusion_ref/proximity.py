@@ -284,14 +284,10 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
     """
     kind = as_choice(kind, "kind", _KINDS)
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
-    return unwrap(_log_measure(a, b, v1, v2, kind, "`x1`, `x2`"))
-
-
-def _log_measure(a, b, v1, v2, kind, names):
-    kappa = _kappa((a - b)[..., None], (v1 + v2)[..., None, None], names)
-    if kind == "profile":
-        return -0.5 * kappa - _LOG_2PI - 0.5 * (np.log(v1) + np.log(v2))
-    return -0.5 * kappa - 0.5 * (_LOG_2PI + np.log(v1 + v2))
+    kappa = _kappa((a - b)[..., None], (v1 + v2)[..., None, None], "`x1`, `x2`")  # eq. (7)
+    if kind == "profile":                            # -kappa/2 - ln(2 pi sigma_1 sigma_2)
+        return unwrap(-0.5 * kappa - _LOG_2PI - 0.5 * (np.log(v1) + np.log(v2)))
+    return unwrap(-0.5 * kappa - 0.5 * (_LOG_2PI + np.log(v1 + v2)))
 
 
 def log_likelihood_measure_gaussian(x1, x2, cov1, cov2, *, kind="profile"):
@@ -407,9 +403,8 @@ def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
             "`x1`, `candidates`, `var1`, `candidate_vars` must broadcast with shapes (...), "
             f"(..., k), (...), (..., k); received shapes {a.shape}, {c.shape}, {v1.shape}, "
             f"{cv.shape}") from None
-    a, c, v1, cv = np.broadcast_arrays(a[..., None], c, v1[..., None], cv)
-    ll = _log_measure(a, c, v1, cv, kind, "`x1`, `candidates`")
-    return unwrap(np.argmax(ll, axis=-1))
+    ll = log_likelihood_measure(a[..., None], c, v1[..., None], cv, kind=kind)
+    return unwrap(np.argmax(np.asarray(ll), axis=-1))
 
 
 def _log_ive(order, z):

@@ -60,6 +60,7 @@ from .engine._validation import (
     as_positive,
     as_rng,
     check_size,
+    unwrap,
 )
 from .engine.linalg import _check_domain, _kappa, is_positive_definite
 from .fusion import fuse_gaussian
@@ -74,6 +75,7 @@ __all__ = [
     "TrackRuns",
     "bar_shalom_campo",
     "constant_velocity",
+    "ci_weight",
     "covariance_intersection",
     "cross_covariance",
     "naive_fusion",
@@ -406,23 +408,15 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
     """
     x1, P1, x2, P2, P12 = _pair_iv(x1, P1, x2, P2, P12)
     P21 = np.swapaxes(P12, -1, -2)
-    try:
-        np.linalg.cholesky(_sym(P1 + P2 - P12 - P21))
-    except np.linalg.LinAlgError:
+    U = _sym(P1 + P2 - P12 - P21)                               # Cov(x2 - x1)
+    if not np.all(is_positive_definite(U)):
         raise ValueError("`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x2 - x1) is singular: "
                          "the two tracks differ by a deterministic amount and carry the same "
-                         "information; use either track") from None
-    return TrackEstimate(*_bar_shalom_campo(x1, P1, x2, P2, P12))
-
-
-def _bar_shalom_campo(x1, P1, x2, P2, P12):
-    """Bar-Shalom–Campo on validated, broadcast arrays: (estimate, covariance)."""
-    P21 = np.swapaxes(P12, -1, -2)
-    U = _sym(P1 + P2 - P12 - P21)                               # Cov(x2 - x1)
+                         "information; use either track")
     W = np.swapaxes(_solve(U, P1 - P21), -1, -2)                # W = (P1 - P12) U^-1
     estimate = x1 + (W @ (x2 - x1)[..., None])[..., 0]         # x1 + W (x2 - x1)
     covariance = _sym(P1 - W @ (P1 - P21))                      # P1 - (P1 - P12) U^-1 (P1 - P21)
-    return estimate, covariance
+    return TrackEstimate(estimate, covariance)
 
 
 def _ci_slope(w, I1, I2, D, criterion):
@@ -434,22 +428,64 @@ def _ci_slope(w, I1, I2, D, criterion):
     return -np.trace(np.linalg.solve(J, np.swapaxes(JD, -1, -2)), axis1=-2, axis2=-1)
 
 
-def _ci_omega(I1, I2, criterion):
-    """ω in [0, 1] minimising det or trace of (ω I1 + (1-ω) I2)^-1, by bisection on the slope.
+def ci_weight(P1, P2, *, criterion="det"):
+    r"""The covariance-intersection weight :math:`\omega \in [0, 1]` minimising det or trace of :math:`	ilde P`.
 
-    Both criteria are convex in ω (−log det J and tr J⁻¹ of a matrix J affine in ω), so the
-    minimiser is 0 if the slope at 0 is ≥ 0, 1 if the slope at 1 is ≤ 0, and otherwise the
-    unique root of the slope; 60 bisection steps reach it to double precision."""
+    Parameters
+    ----------
+    P1, P2 : array_like, shape (..., d, d)
+        The two tracks' covariances, symmetric positive definite.
+    criterion : {"det", "trace"}, optional
+        What ω minimises: :math:`\det	ilde P` (default) or :math:`\operatorname{tr}	ilde P`,
+        with :math:`	ilde P^{-1} = \omega P_1^{-1} + (1 - \omega) P_2^{-1}`.
+
+    Returns
+    -------
+    float or numpy.ndarray, shape (...)
+
+    Raises
+    ------
+    ValueError, TypeError
+        For covariances that are not symmetric positive definite, shapes that do
+        not broadcast, or an unknown `criterion`.
+
+    Notes
+    -----
+    Both criteria are convex in ω (:math:`-\log\det J` and :math:`\operatorname{tr} J^{-1}`
+    of a matrix :math:`J` affine in ω), so the minimiser is 0 if the slope at 0 is
+    :math:`\ge 0`, 1 if the slope at 1 is :math:`\le 0`, and otherwise the unique
+    root of the slope; 60 bisection steps reach it to double precision.
+
+    Examples
+    --------
+    >>> ci_weight(np.diag([1.0, 4.0]), np.diag([4.0, 1.0]))
+    0.5
+    """
+    criterion = as_choice(criterion, "criterion", CRITERIA)
+    I1, I2 = _ci_informations(P1, P2)                           # P1^-1, P2^-1
     D = I1 - I2
-    lead = I1.shape[:-2]
-    lo, hi = np.zeros(lead), np.ones(lead)
-    at0 = _ci_slope(lo, I1, I2, D, criterion) >= 0
-    at1 = _ci_slope(hi, I1, I2, D, criterion) <= 0
+    lo, hi = np.zeros(I1.shape[:-2]), np.ones(I1.shape[:-2])
+    at0 = _ci_slope(lo, I1, I2, D, criterion) >= 0             # increasing from ω = 0
+    at1 = _ci_slope(hi, I1, I2, D, criterion) <= 0             # decreasing up to ω = 1
     for _ in range(_OMEGA_STEPS):
         mid = 0.5 * (lo + hi)
         up = _ci_slope(mid, I1, I2, D, criterion) < 0           # still descending: go right
         lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
-    return np.where(at0, 0.0, np.where(at1, 1.0, 0.5 * (lo + hi)))
+    return unwrap(np.where(at0, 0.0, np.where(at1, 1.0, 0.5 * (lo + hi))))
+
+
+def _ci_informations(P1, P2):
+    """Validated, broadcast ``P1^-1, P2^-1``."""
+    P1 = as_covariance(P1, "P1")
+    P2 = as_covariance(P2, "P2", dim=P1.shape[-1])
+    try:
+        lead = np.broadcast_shapes(P1.shape[:-2], P2.shape[:-2])
+    except ValueError:
+        raise ValueError(f"`P1`, `P2` must have broadcasting batch shapes; received "
+                         f"{P1.shape}, {P2.shape}") from None
+    eye = np.eye(P1.shape[-1])
+    P1, P2 = (np.broadcast_to(P, (*lead, *P.shape[-2:])) for P in (P1, P2))
+    return _sym(_solve(P1, eye)), _sym(_solve(P2, eye))
 
 
 def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
@@ -513,7 +549,7 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     eye = np.eye(x1.shape[-1])
     I1, I2 = _sym(_solve(P1, eye)), _sym(_solve(P2, eye))      # P1^-1, P2^-1
     if omega is None:
-        w = _ci_omega(I1, I2, criterion)
+        w = np.asarray(ci_weight(P1, P2, criterion=criterion), dtype=float)
     else:
         w = as_float_array(omega, "omega")
         if np.any((w < 0) | (w > 1)):

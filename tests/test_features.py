@@ -845,3 +845,27 @@ def test_reliability_curve_rejects_bad_bins(bins):
                       st.floats(-1e308, 0.0, exclude_max=True)))
 def test_reliability_curve_rejects_bad_probabilities(prob):
     _call(F.reliability_curve, dict(prob=prob, outcome=[True]), "prob", prob)
+
+
+def test_type_agreement_equals_the_likelihood_ratio_of_the_densities():
+    # independent route: the first form, sum_k p_k g1k g2k / (sum_k p_k g1k sum_j p_j g2j),
+    # with g_ik the normal densities from scipy
+    rng = np.random.default_rng(4)
+    means, tvars, priors = np.array([0.0, 2.0, 5.0]), np.array([0.5, 1.0, 2.0]), [0.2, 0.3, 0.5]
+    f1, f2 = rng.normal(2.0, 2.0, size=(2, 50))
+    v1, v2 = rng.uniform(0.05, 0.5, size=(2, 50))
+    g1 = stats.norm.pdf(f1[:, None], means, np.sqrt(tvars + v1[:, None]))
+    g2 = stats.norm.pdf(f2[:, None], means, np.sqrt(tvars + v2[:, None]))
+    p = np.array(priors)
+    want = -2 * np.log(np.sum(p * g1 * g2, axis=1) / (np.sum(p * g1, axis=1)
+                                                         * np.sum(p * g2, axis=1)))
+    got = F.type_agreement(f1, v1, f2, v2, means, tvars, priors)
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    k = F.combined_proximity(np.zeros((50, 1)), np.zeros((50, 1)), [[1.0]], [[1.0]], f1, f2,
+                             v1, v2, model="spread", kind="marginal", type_means=means,
+                             type_vars=tvars, priors=priors)
+    np.testing.assert_array_equal(k.feature, got)
+    with pytest.raises(ValueError, match="`feature_var2`"):
+        F.type_agreement(0.0, 1.0, 0.0, -1.0, means, tvars)
+    with pytest.raises(TypeError, match="`feature1`"):
+        F.type_agreement("a", 1.0, 0.0, 1.0, means, tvars)

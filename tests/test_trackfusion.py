@@ -351,3 +351,23 @@ def test_no_steady_state_without_process_noise_is_reported():
     F = np.array([[1.0, 1.0], [0.0, 1.0]])
     with pytest.raises(ValueError, match=r"no (stabilising|unique steady state)"):
         tf.cross_covariance(F, np.zeros((2, 2)), [[1, 0]], [[1]], [[1, 0]], [[1]])
+
+
+def test_ci_weight_minimises_the_criterion_on_a_fine_grid():
+    # independent route: the criterion evaluated with numpy on 20 001 weights
+    from radarfusion_ref.trackfusion import ci_weight
+
+    rng = np.random.default_rng(8)
+    for _ in range(5):
+        a, b = rng.normal(size=(2, 3, 3))
+        P1, P2 = a @ a.T + 0.2 * np.eye(3), b @ b.T + 0.2 * np.eye(3)
+        grid = np.linspace(0.0, 1.0, 20_001)
+        J = grid[:, None, None] * np.linalg.inv(P1) + (1 - grid[:, None, None]) * np.linalg.inv(P2)
+        for criterion, value in (("det", 1 / np.linalg.det(J)),
+                                 ("trace", np.trace(np.linalg.inv(J), axis1=1, axis2=2))):
+            w = ci_weight(P1, P2, criterion=criterion)
+            assert abs(w - grid[np.argmin(value)]) <= 1e-3
+    with pytest.raises(ValueError, match="`criterion`"):
+        ci_weight(np.eye(2), np.eye(2), criterion="max")
+    with pytest.raises(ValueError, match="`P2`"):
+        ci_weight(np.eye(2), -np.eye(2))
