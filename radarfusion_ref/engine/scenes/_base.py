@@ -1,0 +1,100 @@
+"""What every scene shares: the result base class, the placements, the door helpers."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._validation import (
+    _describe,
+    as_float_array,
+    as_positive,
+    check_size,
+)
+
+#: Object placements of the simulators that place objects themselves.
+LAYOUTS = ("line", "uniform")
+#: Feature observation models of :func:`typed_scene`: ``"shared"`` — both radars
+#: measure one feature value per object (model 1); ``"spread"`` — each radar
+#: measures its own draw from the type density (model 2).
+FEATURE_MODELS = ("shared", "spread")
+#: Working copies of the report arrays :func:`two_radar_clutter_scene` makes
+#: (its memory check counts them).
+_SCENE_COPIES = 6
+#: Arrays of the size of the reports that :func:`two_radar_scene` holds at once
+#: (truth, two report arrays, their noise, the permuted truth).
+_TWO_RADAR_COPIES = 5
+
+
+
+# ----------------------------------------------------------------------------- helpers
+def _number(arr: np.ndarray, name: str) -> float:
+    """A validated 0-d array as a float (one number expected)."""
+    if arr.ndim != 0:
+        raise ValueError(f"`{name}` must be a single number; received shape {arr.shape}")
+    return float(arr)
+
+
+def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
+    """:func:`check_size`, with the public argument named in the message."""
+    try:
+        return check_size(requested, limit, what=what, alternative=alternative)
+    except ValueError as exc:
+        raise ValueError(f"`{name}`: {exc}") from None
+
+
+def _types_iv(type_means, type_vars, priors):
+    """Validate the type description; return means, variances and log priors, each (K,)."""
+    means = as_float_array(type_means, "type_means")
+    if means.ndim != 1 or means.size == 0:
+        raise ValueError("`type_means` must be a non-empty 1-D array (one mean per type); "
+                         f"received {_describe(means)}")
+    tvars = as_positive(type_vars, "type_vars")
+    if tvars.shape != means.shape:
+        raise ValueError(f"`type_vars` must have the same shape as `type_means`, {means.shape}; "
+                         f"received shape {tvars.shape}")
+    n_types = means.size
+    if priors is None:
+        return means, tvars, np.full(n_types, -np.log(n_types))
+    p = as_float_array(priors, "priors")
+    if p.shape != means.shape:
+        raise ValueError(f"`priors` must have the same shape as `type_means`, {means.shape}; "
+                         f"received shape {p.shape}")
+    if np.any(p < 0):
+        raise ValueError(f"`priors` must be >= 0; received {_describe(p)}")
+    if abs(p.sum() - 1.0) > 1e-8:
+        raise ValueError(f"`priors` must sum to 1 (within 1e-8); received {_describe(p)} "
+                         f"(sum {p.sum():.10g})")
+    with np.errstate(divide="ignore"):
+        return means, tvars, np.log(p)
+
+
+# ----------------------------------------------------------------------------- results
+class Scene:
+    """Common base of the simulators' results: the trial axis comes first.
+
+    A subclass holds (or computes) ``truth``, the true object positions of
+    shape ``(trials, n, d)``; the sizes below are read off it.
+    """
+
+    __slots__ = ()
+
+    if TYPE_CHECKING:                 # a field or a property of every subclass
+        @property
+        def truth(self) -> np.ndarray: ...
+
+    @property
+    def trials(self) -> int:
+        """Number of independent trials (the first axis of every array)."""
+        return int(self.truth.shape[0])
+
+    @property
+    def n_objects(self) -> int:
+        """Number of objects n."""
+        return int(self.truth.shape[1])
+
+    @property
+    def dim(self) -> int:
+        """Dimension d of an object's position."""
+        return int(self.truth.shape[-1])
