@@ -1,0 +1,244 @@
+"""engine.linalg: the one squared Mahalanobis distance, against independent routes.
+
+References are computed per pair with ``np.linalg.solve`` (LU, a different
+factorisation), with ``scipy.spatial.distance.mahalanobis`` (which takes the
+inverse), in exact rational arithmetic, or in closed form — never with the
+function under test. No timed assertions: the speed claim lives in
+``benchmarks/bench_mahalanobis.py``.
+"""
+
+from __future__ import annotations
+
+import tracemalloc
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial import distance
+
+from radarfusion_ref.engine import linalg
+
+
+def _spd(rng, k, batch=(), cond_max=1.0):
+    """Random SPD k x k matrices: random orientation, scale over 6 decades, condition <= cond_max."""
+    q, _ = np.linalg.qr(rng.normal(size=(*batch, k, k)))
+    scale = 10.0 ** rng.uniform(-3, 3, (*batch, 1))
+    lam = scale * 10.0 ** (-rng.uniform(0, np.log10(cond_max), (*batch, k))) if cond_max > 1 \
+        else np.broadcast_to(scale, (*batch, k))
+    out = q * lam[..., None, :] @ np.swapaxes(q, -1, -2)
+    return 0.5 * (out + np.swapaxes(out, -1, -2))
+
+
+def _by_solve(d, s):
+    """d^T S^-1 d per pair by np.linalg.solve (an independent route)."""
+    return float(d @ np.linalg.solve(s, d))
+
+
+# ---------------------------------------------------------------- pointwise
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(1, 6), n=st.integers(1, 30),
+       log_cond=st.floats(0.0, 8.0))
+def test_pointwise_against_solve_and_scipy(seed, k, n, log_cond):
+    rng = np.random.default_rng(seed)
+    s = _spd(rng, k, (n,), 10.0**log_cond)
+    d = rng.normal(size=(n, k)) * np.sqrt(np.diagonal(s, axis1=-2, axis2=-1))
+    got, logdet = linalg.mahalanobis_sq(d, s, return_logdet=True)
+    got = np.atleast_1d(got)
+    cond = np.linalg.cond(s)
+    for i in range(n):
+        ref = _by_solve(d[i], s[i])
+        ref_sp = distance.mahalanobis(d[i], np.zeros(k), np.linalg.inv(s[i])) ** 2
+        assert abs(got[i] - ref) <= 64 * k * 2.2e-16 * cond[i] * ref + 1e-300
+        assert abs(got[i] - ref_sp) <= 64 * k * 2.2e-16 * cond[i] * ref + 1e-300
+    np.testing.assert_allclose(logdet, np.linalg.slogdet(s)[1], rtol=0,
+                               atol=1e-12 * np.abs(np.linalg.slogdet(s)[1]).max() + 1e-10)
+
+
+def test_pointwise_closed_forms_and_broadcasting():
+    assert linalg.mahalanobis_sq([3.0], [[4.0]]) == 2.25
+    assert linalg.mahalanobis_sq([1.0, 1.0], np.diag([4.0, 0.25])) == 4.25
+    # d (5, 2) against one shared covariance, and one d against a stack of covariances
+    rng = np.random.default_rng(1)
+    s = _spd(rng, 2)
+    d = rng.normal(size=(5, 2))
+    got = linalg.mahalanobis_sq(d, s)
+    assert got.shape == (5,)
+    np.testing.assert_allclose(got, [_by_solve(x, s) for x in d], rtol=1e-13)
+    stack = _spd(rng, 2, (4, 1))
+    got = linalg.mahalanobis_sq(d, stack)                    # (5,) with (4, 1): (4, 5)
+    assert got.shape == (4, 5)
+    for i in range(4):
+        np.testing.assert_allclose(got[i], [_by_solve(x, stack[i, 0]) for x in d], rtol=1e-12)
+
+
+def test_near_singular_accepted_to_the_rule_and_refused_beyond():
+    # correlation rho: 1 - rho^2 just above and below the rule's 1e-12
+    for one_minus, ok in ((5e-12, True), (2e-13, False)):
+        rho = np.sqrt(1 - one_minus)
+        s = np.array([[1.0, rho], [rho, 1.0]]) * 1e4
+        d = np.array([1.0, -1.0])
+        if ok:
+            # exact rational reference of the float matrix actually passed
+            a, b, c = (Fraction(v) for v in (s[0, 0], s[0, 1], s[1, 1]))
+            ref = (c + 2 * b + a) / (a * c - b * b)
+            got = linalg.mahalanobis_sq(d, s)
+            assert abs(got - float(ref)) <= 1e-3 * float(ref)   # cond(S) about 1e12
+            assert bool(linalg.is_positive_definite(s))
+        else:
+            assert not linalg.is_positive_definite(s)
+            with pytest.raises(ValueError, match="`cov` must be positive definite and not "
+                                                 "singular to working precision"):
+                linalg.mahalanobis_sq(d, s)
+
+
+def test_is_positive_definite_agrees_with_eigenvalues_away_from_the_threshold():
+    rng = np.random.default_rng(3)
+    for k in (1, 2, 3, 5, 9, 12):                            # both the unrolled and LAPACK paths
+        a = rng.normal(size=(300, k, k))
+        c = a @ np.swapaxes(a, -1, -2) + 0.05 * np.eye(k)
+        c[::2] -= 0.5 * np.eye(k) * np.abs(c[::2]).max(axis=(-2, -1))[:, None, None]
+        ev = np.linalg.eigvalsh(c)
+        outer = np.abs(np.einsum("...ii,...jj->...ij", c, c))   # c_ii c_jj
+        corr_min = np.linalg.eigvalsh(c / np.sqrt(outer)).min(axis=-1)   # smallest eigenvalue of R
+        got = np.asarray(linalg.is_positive_definite(c))
+        clear = (ev.min(axis=-1) < 0) | (corr_min > 1e-9)
+        assert np.array_equal(got[clear], (ev.min(axis=-1) > 0)[clear])
+    assert not linalg.is_positive_definite([[1.0, 0.5], [0.4, 1.0]])           # not symmetric
+    assert not linalg.is_positive_definite([[np.nan, 0.0], [0.0, 1.0]])
+    np.testing.assert_allclose(linalg.cholesky([[4.0, 2.0], [2.0, 2.0]]), [[2.0, 0.0], [1.0, 1.0]])
+
+
+def test_pointwise_domain_and_bad_input_name_the_argument():
+    big = 2.0**150
+    assert linalg.mahalanobis_sq([big], [[big]]) == big       # the domain's edge: exact
+    cases = [
+        (ValueError, "`d` must lie within the numeric domain", dict(d=[1e50, 0.0])),
+        (ValueError, "`cov` must have every variance within", dict(cov=1e-50 * np.eye(2))),
+        (ValueError, "`d` must be finite", dict(d=[np.nan, 0.0])),
+        (ValueError, "`cov` must be symmetric", dict(cov=[[1.0, 0.5], [0.0, 1.0]])),
+        (ValueError, r"`cov` must have shape \(\.\.\., 2, 2\)", dict(cov=np.eye(3))),
+        (ValueError, "`d`, `cov` must have broadcastable", dict(d=np.zeros((3, 2)),
+                                                                cov=np.stack([np.eye(2)] * 4))),
+        (TypeError, "`d`", dict(d="x")),
+        (TypeError, "`cov`", dict(cov=None)),
+        (TypeError, "`return_logdet`", dict(return_logdet=1)),
+    ]
+    for exc, msg, kw in cases:
+        args = dict(d=[1.0, 0.0], cov=np.eye(2)) | kw
+        with pytest.raises(exc, match=msg):
+            linalg.mahalanobis_sq(**args)
+    with pytest.raises(TypeError, match="`name`"):
+        linalg.cholesky(np.eye(2), name=3)
+    with pytest.raises(ValueError, match="`P_pred` must be positive definite"):
+        linalg.cholesky(-np.eye(2), name="P_pred")
+
+
+# ---------------------------------------------------------------- pairwise
+def _pairs_by_loop(x1, x2, c1, c2):
+    """kappa_ij by np.linalg.solve, one pair at a time (the pure-Python reference)."""
+    out = np.empty((len(x1), len(x2)))
+    for i in range(len(x1)):
+        for j in range(len(x2)):
+            out[i, j] = _by_solve(x1[i] - x2[j], c1[i] + c2[j])
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(1, 4),
+       lead=st.sampled_from([(), (1,), (3,), (40,), (2, 3)]),
+       n1=st.integers(1, 7), n2=st.integers(1, 40), log_cond=st.floats(0.0, 6.0),
+       chunk=st.integers(1, 700))
+def test_pairwise_against_solve_per_pair(seed, k, lead, n1, n2, log_cond, chunk):
+    rng = np.random.default_rng(seed)
+    x1, x2 = rng.normal(size=(*lead, n1, k)) * 10, rng.normal(size=(*lead, n2, k)) * 10
+    c1 = _spd(rng, k, (*lead, n1), 10.0**log_cond)
+    c2 = _spd(rng, k, (*lead, n2), 10.0**log_cond)
+    got, logdet = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True)
+    assert got.shape == logdet.shape == (*lead, n1, n2)
+    assert np.array_equal(linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, chunk_size=chunk), got)
+    s = c1[..., :, None, :, :] + c2[..., None, :, :, :]
+    cond = np.linalg.cond(s)
+    flat = (-1, n1, n2)
+    for t, (a, b, p, q) in enumerate(zip(x1.reshape(-1, n1, k), x2.reshape(-1, n2, k),
+                                         c1.reshape(-1, n1, k, k), c2.reshape(-1, n2, k, k),
+                                         strict=True)):
+        ref = _pairs_by_loop(a, b, p, q)
+        tol = 64 * k * 2.2e-16 * cond.reshape(flat)[t] * ref + 1e-300
+        np.testing.assert_array_less(np.abs(got.reshape(flat)[t] - ref), tol)
+    np.testing.assert_allclose(logdet, np.linalg.slogdet(s)[1], rtol=0, atol=1e-9)
+
+
+def test_pairwise_2d_against_exact_rational_arithmetic_near_singular():
+    rng = np.random.default_rng(9)
+    x1, x2 = rng.normal(size=(4, 2)), rng.normal(size=(5, 2))
+    c1, c2 = _spd(rng, 2, (4,), 1e9), _spd(rng, 2, (5,), 1e9)
+    got = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2)
+    for i in range(4):
+        for j in range(5):
+            d = [Fraction(v) for v in x1[i] - x2[j]]
+            s = c1[i] + c2[j]
+            a, b, c = Fraction(s[0, 0]), Fraction(s[0, 1]), Fraction(s[1, 1])
+            exact = (c * d[0] ** 2 - 2 * b * d[0] * d[1] + a * d[1] ** 2) / (a * c - b * b)
+            cond = np.linalg.cond(s)
+            assert abs(got[i, j] - float(exact)) <= 64 * 2.2e-16 * cond * float(exact)
+
+
+def test_pairwise_shared_and_broadcast_covariances():
+    rng = np.random.default_rng(11)
+    x1, x2 = rng.normal(size=(5, 4, 3)), rng.normal(size=(1, 6, 3))
+    c1 = _spd(rng, 3)                                        # one (k, k) for every report
+    c2 = _spd(rng, 3, (5, 1), 100.0)                         # one per trial, shared by reports
+    got = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2)
+    assert got.shape == (5, 4, 6)
+    for t in range(5):
+        ref = _pairs_by_loop(x1[t], x2[0], np.broadcast_to(c1, (4, 3, 3)),
+                             np.broadcast_to(c2[t], (6, 3, 3)))
+        np.testing.assert_allclose(got[t], ref, rtol=1e-11)
+    # the trial-last layout (many trials, few reports) gives the same values
+    xs1, xs2 = rng.normal(size=(300, 3, 2)), rng.normal(size=(300, 2, 2))
+    cs1, cs2 = _spd(rng, 2, (300, 3), 10.0), _spd(rng, 2, (300, 2), 10.0)
+    got = linalg.mahalanobis_sq_pairwise(xs1, xs2, cs1, cs2)
+    for t in (0, 157, 299):
+        np.testing.assert_allclose(got[t], _pairs_by_loop(xs1[t], xs2[t], cs1[t], cs2[t]),
+                                   rtol=1e-11)
+
+
+def test_pairwise_bad_input_names_the_argument():
+    eye = np.eye(2)[None]
+    x = np.zeros((1, 2))
+    cases = [
+        (ValueError, r"`x2` must have shape \(\.\.\., n, 2\)", dict(x2=np.zeros((1, 3)))),
+        (ValueError, "`x1` must have at least 2", dict(x1=np.zeros(2))),
+        (ValueError, "`x2` must be finite", dict(x2=np.array([[np.nan, 0.0]]))),
+        (ValueError, "`x1` must lie within the numeric domain", dict(x1=np.array([[1e46, 0.0]]))),
+        (ValueError, "`cov1` must be symmetric", dict(cov1=np.array([[[1.0, 0.5], [0.0, 1.0]]]))),
+        (ValueError, r"`cov2` must be positive definite.*1 of 1", dict(cov2=-eye)),
+        (ValueError, "`cov1` must have every variance within", dict(cov1=1e60 * eye)),
+        (ValueError, "one 2x2 matrix per report of `x2`", dict(cov2=np.stack([eye[0]] * 3))),
+        (ValueError, "broadcastable leading", dict(x1=np.zeros((3, 1, 2)),
+                                                   x2=np.zeros((4, 1, 2)))),
+        (TypeError, "`chunk_size`", dict(chunk_size=2.0)),
+        (ValueError, "`chunk_size`", dict(chunk_size=0)),
+        (TypeError, "`cov2`", dict(cov2="eye")),
+        (TypeError, "`return_logdet`", dict(return_logdet="yes")),
+    ]
+    for exc, msg, kw in cases:
+        args = dict(x1=x, x2=x, cov1=eye, cov2=eye) | kw
+        with pytest.raises(exc, match=msg):
+            linalg.mahalanobis_sq_pairwise(**args)
+    k, ld = linalg.mahalanobis_sq_pairwise(np.zeros((3, 0, 2)), np.zeros((3, 2, 2)),
+                                           np.zeros((3, 0, 2, 2)), np.eye(2),
+                                           return_logdet=True)
+    assert k.shape == ld.shape == (3, 0, 2)
+
+
+def test_pairwise_refuses_before_allocating():
+    big = np.broadcast_to(np.zeros(2), (200_000, 2))
+    tracemalloc.start()
+    with pytest.raises(ValueError, match=r"refused: \d+ bytes for 40000000000 pairs"):
+        linalg.mahalanobis_sq_pairwise(big, big, np.eye(2), np.eye(2))
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 16 * 2**20
