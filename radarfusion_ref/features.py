@@ -22,8 +22,8 @@ density (Grachov & Korneev 2010, eq. (8), corrected — see the chapter)
   under either feature observation model;
 * :func:`combined_proximity` — the coordinate + feature proximity measure (12)
   (vector coordinates allowed), for both feature observation models;
-* :func:`typed_scene` — two-radar scenes of typed objects (builds on
-  :func:`radarfusion_ref.engine.scenes.two_radar_scene`);
+* the scenes these functions take come from
+  :func:`radarfusion_ref.engine.scenes.typed_scene`;
 * :func:`association_costs` — the :math:`n \times n` cost matrices of a scene;
 * :func:`triune` — the association – estimation – recognition outcome of a
   given association, with accuracy, RMSE and a confusion matrix;
@@ -62,24 +62,21 @@ from .engine._validation import (
     unwrap,
 )
 from .engine.montecarlo import MeanEstimate, Proportion, mean, proportion
-from .engine.scenes import (  # the scene simulator lives in scenes; re-exported under its name here
+from .engine.scenes import (
     FEATURE_MODELS,
     TypedScene,
     _types_iv,
-    typed_scene,
 )
 from .fusion import fuse
 from .proximity import proximity_gaussian
 
 __all__ = [
-    "FEATURE_MODELS",
     "MAX_BINS",
     "CombinedProximity",
     "Confusion",
     "FusedFeature",
     "ReliabilityCurve",
     "TriuneResult",
-    "TypedScene",
     "association_costs",
     "combined_proximity",
     "fused_feature",
@@ -89,7 +86,6 @@ __all__ = [
     "type_agreement",
     "type_likelihood",
     "type_posterior",
-    "typed_scene",
 ]
 
 _LOG_2PI = np.log(2.0 * np.pi)
@@ -832,6 +828,7 @@ def association_costs(scene: TypedScene, *, features: str = "shared",
 
     Examples
     --------
+    >>> from radarfusion_ref.engine.scenes import typed_scene
     >>> s = typed_scene(2, type_means=[0.0], type_vars=[1.0], spacing=1.0, sigma1=0.1,
     ...                 sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1, rng=0)
     >>> association_costs(s, features="none").shape
@@ -974,6 +971,7 @@ def triune(scene: TypedScene, match, *, rule: str = "exact") -> TriuneResult:
 
     Examples
     --------
+    >>> from radarfusion_ref.engine.scenes import typed_scene
     >>> s = typed_scene(3, type_means=[0.0, 9.0], type_vars=[1.0, 1.0], spacing=5.0,
     ...                 sigma1=0.1, sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1,
     ...                 trials=50, rng=2)

@@ -18,6 +18,7 @@ from scipy import integrate, stats
 
 from radarfusion_ref import features as F
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
+from radarfusion_ref.engine.scenes import FEATURE_MODELS, typed_scene
 
 finite = st.floats(-50, 50, allow_nan=False)
 pos = st.floats(0.05, 20, allow_nan=False)
@@ -121,7 +122,7 @@ def test_printed_eq8_makes_eq13_uniform():
 def test_exact_posterior_is_calibrated_and_plugin_is_not():
     """A calibrated forecaster has E[P_T] = E[Σ_k P_k²]; the plug-in with large v does not."""
     means, tvars = [0.0, 1.0, 2.0], [0.1, 0.1, 0.1]
-    s = F.typed_scene(1, type_means=means, type_vars=tvars, spacing=1.0, sigma1=1.0, sigma2=1.0,
+    s = typed_scene(1, type_means=means, type_vars=tvars, spacing=1.0, sigma1=1.0, sigma2=1.0,
                       feature_sigma1=0.6, feature_sigma2=0.6, trials=40_000, rng=5)
     ff = F.fused_feature(s.features1[:, 0], 0.36, s.features2[:, 0], 0.36)
     t = s.types[:, 0]
@@ -194,7 +195,7 @@ def test_combined_proximity_is_sum_of_parts_and_vectorized_equals_loop(d, batch,
         np.testing.assert_allclose(k.coordinate[b], kx, rtol=1e-9)
         np.testing.assert_allclose(k.feature[b], kf, rtol=1e-12)
         np.testing.assert_allclose(k.total[b], kx + kf, rtol=1e-9)
-    for model in F.FEATURE_MODELS:
+    for model in FEATURE_MODELS:
         ks = F.combined_proximity(x1, x2, cov[0], cov[1], f1, f2, v1, v2, model=model,
                                   kind="marginal", type_means=[0.0, 1.0], type_vars=[0.5, 0.5])
         np.testing.assert_allclose(ks.total, ks.coordinate + ks.feature)
@@ -267,7 +268,7 @@ def test_proximity_laws_by_monte_carlo():
 @pytest.mark.parametrize("model", ["shared", "spread"])
 def test_typed_scene_statistics(model):
     means, tvars, pri = np.array([0.0, 3.0]), np.array([0.5, 2.0]), np.array([0.25, 0.75])
-    s = F.typed_scene(2, type_means=means, type_vars=tvars, priors=pri, spacing=1.0,
+    s = typed_scene(2, type_means=means, type_vars=tvars, priors=pri, spacing=1.0,
                       sigma1=0.1, sigma2=0.2, feature_sigma1=0.3, feature_sigma2=0.4,
                       model=model, trials=30_000, rng=11)
     n = s.types.size
@@ -288,14 +289,14 @@ def test_typed_scene_statistics(model):
 def test_typed_scene_reproducible_and_rng_checked():
     kw = dict(type_means=[0.0, 1.0], type_vars=[1.0, 1.0], spacing=1.0, sigma1=0.1,
               sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1, trials=3)
-    a, b = F.typed_scene(3, rng=4, **kw), F.typed_scene(3, rng=4, **kw)
+    a, b = typed_scene(3, rng=4, **kw), typed_scene(3, rng=4, **kw)
     np.testing.assert_array_equal(a.features2, b.features2)
     with pytest.raises(TypeError, match="`rng`"):
-        F.typed_scene(3, rng=np.random.RandomState(0), **kw)
+        typed_scene(3, rng=np.random.RandomState(0), **kw)
 
 
 def test_association_costs_match_pairwise_loop():
-    s = F.typed_scene(3, type_means=[0.0, 2.0], type_vars=[0.5, 0.5], spacing=1.0,
+    s = typed_scene(3, type_means=[0.0, 2.0], type_vars=[0.5, 0.5], spacing=1.0,
                       sigma1=0.3, sigma2=0.4, feature_sigma1=0.2, feature_sigma2=0.1,
                       trials=2, dim=2, rng=3)
     c = s.coords
@@ -320,7 +321,7 @@ def test_features_sharpen_joint_association_under_model_1():
     """Brute-force joint association (all n! pairings) with and without features."""
     from itertools import permutations
 
-    s = F.typed_scene(4, type_means=[0.0, 4.0, 8.0], type_vars=[0.3, 0.3, 0.3], spacing=1.0,
+    s = typed_scene(4, type_means=[0.0, 4.0, 8.0], type_vars=[0.3, 0.3, 0.3], spacing=1.0,
                       sigma1=0.5, sigma2=0.5, feature_sigma1=0.1, feature_sigma2=0.1,
                       trials=2000, rng=21)
     perms = np.array(list(permutations(range(4))))
@@ -335,7 +336,7 @@ def test_features_sharpen_joint_association_under_model_1():
 
 
 def test_triune_true_match_and_unpaired():
-    s = F.typed_scene(3, type_means=[0.0, 9.0], type_vars=[1.0, 1.0], spacing=5.0, sigma1=0.1,
+    s = typed_scene(3, type_means=[0.0, 9.0], type_vars=[1.0, 1.0], spacing=5.0, sigma1=0.1,
                       sigma2=0.2, feature_sigma1=0.1, feature_sigma2=0.1, trials=20, rng=2)
     r = F.triune(s, s.true_match)
     assert r.all_correct().estimate == 1.0
@@ -421,12 +422,12 @@ def test_scene_triune_and_reliability_bad_input():
     kw = dict(type_means=[0.0, 1.0], type_vars=[1.0, 1.0], spacing=1.0, sigma1=0.1,
               sigma2=0.1, feature_sigma1=0.1, feature_sigma2=0.1)
     with pytest.raises(ValueError, match="`feature_sigma1`"):
-        F.typed_scene(2, **{**kw, "feature_sigma1": -0.1})
+        typed_scene(2, **{**kw, "feature_sigma1": -0.1})
     with pytest.raises(ValueError, match="`priors`"):
-        F.typed_scene(2, priors=[0.9, 0.9], **kw)
+        typed_scene(2, priors=[0.9, 0.9], **kw)
     with pytest.raises(ValueError, match="`model`"):
-        F.typed_scene(2, model="both", **kw)
-    s = F.typed_scene(2, trials=3, rng=0, **kw)
+        typed_scene(2, model="both", **kw)
+    s = typed_scene(2, trials=3, rng=0, **kw)
     with pytest.raises(ValueError, match="`match`"):
         F.triune(s, np.zeros((3, 3), dtype=int))
     with pytest.raises(ValueError, match="`match`"):
@@ -652,7 +653,7 @@ def test_posterior_agrees_with_mpmath_wherever_the_answer_is_well_conditioned(f,
     del gaps
 
 
-@given(f1=wide, f2=wide, v1=wide_pos, v2=wide_pos, model=st.sampled_from(F.FEATURE_MODELS),
+@given(f1=wide, f2=wide, v1=wide_pos, v2=wide_pos, model=st.sampled_from(FEATURE_MODELS),
        data=st.data())
 def test_pair_posterior_is_finite_and_sums_to_one(f1, f2, v1, v2, model, data):
     L = data.draw(st.integers(1, 3))
@@ -680,7 +681,7 @@ def test_likelihood_is_finite_and_at_most_the_peak(f, v, m, tv):
 
 
 @given(x=st.lists(finite, min_size=2, max_size=2), f=st.lists(finite, min_size=2, max_size=2),
-       s=st.lists(pos, min_size=4, max_size=4), model=st.sampled_from(F.FEATURE_MODELS),
+       s=st.lists(pos, min_size=4, max_size=4), model=st.sampled_from(FEATURE_MODELS),
        kind=st.sampled_from(["profile", "marginal"]))
 def test_combined_proximity_is_finite_nonnegative_and_symmetric(x, f, s, model, kind):
     kw = dict(model=model, kind=kind, type_means=[0.0, 3.0], type_vars=[1.0, 2.0])
@@ -693,15 +694,15 @@ def test_combined_proximity_is_finite_nonnegative_and_symmetric(x, f, s, model, 
 
 
 @given(n=st.integers(1, 4), trials=st.integers(1, 5), seed=st.integers(0, 2**32 - 1),
-       model=st.sampled_from(F.FEATURE_MODELS), dim=st.integers(1, 2))
+       model=st.sampled_from(FEATURE_MODELS), dim=st.integers(1, 2))
 def test_scene_costs_and_triune_invariants(n, trials, seed, model, dim):
     kw = dict(type_means=[0.0, 2.0], type_vars=[1.0, 0.5], priors=[0.3, 0.7], spacing=1.0,
               sigma1=0.2, sigma2=0.3, feature_sigma1=0.1, feature_sigma2=0.2, model=model,
               trials=trials, dim=dim)
-    s = F.typed_scene(n, rng=seed, **kw)
-    again = F.typed_scene(n, rng=seed, **kw)
+    s = typed_scene(n, rng=seed, **kw)
+    again = typed_scene(n, rng=seed, **kw)
     np.testing.assert_array_equal(s.features2, again.features2)
-    for features in ("none", *F.FEATURE_MODELS):
+    for features in ("none", *FEATURE_MODELS):
         c = F.association_costs(s, features=features)
         assert c.shape == (trials, n, n) and np.all(np.isfinite(c)) and np.all(c >= 0)
     r = F.triune(s, s.true_match)
@@ -769,13 +770,13 @@ PAIR_BASE = dict(feature1=0.3, feature_var1=0.1, feature2=0.5, feature_var2=0.2,
 
 
 @given(arg=st.sampled_from(["feature1", "feature2"]), value=BAD_NUMBERS,
-       model=st.sampled_from(F.FEATURE_MODELS))
+       model=st.sampled_from(FEATURE_MODELS))
 def test_pair_posterior_rejects_bad_features(arg, value, model):
     _call(F.pair_type_posterior, dict(PAIR_BASE, model=model), arg, value)
 
 
 @given(arg=st.sampled_from(["feature_var1", "feature_var2"]), value=BAD_VARIANCES,
-       model=st.sampled_from(F.FEATURE_MODELS))
+       model=st.sampled_from(FEATURE_MODELS))
 def test_pair_posterior_and_fusion_reject_bad_variances(arg, value, model):
     _call(F.pair_type_posterior, dict(PAIR_BASE, model=model), arg, value)
     base = {k: PAIR_BASE[k] for k in ("feature1", "feature_var1", "feature2", "feature_var2")}
@@ -817,13 +818,13 @@ SCENE_BASE = dict(n_objects=2, type_means=[0.0, 1.0], type_vars=[1.0, 1.0], spac
 @given(arg=st.sampled_from(["feature_sigma1", "feature_sigma2", "spacing", "sigma1",
                             "sigma2"]), value=BAD_VARIANCES)
 def test_typed_scene_rejects_bad_numbers(arg, value):
-    _call(F.typed_scene, SCENE_BASE, arg, value)
+    _call(typed_scene, SCENE_BASE, arg, value)
 
 
 @given(arg=st.sampled_from(["n_objects", "trials", "dim"]),
        value=st.sampled_from([0, -1, 1.5, "2", None, True]))
 def test_typed_scene_rejects_bad_counts(arg, value):
-    _call(F.typed_scene, SCENE_BASE, arg, value)
+    _call(typed_scene, SCENE_BASE, arg, value)
 
 
 @given(match=st.one_of(
@@ -831,7 +832,7 @@ def test_typed_scene_rejects_bad_counts(arg, value):
     st.sampled_from([None, "0", np.zeros((3, 2)), np.zeros((3, 2), dtype=bool),
                      np.full((3, 2), 2), np.full((3, 2), -2)])))
 def test_triune_rejects_bad_matches(match):
-    s = F.typed_scene(**dict(SCENE_BASE, trials=3))
+    s = typed_scene(**dict(SCENE_BASE, trials=3))
     _call(F.triune, dict(scene=s), "match", match)
 
 
