@@ -723,10 +723,12 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
     trials : int
         Trials per grid point (≥ 1).
     rng : None, int, numpy.random.SeedSequence or numpy.random.Generator
-        The seed (SPEC 7). An int or a SeedSequence is used as is (a
-        SeedSequence is not advanced: the same one gives the same sweep). A
-        Generator is not shared with the tasks: 256 bits drawn from it become
-        the root entropy (this advances it, like any draw). ``None`` draws fresh
+        The seed (SPEC 7), converted by
+        :func:`radarfusion_ref.engine._validation.as_seed_sequence`. A
+        non-negative int or a SeedSequence is used as is (a SeedSequence is not
+        advanced: the same one gives the same sweep). A Generator is not shared
+        with the tasks: 128 bits drawn from it become the root entropy (this
+        advances it, like any draw). ``None`` draws fresh
         entropy from the operating system; it is kept in the result
         (``entropy``), so the sweep can be repeated.
     block : int, optional
