@@ -193,8 +193,10 @@ def _ldl_kappa(d, s, logdet=None):
     """
     k = len(d)
     g = [[s[i][j] for j in range(i + 1)] for i in range(k)]   # g[i][j] -> L_ij D_j
-    low = [[None] * k for _ in range(k)]                        # L_ij
-    piv, w, kappa = [], [], None
+    low: list[list] = [[None] * k for _ in range(k)]            # L_ij
+    piv: list = []
+    w: list = []
+    kappa = None
     for j in range(k):
         dj = g[j][j]
         for m in range(j):
@@ -298,7 +300,7 @@ def _pairwise(a, b, c1, c2, lead, chunk, want_logdet=False):
     kappa = np.empty(shape)
     logdet = np.empty(shape) if want_logdet else None
     fast2 = k == 2 and not want_logdet
-    work = [np.empty(min(chunk, n1 * n2 * n_lead)) for _ in range(6)] if fast2 else None
+    work = [np.empty(min(chunk, n1 * n2 * n_lead)) for _ in range(6 if fast2 else 0)]
     tri = [[k + i * (i + 1) // 2 + j for j in range(i + 1)] for i in range(k)]
     for blk in _tiles(shape, chunk):
         if trial_last:
@@ -316,9 +318,9 @@ def _pairwise(a, b, c1, c2, lead, chunk, want_logdet=False):
             continue
         d = [pv[i] - qv[i] for i in range(k)]
         s = [[pv[tri[i][j]] + qv[tri[i][j]] for j in range(i + 1)] for i in range(k)]
-        ld = [] if want_logdet else None
-        kk[...] = _ldl_kappa(d, s, ld)
-        if want_logdet:
+        ld: list = []
+        kk[...] = _ldl_kappa(d, s, ld if logdet is not None else None)
+        if logdet is not None:
             logdet[blk] = ld[0]
 
     def back(arr):
@@ -371,8 +373,8 @@ def mahalanobis_sq(d, cov, *, return_logdet=False):
     if not isinstance(return_logdet, (bool, np.bool_)):
         raise TypeError(f"`return_logdet` must be a bool; received {_describe(return_logdet)}")
     a, c = _mahalanobis_iv(d, cov)
-    ld = [] if return_logdet else None
-    kappa = _kappa(a, c, "`d`, `cov`", ld)
+    ld: list = []
+    kappa = _kappa(a, c, "`d`, `cov`", ld if return_logdet else None)
     if return_logdet:
         return unwrap(kappa), unwrap(np.broadcast_to(ld[0], kappa.shape))
     return unwrap(kappa)
