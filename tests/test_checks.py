@@ -140,3 +140,14 @@ def test_the_ledger_file_gets_one_line_per_passing_check(tmp_path, monkeypatch):
     with pytest.raises(CheckError):
         check_true(False, what="third")
     assert log.read_text().splitlines() == ["property\tfirst", "monte-carlo\tsecond"]
+
+
+@pytest.mark.parametrize("side", ["value", "reference"])
+@pytest.mark.parametrize("z", [1 + 2j, [1.0, 2 + 0j], np.array([1 + 1e-3j])])
+def test_check_close_refuses_complex_input_by_name(side, z):
+    # 1+1j against 1+2j used to pass, the imaginary parts dropped with a ComplexWarning
+    args = {"value": 1.0, "reference": 1.0, side: z}
+    with pytest.raises(TypeError, match=f"`{side}`.*complex"):
+        check_close(args["value"], args["reference"], what="complex")
+    with pytest.raises(TypeError, match=r"`value`.*complex"):
+        check_close(1 + 1j, 1 + 2j, what="complex")

@@ -28,3 +28,13 @@ def test_check_close():
     assert "agree on 3 values" in check_close(np.ones(3), np.ones(3))
     with pytest.raises(SymbolicCheckError, match="gain: disagree"):
         check_close([1.0], [1.001], what="gain")
+
+
+@pytest.mark.parametrize("side", ["derived", "package"])
+def test_check_close_refuses_complex_input_by_name(side):
+    # 1+1j against 1+2j used to pass, the imaginary parts dropped with a ComplexWarning
+    args = {"derived": 1.0, "package": 1.0, side: 1 + 2j}
+    with pytest.raises(TypeError, match=f"`{side}`.*complex"):
+        check_close(args["derived"], args["package"])
+    with pytest.raises(TypeError, match="complex"):
+        check_close(1 + 1j, 1 + 2j)

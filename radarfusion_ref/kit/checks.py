@@ -103,6 +103,9 @@ def _numeric(value, name: str, what: str) -> np.ndarray:
         raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}") from None
     if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
         raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}")
+    if np.iscomplexobj(arr):
+        raise TypeError(f"{what}: `{name}` must be real; received complex {_describe(value)} "
+                        "(compare real and imaginary parts as two real checks)")
     if arr.size == 0:
         raise CheckError(f"{what}: `{name}` is empty (shape {arr.shape}); an empty "
                          "comparison proves nothing")
@@ -156,7 +159,7 @@ def check_close(value, reference, *, what: str, rtol: float = 1e-9, atol: float 
     CheckError
         If they disagree, if either is empty or non-finite, or if the shapes differ.
     TypeError
-        If either is ``None`` or not numeric, or `what` is not a string.
+        If either is ``None``, not numeric or complex, or `what` is not a string.
     ValueError
         If a tolerance is negative, non-finite or ``rtol >= 1``.
 

@@ -126,6 +126,8 @@ def check_close(derived, package, *, what: str = "derivation and package", rtol:
         With the largest discrepancy, if they disagree, or if either side is
         empty, non-finite or of another shape (see
         :func:`radarfusion_ref.kit.checks.check_close`).
+    TypeError
+        If either side is not numeric, or is complex (naming `derived` or `package`).
 
     Examples
     --------
