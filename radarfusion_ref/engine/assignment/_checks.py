@@ -40,8 +40,9 @@ def _exponents(c: np.ndarray, *extra: float) -> np.ndarray:
     return np.frexp(top)[1]
 
 
-def _scaled(c: np.ndarray, e: np.ndarray) -> np.ndarray:
-    """``c * 2**-e`` per matrix (exact; ``+inf`` stays ``+inf``)."""
+def _scaled(c: np.ndarray, e: np.ndarray | int) -> np.ndarray:
+    """``c * 2**-e`` per matrix (`e` one exponent per matrix, or one for all; exact;
+    ``+inf`` stays ``+inf``)."""
     return np.ldexp(c, -np.asarray(e)[..., None, None])
 
 

@@ -28,8 +28,8 @@ def _greedy_total(c, m, n):
         t = np.unravel_index(np.argmin(work), work.shape)
         total += work[t]
         for i, j in enumerate(t):
-            index = [slice(None)] * m
-            index[i] = j
+            index: list[slice | int] = [slice(None)] * m
+            index[i] = int(j)
             work[tuple(index)] = np.inf
     return total
 

@@ -26,6 +26,10 @@ MAX_K_BEST = 100_000
 #: against ``_MURTY_BYTES_PER_NODE * k * n**2``.
 _MURTY_BYTES_PER_NODE = 32
 
+#: The pairs fixed above a Murty node: ``(previous, rows, cols)``, a chain shared
+#: with the node's siblings and ended by ``None``.
+_Fixed = tuple["_Fixed | None", np.ndarray, np.ndarray]
+
 
 def _reduced_costs(m: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Reduced costs certifying the diagonal of ``m`` as an optimal assignment.
@@ -120,7 +124,7 @@ def k_best_2d(cost, k) -> KBestAssignments:
     square[:a] = work
     is_real = np.arange(b) < a
 
-    out_assign: list[np.ndarray] = []
+    out_assign: list[tuple[_Fixed | None, np.ndarray, np.ndarray]] = []
     out_cost: list[float] = []
     counter = itertools.count()
     solved = 0
@@ -210,8 +214,7 @@ def k_best_2d(cost, k) -> KBestAssignments:
             fixed, frows, fcols = fixed
             full[frows] = fcols
         rows_out.append(full[:a])
-    out_assign = rows_out
-    assign = np.array(out_assign, dtype=int).reshape(-1, a)
+    assign = np.array(rows_out, dtype=int).reshape(-1, a)
     if transpose:
         assign = _inverse(assign, n1) if assign.size else np.empty((0, n1), dtype=int)
     with np.errstate(over="ignore"):
