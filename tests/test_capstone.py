@@ -691,3 +691,34 @@ def test_track_fusion_bad_input(tracked):
         cp.evaluate_tracks(tr, truth, radars, min_radars=4)
     with pytest.raises(ValueError, match="`c`"):
         cp.evaluate_tracks(tr, truth, radars, c=0.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(points, points, st.floats(0.5, 20), st.sampled_from([1.0, 2.0, 3.0]),
+       st.sampled_from([1e-150, 1e-100, 1e-20, 1e20, 1e100, 1e150]))
+def test_gospa_total_scales_with_the_lengths(x, y, c, p, scale):
+    # the total is c * (...)**(1/p): scaling every length scales it, at any representable scale
+    x = np.array(x, dtype=float).reshape(-1, 2)
+    y = np.array(y, dtype=float).reshape(-1, 2)
+    expected = _gospa_brute(x, y, c, p) * scale
+    assert gospa(x * scale, y * scale, c=c * scale, p=p, parts=False).total == pytest.approx(
+        expected, rel=1e-9, abs=0.0)
+
+
+@pytest.mark.parametrize(("c", "p"), [(1e-200, 2.0), (1e200, 2.0), (1e-5, 70.0)])
+def test_gospa_refuses_parts_outside_float64_by_name(c, p):
+    # gospa([[0, 0]], [], c=1e-200) returned 0.0 (a miss scored as a perfect match);
+    # c=1e200 raised a bare OverflowError
+    with pytest.raises(ValueError, match=r"`c`.*`p`.*parts=False"):
+        gospa([[0.0, 0.0]], [], c=c, p=p)
+    g = gospa([[0.0, 0.0]], [], c=c, p=p, parts=False)
+    assert g.total == pytest.approx(c * 0.5 ** (1 / p), rel=1e-12)
+    assert g.n_missed == 1 and np.isnan(g.missed)
+
+
+def test_gospa_refuses_points_whose_distance_overflows():
+    with pytest.raises(ValueError, match=r"`x`.*`y`"):
+        gospa([[1e308, 0.0]], [[-1e308, 0.0]], c=1.0)
+    # far apart but representable: a miss plus a false estimate, found exactly
+    g = gospa([[1e200, 0.0]], [[-1e200, 0.0]], c=1.0)
+    assert (g.n_missed, g.n_false, g.total) == (1, 1, 1.0)

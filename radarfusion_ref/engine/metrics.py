@@ -81,7 +81,7 @@ def _number(value, name):
     return float(v)
 
 
-def _gospa_iv(x, y, c, p, alpha):
+def _gospa_iv(x, y, c, p, alpha, parts):
     x = _points(x, "x")
     y = _points(y, "y")
     if x.size and y.size and x.shape[1] != y.shape[1]:
@@ -93,14 +93,41 @@ def _gospa_iv(x, y, c, p, alpha):
         raise ValueError(f"`p` must be a finite number >= 1; received {p!r}")
     if _number(alpha, "alpha") != 2.0:
         raise ValueError(f"`alpha` must be 2 (the decomposable GOSPA); received {alpha!r}")
+    if not isinstance(parts, (bool, np.bool_)):
+        raise TypeError(f"`parts` must be True or False; received {_describe(parts)}")
     n, k = x.shape[0], y.shape[0]
     check_size(8 * 3 * n * k * max(x.shape[1], 1), MEMORY_LIMIT,
                what=f"bytes of the distance matrix of {n} x {k} points (`x`, `y`)",
                alternative="scoring smaller sets (one scan at a time, or spatial regions)")
+    # the parts are in units of c**p: refuse where that unit is no normal float64
+    log_cp = p * np.log(c)
+    if parts and (n or k) and not (np.log(_TINY) <= log_cp <= np.log(_HUGE / (n + k))):
+        raise ValueError(
+            f"`c` = {c!r} with `p` = {p!r}: the parts of GOSPA are in units of c**p = "
+            f"10**{log_cp / np.log(10):.0f}, outside float64's range [{_TINY:.1e}, "
+            f"{_HUGE / (n + k):.1e}]; express lengths in a unit where `c` is nearer 1, or "
+            "pass parts=False for the total alone")
     return x, y, c, p
 
 
-def gospa(x, y, *, c, p=2.0, alpha=2.0) -> GospaResult:
+_TINY, _HUGE = np.finfo(float).tiny, np.finfo(float).max
+
+
+def _scaled_distances(x, y, c):
+    """Distances between the points, divided by `c`, without overflow in the squares."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        diff = x[:, None, :] - y[None, :, :]
+    if not np.all(np.isfinite(diff)):
+        raise ValueError("`x` and `y` hold points whose differences overflow float64 "
+                         f"(largest |coordinate| {max(np.max(np.abs(x)), np.max(np.abs(y))):.3g})")
+    big = np.max(np.abs(diff), axis=-1, keepdims=True)
+    safe = np.where(big > 0, big, 1.0)
+    dist = big[..., 0] * np.linalg.norm(diff / safe, axis=-1)     # |d|, scaled norm
+    with np.errstate(over="ignore"):
+        return dist / c                                           # inf only beyond the cut-off
+
+
+def gospa(x, y, *, c, p=2.0, alpha=2.0, parts=True) -> GospaResult:
     r"""Generalized OSPA metric with α = 2 and its localisation, missed and false parts.
 
     Parameters
@@ -113,6 +140,10 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0) -> GospaResult:
         Order :math:`1 \le p < \infty` (default 2).
     alpha : float, optional
         Must be 2 (the value for which GOSPA splits into the three parts).
+    parts : bool, optional
+        Whether to return the three parts (default). They are in units of :math:`c^p`,
+        which must be a normal float64; with ``parts=False`` the total alone is computed
+        (at any `c` for which it is representable) and the parts are NaN.
 
     Returns
     -------
@@ -121,10 +152,11 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0) -> GospaResult:
     Raises
     ------
     ValueError
-        Non-finite points, a dimension mismatch, `c` not positive, `p` < 1 or not finite,
-        `alpha` other than 2, or sets whose distance matrix exceeds the memory limit.
+        Non-finite points, points whose differences overflow, a dimension mismatch, `c`
+        not positive, `p` < 1 or not finite, `alpha` other than 2, sets whose distance
+        matrix exceeds the memory limit, or (with `parts`) :math:`c^p` outside float64.
     TypeError
-        Non-numeric input.
+        Non-numeric input, or `parts` not a bool.
 
     Notes
     -----
@@ -137,6 +169,8 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0) -> GospaResult:
     (Rahmathullah et al. 2017). It is found as a rectangular linear assignment
     (:func:`scipy.optimize.linear_sum_assignment`) on :math:`\min(d, c)^p`: a pair at
     distance :math:`\ge c` costs :math:`c^p`, exactly one miss plus one false estimate.
+    The sum is formed in units of :math:`c^p` (distances divided by :math:`c`) and the
+    total is :math:`c` times its p-th root, so no term underflows or overflows.
 
     Examples
     --------
@@ -144,19 +178,24 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0) -> GospaResult:
     >>> g.total ** 2, g.localisation, g.missed, g.false
     (13.5, 1.0, 12.5, 0.0)
     """
-    x, y, c, p = _gospa_iv(x, y, c, p, alpha)
+    x, y, c, p = _gospa_iv(x, y, c, p, alpha, parts)
     n, k = x.shape[0], y.shape[0]
-    loc, assigned = 0.0, 0
+    loc, assigned = 0.0, 0                                            # in units of c**p
     if n and k:
-        dist = np.linalg.norm(x[:, None, :] - y[None, :, :], axis=-1)
-        ri, ci = linear_sum_assignment(np.minimum(dist, c) ** p)      # min over gamma
-        close = dist[ri, ci] < c                                      # pairs kept in gamma
+        u = _scaled_distances(x, y, c)                                # d / c
+        ri, ci = linear_sum_assignment(np.minimum(u, 1.0) ** p)       # min over gamma
+        close = u[ri, ci] < 1.0                                       # pairs kept in gamma
         assigned = int(close.sum())
-        loc = float(np.sum(dist[ri, ci][close] ** p))
-    missed = (n - assigned) * c**p / 2.0
-    false = (k - assigned) * c**p / 2.0
-    return GospaResult(total=float((loc + missed + false) ** (1.0 / p)), localisation=loc,
-                       missed=float(missed), false=float(false), n_assigned=assigned,
+        loc = float(np.sum(u[ri, ci][close] ** p))
+    missed, false = (n - assigned) / 2.0, (k - assigned) / 2.0
+    with np.errstate(over="ignore"):
+        total = float(c * (loc + missed + false) ** (1.0 / p))
+    if not np.isfinite(total):
+        raise ValueError(f"`c` = {c!r}: the GOSPA total c * {(loc + missed + false) ** (1 / p):.3g} "
+                         "overflows float64; express lengths in a larger unit")
+    cp = (c**p if n or k else 0.0) if parts else np.nan             # c**p checked at the door
+    return GospaResult(total=total, localisation=loc * cp, missed=missed * cp,
+                       false=false * cp, n_assigned=assigned,
                        n_missed=n - assigned, n_false=k - assigned)
 
 
