@@ -396,3 +396,48 @@ def test_reduced_information_is_the_bias_block_of_the_full_information():
     np.testing.assert_allclose(rg.reduced_information(B, G), want, rtol=1e-8, atol=1e-10)
     with pytest.raises(ValueError, match=r"`jac_bias`.*`jac_object`"):
         rg.reduced_information(B, G[:, :3])
+
+
+# --------------------------------------------------------------------------- units
+# The same geometries as test_observability_ranks, in kilometres; a change of length unit by
+# k multiplies sites, objects, range offsets and sigma_r by k and leaves the rest alone.
+UNIT_CASES = [([[0, 0], [0, 0]], SPREAD, 3), (SITES, SPREAD, 6), (SITES, SPREAD[:2], 4),
+              (SITES, SPREAD[:3], 6), (SITES, [[50, 0], [60, 0], [75, 0], [90, 0]], 4)]
+
+
+EXPONENTS = st.one_of(st.sampled_from([-3.0, 3.0]), st.floats(-3.0, 3.0))   # 1e-3 ... 1e3
+
+
+@given(case=st.sampled_from(range(len(UNIT_CASES))), exponent=EXPONENTS)
+def test_observability_rank_does_not_depend_on_the_length_unit(case, exponent):
+    # metres (k = 1000) gave rank 4 where kilometres gave 6: the "no information" test
+    # compared the range offset's information (1/sigma_r**2) with the range scale's
+    sites, targets, rank = UNIT_CASES[case]
+    k = 10.0 ** exponent
+    o = rg.observability(np.asarray(sites) * k, np.asarray(targets) * k, SR * k, SB)
+    assert o.rank == rank
+
+
+@given(exponent=EXPONENTS)
+def test_bias_estimate_does_not_depend_on_the_length_unit(exponent):
+    k = 10.0 ** exponent
+    z = rg.draw_biased_reports(SITES, SPREAD, BIAS, SR, SB, rng=5)
+    ref = rg.estimate_biases(SITES, z, SR, SB)
+    zk = np.array(z)
+    zk[..., 0] *= k
+    est = rg.estimate_biases(SITES * k, zk, SR * k, SB)
+    units = np.array([k, 1.0, 1.0])
+    np.testing.assert_allclose(est.biases / units, ref.biases, rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(est.crlb / units, ref.crlb, rtol=1e-6)
+    np.testing.assert_allclose(est.targets / k, ref.targets, rtol=1e-8, atol=1e-9)
+
+
+def test_a_user_in_metres_with_realistic_noise_is_not_refused():
+    # the capstone's radars, in metres: 50 m range noise, 1 mrad azimuth noise
+    sites, objs = SITES * 1e3, SPREAD * 1e3
+    assert rg.observability(sites, objs, 50.0, 1e-3).rank == 6
+    bias_m = BIAS * [1e3, 1, 1]
+    z = rg.draw_biased_reports(sites, objs, bias_m, 50.0, 1e-3, trials=200, rng=9)
+    est = rg.estimate_biases(sites, z, 50.0, 1e-3)
+    err = (est.biases - bias_m) / est.crlb
+    assert np.all(np.abs(err.mean(axis=0)) < 5 / np.sqrt(200))

@@ -140,22 +140,31 @@ def _reduced(B, G, e):
     return info, grad, (W, V, gx, np.einsum("...ka,...ka->...", gx, Vinv_gx))
 
 
-def _scaled_rank(info, free):
+def _known_object_information(B):
+    """Diagonal of the biases' information were the objects known, (…, 3m): sum_k B^T B."""
+    *lead, m, _, _, _ = B.shape
+    return np.einsum("...ikaj,...ikaj->...ij", B, B).reshape(*lead, 3 * m)
+
+
+def _scaled_rank(info, free, reference):
     """Rank and null space (physical units) of the free block of one information matrix.
 
-    The block is scaled to a unit diagonal first (the biases have different
-    units); eigenvalues below :data:`RANK_TOL` times the largest count as zero.
+    Unit-free by construction. A bias counts as unseen when eliminating the objects
+    left less than :data:`RANK_TOL` of the information it would have were the
+    objects known (`reference`, :func:`_known_object_information`): both scale
+    alike with its unit. The others' block is scaled to a unit diagonal (a
+    congruence by the diagonal, which is what a change of units does to it, so
+    its eigenvalues are the same in any units); eigenvalues below
+    :data:`RANK_TOL` times the largest count as zero.
     """
     idx = np.flatnonzero(free)
     sub = info[np.ix_(idx, idx)]
     diag = np.diag(sub)
-    full = np.zeros((len(free), 0))
-    top = float(diag.max()) if len(idx) else 0.0
-    if top <= 0:
+    zero = ~(diag > RANK_TOL * reference[idx])          # no information left (or none at all)
+    if zero.all():
         full = np.zeros((len(free), len(idx)))
         full[idx, np.arange(len(idx))] = 1.0
         return 0, full
-    zero = diag <= RANK_TOL * top                       # no information at all
     d = np.sqrt(np.where(zero, 1.0, diag))
     scaled = sub / np.outer(d, d)
     scaled[zero, :] = 0.0
@@ -257,11 +266,18 @@ def bias_information(sensors, targets, sigma_r, sigma_beta, *, biases=None):
     sr, sb = _sigmas_iv(sigma_r, sigma_beta, m)
     b = np.zeros((m, 3)) if biases is None else _radar_biases_iv(biases, m)
     _elements(t.size // 2 * m, "targets")
+    return _information(s, t, sr, sb, b)[0]
+
+
+def _information(s, t, sr, sb, b=None):
+    """:func:`bias_information` on validated input, and :func:`_known_object_information`."""
+    m = s.shape[0]
+    b = np.zeros((m, 3)) if b is None else b
     lead = np.broadcast_shapes(t.shape[:-2], b.shape[:-2])
     t = np.broadcast_to(t, (*lead, *t.shape[-2:]))
     b = np.broadcast_to(b, (*lead, m, 3))
     _, B, G = _blocks(s, t, b, sr, sb)
-    return reduced_information(B, G)
+    return reduced_information(B, G), _known_object_information(B)
 
 
 @dataclass(frozen=True)
@@ -319,7 +335,10 @@ def observability(sensors, targets, sigma_r=1.0, sigma_beta=1e-3, *, fixed=None)
     -----
     The rank is that of the information restricted to the free biases after
     scaling it to a unit diagonal; eigenvalues below :data:`RANK_TOL` times
-    the largest count as zero. The unobservable combinations are the null
+    the largest count as zero. A bias whose information after eliminating the
+    objects is below :data:`RANK_TOL` times what it would be were the objects
+    known counts as unseen. Both rules compare quantities in the same units,
+    so the rank does not depend on the unit of length (or of angle). The unobservable combinations are the null
     space :math:`\mathcal J_b v = 0`: bias changes :math:`v` that every object
     position can absorb.
 
@@ -336,8 +355,10 @@ def observability(sensors, targets, sigma_r=1.0, sigma_beta=1e-3, *, fixed=None)
         raise ValueError(f"`targets` must have shape (n, 2), one geometry; received shape "
                          f"{t.shape}")
     fx = _fixed_iv(fixed, m)
-    info = bias_information(s, t, sigma_r, sigma_beta)
-    rank, null = _scaled_rank(info, ~fx.ravel())
+    sr, sb = _sigmas_iv(sigma_r, sigma_beta, m)
+    _elements(t.size // 2 * m, "targets")
+    info, reference = _information(s, t, sr, sb)
+    rank, null = _scaled_rank(info, ~fx.ravel(), reference)
     rows = _rref_rows(null) if null.shape[1] else np.zeros((0, 3 * m))
     return Observability(int(rank), int((~fx).sum()), rows,
                          tuple(_describe_combination(r) for r in rows))
@@ -392,8 +413,8 @@ def _initial_targets(s, z, b, sr, sb):
     return pos.mean(axis=-3)
 
 
-def _unobservable_error(info, free, where: str) -> None:
-    rank, null = _scaled_rank(info, free)
+def _unobservable_error(info, free, reference, where: str) -> None:
+    rank, null = _scaled_rank(info, free, reference)
     if rank < int(free.sum()):
         rows = _rref_rows(null)
         combos = "; ".join(_describe_combination(r) for r in rows) or "(see `observability`)"
@@ -513,12 +534,13 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
         e = np.stack([(z[..., 0] - pred[..., 0]) / sr[:, None],
                       _wrap(z[..., 1] - pred[..., 1]) / sb[:, None]], axis=-1)
         info, grad, (W, V, gx, gvg) = _reduced(B, G, e)
-        return info, grad, W, V, gx, gvg, e
+        return info, grad, W, V, gx, gvg, e, B
 
-    info, grad, W, V, gx, gvg, e = step(b, x)
+    info, grad, W, V, gx, gvg, e, B = step(b, x)
     flat_info = info.reshape(-1, 3 * m, 3 * m)
+    flat_ref = np.broadcast_to(_known_object_information(B), (*lead, 3 * m)).reshape(-1, 3 * m)
     for k in range(flat_info.shape[0]):
-        _unobservable_error(flat_info[k], free, "" if flat_info.shape[0] == 1
+        _unobservable_error(flat_info[k], free, flat_ref[k], "" if flat_info.shape[0] == 1
                             else f" (batch element {k})")
     iterations, converged = 0, False
     while iterations < max_iter:
@@ -533,7 +555,7 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
         if np.any(b[..., 1] <= -1):
             raise ValueError("`reports`: the range scale estimate left (-1, inf); the reports "
                              "are not consistent with the bias model (check the association)")
-        info, grad, W, V, gx, gvg, e = step(b, x)
+        info, grad, W, V, gx, gvg, e, _ = step(b, x)
         if np.all(np.abs(decrement) < tol):
             converged = True
             break

@@ -20,9 +20,9 @@ from ..engine.errors import RadarFusionWarning
 from ..engine.montecarlo import proportion
 from ._estimation import (
     BiasEstimate,
+    _information,
     _initial_targets,
     _scaled_rank,
-    bias_information,
     estimate_biases,
 )
 from ._model import (
@@ -131,8 +131,8 @@ def _trimmed_estimate(s, paired, sr, sb, fx, gate):
             if k[worst] < gate:
                 break
             keep = np.delete(paired, worst, axis=1)
-            info = bias_information(s, _initial_targets(s, keep, est.biases, sr, sb), sr, sb)
-            if _scaled_rank(info, free)[0] < int(free.sum()):
+            info, ref = _information(s, _initial_targets(s, keep, est.biases, sr, sb), sr, sb)
+            if _scaled_rank(info, free, ref)[0] < int(free.sum()):
                 break
             paired = keep
             est = estimate_biases(s, paired, sr, sb, fixed=fx, initial=est.biases)
@@ -255,9 +255,9 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
             failure = f"pass {t} paired no reports"
             break
         paired = np.stack([z1[rows], z2[res.row_to_col[rows]]])       # (2, k, 2)
-        info = bias_information(s, _initial_targets(s, paired, np.zeros((2, 3)), sr, sb),
-                                sr, sb)
-        rank, _ = _scaled_rank(info, ~fx.ravel())
+        info, ref = _information(s, _initial_targets(s, paired, np.zeros((2, 3)), sr, sb),
+                                 sr, sb)
+        rank, _ = _scaled_rank(info, ~fx.ravel(), ref)
         if rank < int((~fx).sum()):
             failure = (f"pass {t} paired {len(rows)} reports, too few (or too degenerate) to "
                        f"observe the biases (information rank {rank})")
