@@ -220,6 +220,24 @@ def test_sweep_follows_the_documented_seeding(local_sweep):
         np.testing.assert_array_equal(np.concatenate(direct), local_sweep["kappa"][i])
 
 
+def test_unit_rng_is_the_spawned_sequence():
+    """unit_rng(root, i, j) draws what root.spawn(P)[i].spawn(U)[j] draws, also for a child root."""
+    for root_of in (lambda: np.random.SeedSequence(2026),
+                    lambda: np.random.SeedSequence(11).spawn(3)[2]):
+        grand = root_of().spawn(5)[4].spawn(3)[1]
+        direct = np.random.Generator(np.random.PCG64(grand)).integers(0, 2**63, 8)
+        root = root_of()
+        np.testing.assert_array_equal(montecarlo.unit_rng(root, 4, 1).integers(0, 2**63, 8),
+                                      direct)
+        assert root.n_children_spawned == 0                          # the root is not advanced
+    with pytest.raises(TypeError, match=r"`root`.*received 7"):
+        montecarlo.unit_rng(7, 0, 0)
+    with pytest.raises(ValueError, match="`unit`"):
+        montecarlo.unit_rng(np.random.SeedSequence(7), 0, -1)
+    with pytest.raises(TypeError, match="`point`"):
+        montecarlo.unit_rng(np.random.SeedSequence(7), 0.5, 0)
+
+
 def test_sweep_does_not_depend_on_block_or_task_order(local_sweep, monkeypatch):
     for block in (SEED_BLOCK, 4 * SEED_BLOCK, 64 * SEED_BLOCK):
         other = sweep(false_pairs, GRID, trials=3 * SEED_BLOCK + 100, rng=2026, block=block)

@@ -101,11 +101,11 @@ MUTATIONS = {
                 return dataclasses.replace(r, total=r.total * 1.01)
             return g
         """),
-    "book/montecarlo": ("radarfusion_ref.engine.montecarlo", "_unit_rng", """
+    "book/montecarlo": ("radarfusion_ref.engine.montecarlo", "unit_rng", """
         def wrap(f):
             @functools.wraps(f)
-            def g(entropy, spawn_key, pool_size, point, unit):
-                return f(entropy, spawn_key, pool_size, 0, unit)   # every point, one stream
+            def g(root, point, unit):
+                return f(root, 0, unit)   # every point, one stream
             return g
         """),
 }

@@ -52,7 +52,7 @@ from ._validation import (
 )
 
 __all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance",
-           "sweep", "SweepResult", "SweepError",
+           "sweep", "unit_rng", "SweepResult", "SweepError",
            "SEED_BLOCK", "DEFAULT_BLOCK", "MAX_POINTS", "PROGRESS_ENV"]
 
 
@@ -560,12 +560,42 @@ def _as_grid(grid):
                     f"or a sequence of dicts; received {_describe(grid)}")
 
 
-def _unit_rng(entropy, spawn_key, pool_size, point: int, unit: int) -> np.random.Generator:
-    """The generator of seed unit `unit` of grid point `point`: a PCG64 (pinned, not
-    ``default_rng``'s choice) on the SeedSequence with spawn key ``(point, unit)``."""
-    seq = np.random.SeedSequence(entropy, spawn_key=(*spawn_key, point, unit),
-                                 pool_size=pool_size)
+def unit_rng(root, point, unit) -> np.random.Generator:
+    """The generator of seed unit `unit` of grid point `point` in a sweep seeded with `root`.
+
+    A PCG64 (pinned, not ``default_rng``'s choice) on the SeedSequence that
+    ``root.spawn(points)[point].spawn(units)[unit]`` would give, built directly from
+    its spawn key so that no state is shared between tasks (`root` is not advanced).
+
+    Parameters
+    ----------
+    root : numpy.random.SeedSequence
+        The sweep's root sequence: its `rng` after the seed conversion
+        (``SeedSequence(result.entropy, spawn_key=result.spawn_key)`` for a
+        :class:`SweepResult` ``result``).
+    point, unit : int
+        The grid point's index and the seed unit's index (≥ 0); unit `unit`
+        holds trials ``unit * SEED_BLOCK`` up to ``(unit + 1) * SEED_BLOCK``.
+
+    Examples
+    --------
+    >>> root = np.random.SeedSequence(7)
+    >>> spawned = np.random.SeedSequence(7).spawn(2)[1].spawn(3)[2]
+    >>> unit_rng(root, 1, 2).random() == np.random.Generator(np.random.PCG64(spawned)).random()
+    True
+    """
+    root, point, unit = _unit_rng_iv(root, point, unit)
+    seq = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, point, unit),
+                                 pool_size=root.pool_size)
     return np.random.Generator(np.random.PCG64(seq))
+
+
+def _unit_rng_iv(root, point, unit) -> tuple[np.random.SeedSequence, int, int]:
+    """Validate :func:`unit_rng`'s arguments."""
+    if not isinstance(root, np.random.SeedSequence):
+        raise TypeError("`root` must be a numpy.random.SeedSequence (the sweep's root); "
+                        f"received {_describe(root)}")
+    return root, as_int(point, "point", minimum=0), as_int(unit, "unit", minimum=0)
 
 
 def _as_outputs(out, n: int) -> dict:
@@ -596,7 +626,7 @@ def _as_outputs(out, n: int) -> dict:
     return result
 
 
-def _run_task(params, point, units, *, experiment, trials, entropy, spawn_key, pool_size):
+def _run_task(params, point, units, *, experiment, trials, root):
     """One task: seed units `units` of grid point `point`, concatenated in trial order.
 
     Module-level (picklable), so a Dask worker runs exactly what the local path runs.
@@ -605,7 +635,7 @@ def _run_task(params, point, units, *, experiment, trials, entropy, spawn_key, p
     for unit in units:
         start = unit * SEED_BLOCK
         n = min(SEED_BLOCK, trials - start)
-        rng = _unit_rng(entropy, spawn_key, pool_size, point, unit)
+        rng = unit_rng(root, point, unit)
         parts.append(_as_outputs(experiment(dict(params), n, rng), n))
     first = parts[0]
     for part in parts[1:]:
@@ -777,7 +807,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
     Notes
     -----
     Seed unit :math:`j` (trials :math:`j n_u, \dots, (j+1) n_u - 1`, :math:`n_u` =
-    :data:`SEED_BLOCK`) of grid point :math:`i` draws from
+    :data:`SEED_BLOCK`) of grid point :math:`i` draws from :func:`unit_rng`,
     ``Generator(PCG64(SeedSequence(entropy, spawn_key=spawn_key + (i, j))))``:
     the sequence ``root.spawn(points)[i].spawn(units)[j]`` would give, built
     directly so no state is shared between tasks. (Do not also use the
@@ -821,7 +851,6 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
 
     n_units = -(-trials // SEED_BLOCK)
     per_task = block // SEED_BLOCK
-    seed = (root.entropy, tuple(root.spawn_key), root.pool_size)
     tasks = [(i, b, tuple(range(b * per_task, min((b + 1) * per_task, n_units))))
              for i in range(len(points)) for b in range(-(-n_units // per_task))]
 
@@ -862,14 +891,13 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
                 i, _, units = task
                 try:
                     result = _run_task(points[i], i, units, experiment=experiment,
-                                       trials=trials, entropy=seed[0], spawn_key=seed[1],
-                                       pool_size=seed[2])
+                                       trials=trials, root=root)
                 except Exception as exc:
                     raise failed(task, exc) from exc
                 place(task, result)
                 bar.update()
         else:
-            _run_on_cluster(client, experiment, points, tasks, trials, seed, place, failed, bar)
+            _run_on_cluster(client, experiment, points, tasks, trials, root, place, failed, bar)
     finally:
         bar.close()
 
@@ -880,13 +908,11 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
                        time.perf_counter() - start_time, backend)
 
 
-def _run_on_cluster(client, experiment, points, tasks, trials, seed, place, failed, bar):
+def _run_on_cluster(client, experiment, points, tasks, trials, root, place, failed, bar):
     """Run the first task, check the output size, then map the rest; place as they finish."""
     from distributed import as_completed
 
-    entropy, spawn_key, pool_size = seed
-    shared = {"experiment": experiment, "trials": trials, "entropy": entropy,
-              "spawn_key": spawn_key, "pool_size": pool_size}
+    shared = {"experiment": experiment, "trials": trials, "root": root}
 
     def submit(batch):
         return client.map(_run_task, [points[i] for i, _, _ in batch],
