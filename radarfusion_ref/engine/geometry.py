@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import _describe, as_float_array, as_positive, as_rng, broadcast
+from ._validation import _describe, as_float, as_float_array, as_positive, as_rng, broadcast
 
 __all__ = [
     "SIGMA_BETA_MAX",
@@ -69,11 +69,8 @@ def _sigma_beta_iv(value, name: str = "sigma_beta", *, strict: bool = False) -> 
 
 
 def _scalar(value, name: str, *, positive: bool = False) -> float:
-    """One finite real number (a 0-d array or Python/numpy scalar)."""
-    arr = as_positive(value, name) if positive else as_float_array(value, name)
-    if arr.ndim:
-        raise ValueError(f"`{name}` must be a single number; received {_describe(value)}")
-    return float(arr)
+    """One finite real number (a 0-d array or Python/numpy scalar), > 0 if `positive`."""
+    return as_float(as_positive(value, name) if positive else value, name)
 
 
 # --------------------------------------------------------------------------- geometry

@@ -43,6 +43,7 @@ from ._validation import (
     _describe,
     as_bool,
     as_choice,
+    as_float,
     as_float_array,
     as_int,
     as_probability,
@@ -58,9 +59,7 @@ __all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_toleran
 
 def _as_sigmas(sigmas) -> float:
     """A tolerance in standard errors: finite, in (0, 10]."""
-    if isinstance(sigmas, bool) or not isinstance(sigmas, (int, float, np.integer, np.floating)):
-        raise TypeError(f"`sigmas` must be a real number; received {_describe(sigmas)}")
-    s = float(sigmas)
+    s = as_float(sigmas, "sigmas")
     if not (0 < s <= 10):
         raise ValueError(f"`sigmas` must lie in (0, 10] standard errors (a wider tolerance "
                          f"cannot fail); received {sigmas!r}")

@@ -6,16 +6,12 @@ import math
 
 import numpy as np
 
-from .._validation import as_float_array, as_probability, check_size
+from .._validation import as_float, as_float_array, as_probability, check_size
 
 
 def _as_gap(gap, name: str = "gap") -> float:
     """A relative gap: one number in the open interval (0, 1)."""
-    g = as_probability(gap, name)
-    if g.ndim:
-        raise ValueError(f"`{name}` must be a number in the open interval (0, 1); received "
-                         f"shape {g.shape}")
-    return float(g)
+    return as_float(as_probability(gap, name), name)
 
 
 def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:

@@ -29,13 +29,6 @@ _TWO_RADAR_COPIES = 5
 
 
 # ----------------------------------------------------------------------------- helpers
-def _number(arr: np.ndarray, name: str) -> float:
-    """A validated 0-d array as a float (one number expected)."""
-    if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single number; received shape {arr.shape}")
-    return float(arr)
-
-
 def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
     """:func:`check_size`, with the public argument named in the message."""
     try:

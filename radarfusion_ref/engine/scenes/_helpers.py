@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import (
+    as_float,
     as_float_array,
     as_positive,
 )
@@ -72,12 +73,8 @@ def ellipse_covariance(angle, major, minor) -> np.ndarray:
     array([[1., 0.],
            [0., 4.]])
     """
-    arrays = (as_float_array(angle, "angle"), as_positive(major, "major"),
-              as_positive(minor, "minor"))
-    for name, v in zip(("angle", "major", "minor"), arrays, strict=True):
-        if v.ndim:
-            raise TypeError(f"`{name}` must be a scalar; received an array of shape {v.shape}")
-    theta, a, b = (float(v) for v in arrays)
+    theta = as_float(angle, "angle")
+    a, b = (as_float(as_positive(v, n), n) for v, n in ((major, "major"), (minor, "minor")))
     if a * a == 0 or b * b == 0 or not np.isfinite(a * a):
         raise ValueError(f"`major`, `minor` must square to positive finite variances; "
                          f"received {major!r}, {minor!r}")

@@ -10,6 +10,7 @@ import numpy as np
 from .._validation import (
     MEMORY_LIMIT,
     as_choice,
+    as_float,
     as_int,
     as_positive,
     as_probability,
@@ -22,7 +23,6 @@ from ._base import (
     LAYOUTS,
     Scene,
     _limit,
-    _number,
     _types_iv,
 )
 
@@ -262,9 +262,9 @@ def two_radar_scene(n_objects: int, *, spacing: float, layout: str = "line", sig
     n = as_int(n_objects, "n_objects", minimum=1)
     trials = as_int(trials, "trials", minimum=1)
     dim = as_int(dim, "dim", minimum=1)
-    spacing = _number(as_positive(spacing, "spacing"), "spacing")
-    s1 = _number(as_positive(sigma1, "sigma1"), "sigma1")
-    s2 = _number(as_positive(sigma2, "sigma2"), "sigma2")
+    spacing = as_float(as_positive(spacing, "spacing"), "spacing")
+    s1 = as_float(as_positive(sigma1, "sigma1"), "sigma1")
+    s2 = as_float(as_positive(sigma2, "sigma2"), "sigma2")
     layout = as_choice(layout, "layout", LAYOUTS)
     _limit(8 * _TWO_RADAR_COPIES * trials * n * dim, MEMORY_LIMIT, name="trials",
            what=f"bytes of scenes ({trials} trials x {n} objects x dim {dim})",
@@ -338,10 +338,10 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, layout: str = "li
     >>> s.reports1.shape[0], s.true_row_to_col.shape == s.owner1.shape
     (3, True)
     """
-    pd1 = _number(as_probability(p_detect1, "p_detect1", open_interval=False), "p_detect1")
-    pd2 = _number(as_probability(p_detect2, "p_detect2", open_interval=False), "p_detect2")
-    lam1 = _number(as_positive(false_density1, "false_density1", strict=False), "false_density1")
-    lam2 = _number(as_positive(false_density2, "false_density2", strict=False), "false_density2")
+    pd1 = as_float(as_probability(p_detect1, "p_detect1", open_interval=False), "p_detect1")
+    pd2 = as_float(as_probability(p_detect2, "p_detect2", open_interval=False), "p_detect2")
+    lam1 = as_float(as_positive(false_density1, "false_density1", strict=False), "false_density1")
+    lam2 = as_float(as_positive(false_density2, "false_density2", strict=False), "false_density2")
     rng = as_rng(rng)
     base = two_radar_scene(n_objects, spacing=spacing, layout=layout, sigma1=sigma1,
                            sigma2=sigma2, trials=trials, dim=dim, rng=rng)
@@ -446,8 +446,8 @@ def typed_scene(n_objects: int, *, spacing: float, layout: str = "line", sigma1:
     ((4, 3), (4, 3), 2)
     """
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
-    fs1 = _number(as_positive(feature_sigma1, "feature_sigma1"), "feature_sigma1")
-    fs2 = _number(as_positive(feature_sigma2, "feature_sigma2"), "feature_sigma2")
+    fs1 = as_float(as_positive(feature_sigma1, "feature_sigma1"), "feature_sigma1")
+    fs2 = as_float(as_positive(feature_sigma2, "feature_sigma2"), "feature_sigma2")
     model = as_choice(model, "model", FEATURE_MODELS)
     rng = as_rng(rng)
     coords = two_radar_scene(n_objects, spacing=spacing, layout=layout, sigma1=sigma1,
