@@ -10,6 +10,7 @@ import numpy as np
 from ..engine._validation import (
     _describe,
     as_choice,
+    as_float,
     as_float_array,
     as_probability,
 )
@@ -18,7 +19,7 @@ from ..engine.assignment._checks import (
     _as_threshold,
 )
 from ..engine.montecarlo import Proportion, proportion
-from ._rules import _as_decisions, _scalar, associate_joint, associate_pointwise
+from ._rules import _as_decisions, associate_joint, associate_pointwise
 
 
 # --------------------------------------------------------------------------- Monte Carlo
@@ -329,7 +330,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     True
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
-    a = _scalar(as_probability(alpha, "alpha", open_interval=False), "alpha")
+    a = as_float(as_probability(alpha, "alpha", open_interval=False), "alpha")
     error = as_choice(error, "error", ("false_accept", "false_reject"))
     outcome = outcome_by_gate(c, t, rule)
     wide = error == "false_accept"

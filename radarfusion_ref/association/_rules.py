@@ -26,13 +26,6 @@ from ..engine.assignment._checks import (
 from ..engine.assignment._two_d import _BLOCK_BYTES, _injections, _make_result
 
 
-def _scalar(arr: np.ndarray, name: str) -> float:
-    """A validated 0-d array as a float (one number expected)."""
-    if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single number; received shape {arr.shape}")
-    return float(arr)
-
-
 def _as_decisions(value, name: str) -> np.ndarray:
     """``row_to_col`` vectors: integers >= -1, at least one axis, not empty."""
     if value is None or isinstance(value, (str, bytes, bool, np.bool_)):

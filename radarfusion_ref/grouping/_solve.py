@@ -14,6 +14,7 @@ from ..engine._validation import (
     as_bool,
     as_choice,
     as_covariance,
+    as_float,
     as_float_array,
     as_int,
     as_positive,
@@ -196,11 +197,10 @@ def _detection_iv(m, p_detect, false_density, object_density):
     for name, value, lo_ok, hi in (("p_detect", p_detect, False, 1.0),
                                    ("false_density", false_density, True, None),
                                    ("object_density", object_density, False, None)):
-        a = as_float_array(value, name)
         if name == "object_density":
-            if a.ndim != 0:
-                raise ValueError(f"`object_density` must be a number; received shape {a.shape}")
+            a = as_float(value, name)
         else:
+            a = as_float_array(value, name)
             try:
                 a = np.broadcast_to(a, (m,)).astype(float)
             except ValueError:
@@ -588,19 +588,11 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     if time_limit is not None:
         time_limit = float(as_positive(time_limit, "time_limit"))
     method = as_choice(method, "method", ("milp", "lagrangian"))
-    gap = as_probability(gap, "gap")
-    if gap.ndim:
-        raise ValueError(f"`gap` must be a number in the open interval (0, 1); received shape "
-                         f"{gap.shape}")
-    gap = float(gap)
+    gap = as_float(as_probability(gap, "gap"), "gap")
     max_iter = as_int(max_iter, "max_iter", minimum=1)
     p_lo = None
     if p_false_reject is not None:
-        p_lo = as_probability(p_false_reject, "p_false_reject")
-        if p_lo.ndim:
-            raise ValueError("`p_false_reject` must be a number in (0, 1); received shape "
-                             f"{p_lo.shape}")
-        p_lo = float(p_lo)
+        p_lo = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
     why = (f"pair gate P_lo = {p_lo:g}" if p_lo is not None else "no gate")
     median_logdet = as_bool(median_logdet, "median_logdet")
     with_det = p_detect is not None or false_density is not None or object_density is not None
