@@ -276,8 +276,39 @@ def _information(s, t, sr, sb, b=None):
     lead = np.broadcast_shapes(t.shape[:-2], b.shape[:-2])
     t = np.broadcast_to(t, (*lead, *t.shape[-2:]))
     b = np.broadcast_to(b, (*lead, m, 3))
-    _, B, G = _blocks(s, t, b, sr, sb)
-    return reduced_information(B, G), _known_object_information(B)
+    with np.errstate(over="ignore", invalid="ignore"):
+        _, B, G = _blocks(s, t, b, sr, sb)
+        reference = _known_object_information(B)
+        _require_finite_information(reference, G, sr, sb)
+        return reduced_information(B, G), reference
+
+
+def _require_finite_information(reference, G, sr, sb) -> None:
+    """Refuse, by name, sigmas so small that the information overflows float64."""
+    *lead, m3 = reference.shape
+    per_bias = reference.reshape(*lead, m3 // 3, 3)
+    for bad, name, sigma, what in (
+            (~np.isfinite(per_bias[..., :2]), "sigma_r", sr, "(range / sigma_r)**2"),
+            (~np.isfinite(per_bias[..., 2]) | ~np.isfinite(G).all(axis=(-4, -3, -2, -1))[..., None],
+             "sigma_beta", sb, "1 / (sigma_beta * range)**2")):
+        if np.any(bad):
+            raise ValueError(
+                f"`{name}` = {float(np.min(sigma)):.3g}: the Fisher information of the biases, "
+                f"which grows as {what}, overflows float64 at these ranges; use a larger "
+                f"`{name}` (or express lengths in a unit where the ranges are nearer 1)")
+
+
+def _require_determined(V, iteration: int) -> None:
+    """Refuse, naming `reports`, when an object's reports do not fix its position."""
+    det = V[..., 0, 0] * V[..., 1, 1] - V[..., 0, 1] * V[..., 1, 0]
+    ok = np.isfinite(det) & (det > 1e-12 * (V[..., 0, 0] + V[..., 1, 1]) ** 2)
+    if not np.all(ok):
+        k = int(np.argwhere(~ok)[0][-1])
+        raise ValueError(
+            f"`reports`: these reports do not determine the biases: object {k}'s position is "
+            f"not fixed by its reports at the biases of iteration {iteration} (its reports do "
+            "not describe one object); check the association (``reports[..., i, k]`` must be "
+            "every radar's report of the same object k) or start from a better `initial`")
 
 
 @dataclass(frozen=True)
@@ -528,15 +559,19 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
     mask = np.zeros(3 * m)
     mask[~free] = 1.0
 
-    def step(b, x):
-        pred, B, G = _blocks(s, x, b, sr, sb)
+    def step(b, x, iteration):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            pred, B, G = _blocks(s, x, b, sr, sb)
+        if iteration == 0:
+            _require_finite_information(_known_object_information(B), G, sr, sb)
+        _require_determined(_object_blocks(B, G)[1], iteration)
         B = B * free.reshape(m, 3)[:, None, None, :]           # fixed biases: no columns
         e = np.stack([(z[..., 0] - pred[..., 0]) / sr[:, None],
                       _wrap(z[..., 1] - pred[..., 1]) / sb[:, None]], axis=-1)
         info, grad, (W, V, gx, gvg) = _reduced(B, G, e)
         return info, grad, W, V, gx, gvg, e, B
 
-    info, grad, W, V, gx, gvg, e, B = step(b, x)
+    info, grad, W, V, gx, gvg, e, B = step(b, x, 0)
     flat_info = info.reshape(-1, 3 * m, 3 * m)
     flat_ref = np.broadcast_to(_known_object_information(B), (*lead, 3 * m)).reshape(-1, 3 * m)
     for k in range(flat_info.shape[0]):
@@ -546,7 +581,12 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
     while iterations < max_iter:
         iterations += 1
         a = info + np.diag(mask)
-        db = np.linalg.solve(a, grad[..., None])[..., 0]
+        try:
+            db = np.linalg.solve(a, grad[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise ValueError(f"`reports`: these reports do not determine the biases: the "
+                             f"bias information became singular at iteration {iterations}; "
+                             "check the association of `reports`") from None
         dx = np.linalg.solve(V, (gx - np.einsum("...kpa,...p->...ka", W, db))[..., None])[..., 0]
         # Gauss-Newton decrement g^T delta = db . grad_reduced + gx^T V^-1 gx
         decrement = np.einsum("...p,...p->...", db, grad) + gvg
@@ -555,7 +595,7 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
         if np.any(b[..., 1] <= -1):
             raise ValueError("`reports`: the range scale estimate left (-1, inf); the reports "
                              "are not consistent with the bias model (check the association)")
-        info, grad, W, V, gx, gvg, e, _ = step(b, x)
+        info, grad, W, V, gx, gvg, e, _ = step(b, x, iterations)
         if np.all(np.abs(decrement) < tol):
             converged = True
             break

@@ -108,6 +108,13 @@ def _elements(count: int, name: str) -> None:
                alternative="fewer trials per call (split the batch)")
 
 
+def _require_finite_range(out, r, name: str) -> None:
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"`{name}` and `biases`: the biased or corrected range overflows "
+                         f"float64 (largest `{name}` {float(np.max(r)):.3g}); express ranges "
+                         "in a larger unit")
+
+
 def _wrap(angle):
     """Angle wrapped to [-pi, pi)."""
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
@@ -155,10 +162,12 @@ def apply_biases(r, beta, biases):
     beta = as_float_array(beta, "beta")
     b = _biases_iv(biases)
     try:
-        out = ((1.0 + b[..., 1]) * r + b[..., 0], beta + b[..., 2])
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = ((1.0 + b[..., 1]) * r + b[..., 0], beta + b[..., 2])
     except ValueError:
         raise ValueError(f"`r`, `beta` and `biases[..., :]` must broadcast; received shapes "
                          f"{r.shape}, {beta.shape}, {b.shape}") from None
+    _require_finite_range(out[0], r, "r")
     return tuple(np.asarray(o) for o in np.broadcast_arrays(*out))
 
 
@@ -198,11 +207,13 @@ def remove_biases(r_hat, beta_hat, biases):
     beta = as_float_array(beta_hat, "beta_hat")
     b = _biases_iv(biases)
     try:
-        rc = (r - b[..., 0]) / (1.0 + b[..., 1])
+        with np.errstate(over="ignore", invalid="ignore"):
+            rc = (r - b[..., 0]) / (1.0 + b[..., 1])
         bc = beta - b[..., 2]
     except ValueError:
         raise ValueError(f"`r_hat`, `beta_hat` and `biases[..., :]` must broadcast; received "
                          f"shapes {r.shape}, {beta.shape}, {b.shape}") from None
+    _require_finite_range(rc, r, "r_hat")
     if np.any(rc <= 0):
         raise ValueError("`biases`: the range offset exceeds a measured range, so a corrected "
                          f"range is not positive; received smallest corrected range "
