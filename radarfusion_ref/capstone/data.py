@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine._validation import MEMORY_LIMIT, _describe, as_positive, check_size
+from ..engine._validation import MEMORY_LIMIT, _describe, as_float, as_positive, check_size
 from ..engine.geodesy import geodetic_to_enu
 
 __all__ = [
@@ -231,22 +231,14 @@ class TruthScans:
         return int(self.times.size)
 
 
-def _scalar(value, name, *, positive=True):
-    """A single finite number, > 0 (or >= 0 with ``positive=False``)."""
-    v = as_positive(value, name, strict=positive)
-    if v.ndim:
-        raise ValueError(f"`{name}` must be a number; received {_describe(value)}")
-    return float(v)
-
-
 def _truth_iv(traffic, period, start, duration, max_gap):
     if not isinstance(traffic, Traffic):
         raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
                         f"{_describe(traffic)}")
-    period = _scalar(period, "period")
-    start = _scalar(start, "start", positive=False)
-    duration = _scalar(duration, "duration")
-    max_gap = _scalar(max_gap, "max_gap")
+    period = as_float(as_positive(period, "period"), "period")
+    start = as_float(as_positive(start, "start", strict=False), "start")
+    duration = as_float(as_positive(duration, "duration"), "duration")
+    max_gap = as_float(as_positive(max_gap, "max_gap"), "max_gap")
     n_scans = math.ceil(duration / period - 1e-9)
     check_size(8 * 8 * n_scans * len(traffic.icao24), MEMORY_LIMIT,
                what=f"bytes of truth rows ({n_scans} scans of `duration` / `period` x "

@@ -14,10 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import _describe, as_choice, as_int
+from ..engine._validation import _describe, as_choice, as_float, as_int, as_positive
 from ..engine.metrics import NeesResult, gospa, nees, purity
 from ..engine.montecarlo import Proportion, proportion
-from .data import TruthScans, _scalar
+from .data import TruthScans
 from .pipeline import PipelineResult
 from .radars import _coverage_count, _radars_iv
 from .tracking import TrackFusionResult
@@ -125,8 +125,8 @@ def _evaluate_iv(result, truth, c, p, scope):
     if not isinstance(truth, TruthScans):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
                         f"{_describe(truth)}")
-    c = _scalar(c, "c")
-    p = _scalar(p, "p")
+    c = as_float(as_positive(c, "c"), "c")
+    p = as_float(as_positive(p, "p"), "p")
     if p < 1:
         raise ValueError(f"`p` must be >= 1; received {p!r}")
     scope = as_choice(scope, "scope", ("covered", "all"))
@@ -236,8 +236,8 @@ def _evaluate_tracks_iv(tracks, truth, radars, c, p, min_radars):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
                         f"{_describe(truth)}")
     radars = _radars_iv(radars)
-    c = _scalar(c, "c")
-    p = _scalar(p, "p")
+    c = as_float(as_positive(c, "c"), "c")
+    p = as_float(as_positive(p, "p"), "p")
     if p < 1:
         raise ValueError(f"`p` must be >= 1; received {p!r}")
     min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))

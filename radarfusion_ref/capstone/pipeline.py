@@ -26,6 +26,7 @@ from ..engine._validation import (
     _describe,
     as_bool,
     as_choice,
+    as_float,
     as_int,
     as_probability,
 )
@@ -136,11 +137,8 @@ class PipelineSettings:
                                                        minimum=1))
         object.__setattr__(self, "method", as_choice(self.method, "method",
                                                      ("milp", "lagrangian")))
-        p = as_probability(self.p_false_reject, "p_false_reject")
-        if p.ndim:
-            raise ValueError(f"`p_false_reject` must be a number in (0, 1); received "
-                             f"{_describe(self.p_false_reject)}")
-        object.__setattr__(self, "p_false_reject", float(p))
+        object.__setattr__(self, "p_false_reject", as_float(as_probability(
+            self.p_false_reject, "p_false_reject"), "p_false_reject"))
 
 
 @dataclass(frozen=True)

@@ -16,10 +16,9 @@ import numpy as np
 
 from .. import gating, trackfusion
 from ..engine import assignment
-from ..engine._validation import _describe, as_choice, as_int, as_probability
+from ..engine._validation import _describe, as_choice, as_float, as_int, as_positive, as_probability
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.metrics import purity
-from .data import _scalar
 from .pipeline import PipelineResult
 
 __all__ = ["TrackFusionResult", "track_fusion"]
@@ -118,13 +117,10 @@ def _track_iv(result, period, q, rule, confirm, max_misses, p_false_reject):
     if not isinstance(result, PipelineResult) or result.report_position is None:
         raise TypeError(f"`result` must be a PipelineResult from run_pipeline; received "
                         f"{_describe(result)}")
-    p_lo = as_probability(p_false_reject, "p_false_reject")
-    if p_lo.ndim:
-        raise ValueError(f"`p_false_reject` must be a number in (0, 1); received "
-                         f"{_describe(p_false_reject)}")
-    return (_scalar(period, "period"), _scalar(q, "q"),
+    p_lo = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
+    return (as_float(as_positive(period, "period"), "period"), as_float(as_positive(q, "q"), "q"),
             as_choice(rule, "rule", ("ci", "naive")), as_int(confirm, "confirm", minimum=1),
-            as_int(max_misses, "max_misses", minimum=0), float(p_lo))
+            as_int(max_misses, "max_misses", minimum=0), p_lo)
 
 
 def track_fusion(result, *, period=10.0, q=10.0, rule="ci", confirm=2, max_misses=2,

@@ -33,7 +33,7 @@ import matplotlib as mpl
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..engine._validation import _describe, as_float_array, as_int
+from ..engine._validation import _describe, as_float, as_float_array, as_int
 from ..engine.errors import RadarFusionWarning
 
 __all__ = ["controls", "sweep_player", "slider", "MIN_FRAMES", "PLAYER_DPI", "PRINT_DPI",
@@ -99,14 +99,6 @@ class Player:
         return f"<sweep player: {self.data.count('data:image/png;base64')} frames>"
 
 
-def _as_number(value, name: str) -> float:
-    """A finite real scalar (not a bool or a string)."""
-    arr = as_float_array(value, name)
-    if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single finite number; received {_describe(value)}")
-    return float(arr)
-
-
 def _as_bool(value, name: str) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"`{name}` must be True or False; received {_describe(value)}")
@@ -158,8 +150,8 @@ def slider(value: float, lo: float, hi: float, step: float | None = None, *,
         value, lo, hi = (as_int(v, n) for v, n in ((value, "value"), (lo, "lo"), (hi, "hi")))
         step = None if step is None else as_int(step, "step", minimum=1)
     else:
-        value, lo, hi = (_as_number(v, n) for v, n in ((value, "value"), (lo, "lo"), (hi, "hi")))
-        if step is not None and not _as_number(step, "step") > 0:
+        value, lo, hi = (as_float(v, n) for v, n in ((value, "value"), (lo, "lo"), (hi, "hi")))
+        if step is not None and not as_float(step, "step") > 0:
             raise ValueError(f"`step` must be > 0; received {_describe(step)}")
     if not lo < hi:
         raise ValueError(f"`lo` must be below `hi`; received lo = {lo}, hi = {hi}")

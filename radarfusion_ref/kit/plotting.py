@@ -13,7 +13,14 @@ from contextlib import contextmanager
 import matplotlib as mpl
 import numpy as np
 
-from ..engine._validation import _describe, as_covariance, as_float_array, as_int, as_positive
+from ..engine._validation import (
+    _describe,
+    as_covariance,
+    as_float,
+    as_float_array,
+    as_int,
+    as_positive,
+)
 from ..engine.montecarlo import MeanEstimate, Proportion
 
 __all__ = [
@@ -64,13 +71,6 @@ def _as_axes(ax, name: str = "ax"):
         raise TypeError(f"`{name}` must be a matplotlib.axes.Axes (e.g. from plt.subplots()); "
                         f"received {_describe(ax)}")
     return ax
-
-
-def _as_scalar(arr, name: str) -> float:
-    """A validated 0-d array as a float, else a ValueError naming the argument."""
-    if np.ndim(arr) != 0:
-        raise ValueError(f"`{name}` must be a single number; received {_describe(arr)}")
-    return float(arr)
 
 
 def _as_result(value, cls, name: str, producer: str):
@@ -288,7 +288,7 @@ def plot_covariance_ellipse(ax, mean, cov, *, n_sigma: float = 2.0, **kwargs):
     cov = as_covariance(cov, "cov", dim=2)
     if cov.shape != (2, 2):
         raise ValueError(f"`cov` must have shape (2, 2); received shape {cov.shape}")
-    n_sigma = _as_scalar(as_positive(n_sigma, "n_sigma"), "n_sigma")
+    n_sigma = as_float(as_positive(n_sigma, "n_sigma"), "n_sigma")
     vals, vecs = np.linalg.eigh(cov)
     angle = np.degrees(np.arctan2(vecs[1, 1], vecs[0, 1]))
     kwargs.setdefault("fill", False)
@@ -371,7 +371,7 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
     from ..engine.scenes import TwoRadarScene
 
     ax = _as_axes(ax)
-    n_sigma = float(_as_scalar(as_positive(n_sigma, "n_sigma"), "n_sigma"))
+    n_sigma = as_float(as_positive(n_sigma, "n_sigma"), "n_sigma")
     if scene is not None:
         if not isinstance(scene, TwoRadarScene):
             raise TypeError("`scene` must be a radarfusion_ref.engine.scenes.TwoRadarScene; "
