@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import _describe, as_float, as_float_array, as_positive, as_rng, broadcast
+from ._validation import _describe, as_float, as_float_array, as_positive, broadcast
 
 __all__ = [
     "SIGMA_BETA_MAX",
@@ -217,24 +217,6 @@ def _polar_sigmas_iv(sigma_r, sigma_beta, geometry: Geometry) -> tuple[float, fl
 
 
 # --------------------------------------------------------------------------- block draws
-def _root_seed(rng) -> np.random.SeedSequence:
-    """The root SeedSequence of a call: from a seed, a SeedSequence or a Generator.
-
-    A Generator contributes 128 bits drawn from it, so consecutive calls with
-    one Generator get independent draws, and a seeded Generator is reproducible.
-    """
-    if isinstance(rng, np.random.SeedSequence):
-        return rng
-    if isinstance(rng, np.random.Generator):
-        return np.random.SeedSequence(rng.integers(0, 2**32, size=4, dtype=np.uint64).tolist())
-    if rng is None:
-        return np.random.SeedSequence()
-    gen = as_rng(rng)                       # validates (and refuses a RandomState)
-    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
-        return np.random.SeedSequence(int(rng))
-    return np.random.SeedSequence(gen.integers(0, 2**32, size=4, dtype=np.uint64).tolist())
-
-
 def _normal_blocks(root: np.random.SeedSequence, n: int, trials: int):
     """Standard normals of shape (4, n, L) per block of :data:`BLOCK_TRIALS` trials."""
     for k, start in enumerate(range(0, trials, BLOCK_TRIALS)):

@@ -17,6 +17,7 @@ from ..engine._validation import (
     as_int,
     as_probability,
     as_rng,
+    as_seed_sequence,
     check_size,
 )
 from ..engine.geometry import (
@@ -25,7 +26,6 @@ from ..engine.geometry import (
     _as_geometry,
     _normal_chunks,
     _polar_sigmas_iv,
-    _root_seed,
     _scalar,
 )
 from ..engine.linalg import mahalanobis_sq_pairwise
@@ -217,7 +217,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
                what=f"bytes of working memory for `chunk_size` = {chunk}",
                alternative=f"a `chunk_size` of at most {MEMORY_LIMIT // per_trial}")
     p_lo = _scalar(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
-    root = _root_seed(rng)
+    root = as_seed_sequence(rng)
     th = float(gating.gate_threshold(p_lo, 2))
     th_joint = float(gating.gate_threshold(p_lo, 2 * n))
     k = len(meths)

@@ -9,6 +9,7 @@ import numpy as np
 from .._validation import (
     MEMORY_LIMIT,
     as_int,
+    as_seed_sequence,
     check_size,
 )
 from ..geometry import (
@@ -17,7 +18,6 @@ from ..geometry import (
     _as_geometry,
     _normal_blocks,
     _polar_sigmas_iv,
-    _root_seed,
 )
 from ._base import (
     Scene,
@@ -138,7 +138,7 @@ def polar_scene(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     n_t = geo.targets.shape[0]
     check_size(8 * 8 * n_t * n, MEMORY_LIMIT, what="bytes of polar reports for `trials`",
                alternative="association_experiment (chunked) or several smaller calls")
-    root = _root_seed(rng)
+    root = as_seed_sequence(rng)
     (r1, b1), (r2, b2) = geo.polar1, geo.polar2
     z = np.concatenate(list(_normal_blocks(root, n_t, n)), axis=-1)   # trial axis last
     r1 = r1[:, None] + sr * z[0]
