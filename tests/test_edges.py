@@ -7,12 +7,14 @@ argument and the value received. Reference values come from closed forms typed i
 
 from __future__ import annotations
 
+import inspect
 import warnings
 
 import numpy as np
 import pytest
 
 from radarfusion_ref import registration as rg
+from radarfusion_ref import trackfusion as tf
 
 SITES = np.array([[0.0, 0.0], [30.0, 0.0]])
 OBJS = np.array([[0.0, 60.0], [30.0, 70.0], [-20.0, 50.0], [10.0, 80.0], [45.0, 55.0]])
@@ -58,3 +60,112 @@ def test_apply_and_remove_biases_never_return_inf():
         rg.remove_biases(1e308, 0.1, [0.0, -0.9, 0.0])
     r, b = rg.apply_biases(1e307, 0.1, [0.0, 1.0, 0.0])           # 2e307: representable
     assert float(r) == pytest.approx(2e307, rel=1e-15) and float(b) == 0.1
+
+
+# --------------------------------------------------------------------------- own names
+_P = np.array([[2.0, 0.3], [0.3, 1.0]])
+_F, _Q = np.array([[1.0, 1.0], [0.0, 1.0]]), np.array([[0.25, 0.5], [0.5, 1.0]])
+_H, _R = np.array([[1.0, 0.0]]), np.array([[4.0]])
+_Z = rg.draw_biased_reports(SITES, OBJS, np.zeros((2, 3)), 0.05, 1e-3, rng=0)
+_B = np.zeros((2, 3))
+
+#: A valid call of every public function of registration and trackfusion, by keyword.
+VALID = {
+    rg.apply_biases: dict(r=100.0, beta=0.5, biases=[0.2, 1e-3, 0.01]),
+    rg.remove_biases: dict(r_hat=100.0, beta_hat=0.5, biases=[0.2, 1e-3, 0.01]),
+    rg.true_polar: dict(sensors=SITES, targets=OBJS),
+    rg.bias_displacement: dict(sensors=SITES, targets=OBJS, biases=_B),
+    rg.bias_information: dict(sensors=SITES, targets=OBJS, sigma_r=0.05, sigma_beta=1e-3,
+                              biases=_B),
+    rg.observability: dict(sensors=SITES, targets=OBJS, sigma_r=0.05, sigma_beta=1e-3,
+                           fixed=np.zeros((2, 3), bool)),
+    rg.noncentrality: dict(sensors=SITES, targets=OBJS, biases=_B, sigma_r=0.05,
+                           sigma_beta=1e-3),
+    rg.cost_matrix: dict(sensors=SITES, reports1=_Z[0], reports2=_Z[1], sigma_r=0.05,
+                         sigma_beta=1e-3, biases=_B),
+    rg.to_cartesian: dict(sensors=SITES, reports=_Z, sigma_r=0.05, sigma_beta=1e-3, biases=_B),
+    rg.draw_biased_reports: dict(sensors=SITES, targets=OBJS, biases=_B, sigma_r=0.05,
+                                 sigma_beta=1e-3, trials=2, rng=1),
+    rg.estimate_biases: dict(sensors=SITES, reports=_Z, sigma_r=0.05, sigma_beta=1e-3,
+                             fixed=np.zeros((2, 3), bool), initial=_B, max_iter=50, tol=1e-10),
+    rg.reduced_information: dict(jac_bias=np.ones((2, 1, 2, 3)),
+                                 jac_object=np.broadcast_to(np.eye(2), (2, 1, 2, 2))),
+    rg.simulate_scene: dict(sensors=SITES, targets=OBJS, biases=_B, sigma_r=0.05,
+                            sigma_beta=1e-3, p_detect=0.9, rng=1),
+    rg.register_and_associate: dict(sensors=SITES, reports1=_Z[0], reports2=_Z[1], sigma_r=0.05,
+                                    sigma_beta=1e-3, fixed=np.zeros((2, 3), bool), initial=_B,
+                                    p_false_reject=1e-3, max_iter=20, on_failure="warn"),
+    rg.association_accuracy: dict(sensors=SITES, biases=_B, sigma_r=0.05, sigma_beta=1e-3,
+                                  n_objects=4, region=[[-20, 40], [50, 90]], trials=2,
+                                  p_detect=1.0, p_false_reject=1e-3,
+                                  fixed=np.zeros((2, 3), bool), rng=1),
+    tf.naive_fusion: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2)),
+    tf.bar_shalom_campo: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2),
+                              P12=0.2 * np.eye(2)),
+    tf.covariance_intersection: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2),
+                                     criterion="det", omega=0.5),
+    tf.ci_weight: dict(P1=_P, P2=np.eye(2), criterion="trace"),
+    tf.track_statistic: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2),
+                             P12=0.2 * np.eye(2)),
+    tf.constant_velocity: dict(dt=1.0, q=0.5, dim=1, noise="continuous"),
+    tf.predict: dict(x=[0.0, 1.0], P=_P, dt=1.0, q=0.5, noise="continuous"),
+    tf.cross_covariance: dict(F=_F, Q=_Q, H1=_H, R1=_R, H2=_H, R2=2 * _R, steps=3,
+                              P1_0=10 * np.eye(2), P2_0=10 * np.eye(2), P12_0=np.zeros((2, 2))),
+    tf.simulate_tracks: dict(F=_F, Q=_Q, H1=_H, R1=_R, H2=_H, R2=2 * _R, steps=3, trials=2,
+                             P1_0=10 * np.eye(2), P2_0=10 * np.eye(2), x0=[0.0, 1.0], rng=1),
+}
+BAD = ["abc", np.nan, [[1.0, 2.0], [3.0]], np.full((3, 5, 7), 0.5)]
+#: Element-wise arguments: an array of another shape is a batch, not bad input.
+BATCH = {(rg.apply_biases, "r"), (rg.apply_biases, "beta"), (rg.remove_biases, "r_hat"),
+         (rg.remove_biases, "beta_hat"), (tf.constant_velocity, "dt"),
+         (tf.constant_velocity, "q"), (tf.predict, "dt"), (tf.predict, "q")}
+
+
+def test_every_public_function_has_a_valid_call_here():
+    public = {getattr(m, n) for m in (rg, tf) for n in m.__all__
+              if inspect.isfunction(getattr(m, n))}
+    assert public == set(VALID)
+    for fn, kw in VALID.items():
+        assert set(kw) == set(inspect.signature(fn).parameters), fn.__name__
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fn(**kw)
+
+
+@pytest.mark.parametrize(("fn", "arg"), [(fn, a) for fn, kw in VALID.items() for a in kw],
+                         ids=[f"{fn.__name__}-{a}" for fn, kw in VALID.items() for a in kw])
+def test_bad_input_to_each_argument_is_refused_under_its_own_name(fn, arg):
+    for bad in BAD[:3] if (fn, arg) in BATCH else BAD:
+        kw = dict(VALID[fn], **{arg: bad})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with pytest.raises((ValueError, TypeError)) as err:
+                fn(**kw)
+        assert f"`{arg}`" in str(err.value), (repr(bad)[:40], str(err.value))
+
+
+# --------------------------------------------------------------------------- trackfusion
+HUGE_X = dict(x1=[1e308, 0.0], x2=[-1e308, 0.0])
+
+
+@pytest.mark.parametrize("rule", [tf.naive_fusion, tf.bar_shalom_campo,
+                                  tf.covariance_intersection, tf.track_statistic])
+def test_fusion_rules_never_return_inf_or_nan(rule):
+    # bar_shalom_campo returned [-inf, nan] for tracks at +-1e308 (x2 - x1 overflowed)
+    kw = dict(VALID[rule], **HUGE_X)
+    with pytest.raises(ValueError, match=r"`x1`.*2\*\*150"):
+        rule(**kw)
+    for P in (1e-310 * np.eye(2), 1e300 * np.eye(2)):        # subnormal / huge variances
+        with pytest.raises(ValueError, match=r"`P1`.*numeric domain"):
+            rule(**dict(VALID[rule], P1=P))
+    # inside the domain, at its extremes: finite, and the closed form for equal covariances
+    big = dict(VALID[rule], x1=[2.0**149, 0.0], x2=[-(2.0**149), 0.0], P1=np.eye(2),
+               P2=np.eye(2))
+    if rule is tf.bar_shalom_campo:
+        big["P12"] = 0.5 * np.eye(2)
+    out = rule(**big)
+    if rule is tf.track_statistic:
+        assert np.isfinite(out) or out == pytest.approx(0.0)
+    else:
+        np.testing.assert_allclose(out.estimate, [0.0, 0.0], atol=1e-9 * 2.0**149)
+        assert np.all(np.isfinite(out.covariance))

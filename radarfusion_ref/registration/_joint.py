@@ -13,7 +13,6 @@ from ..engine._validation import (
     as_choice,
     as_float_array,
     as_int,
-    as_probability,
     as_rng,
 )
 from ..engine.errors import RadarFusionWarning
@@ -29,6 +28,7 @@ from ._model import (
     _elements,
     _fixed_iv,
     _polar_reports_iv,
+    _probability_iv,
     _radar_biases_iv,
     _sensors_iv,
     _sigmas_iv,
@@ -231,7 +231,7 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
         raise ValueError(f"`initial` must have shape (2, 3); received shape {b.shape}")
     b[fx] = 0.0
     gate = None if p_false_reject is None else float(
-        gating.gate_threshold(as_probability(p_false_reject, "p_false_reject"), 2))
+        gating.gate_threshold(_probability_iv(p_false_reject, "p_false_reject"), 2))
     max_iter = as_int(max_iter, "max_iter", minimum=1, maximum=1000)
     on_failure = as_choice(on_failure, "on_failure", ("warn", "raise"))
     _elements(z1.shape[0] * z2.shape[0], "reports1")
@@ -352,7 +352,7 @@ def simulate_scene(sensors, targets, biases, sigma_r, sigma_beta, *, p_detect=1.
     t = _targets_iv(targets, s)
     if t.ndim != 2:
         raise ValueError(f"`targets` must have shape (n, 2), one scene; received shape {t.shape}")
-    pd = float(as_probability(p_detect, "p_detect", open_interval=False))
+    pd = _probability_iv(p_detect, "p_detect", open_interval=False)
     if pd <= 0:
         raise ValueError(f"`p_detect` must lie in (0, 1]; received {p_detect!r}")
     gen = as_rng(rng)
@@ -456,9 +456,13 @@ def association_accuracy(sensors, biases, sigma_r, sigma_beta, *, n_objects: int
         raise ValueError(f"`region` must be [[x_min, y_min], [x_max, y_max]] with max > min; "
                          f"received {_describe(reg)}")
     trials = as_int(trials, "trials", minimum=1, maximum=100_000)
+    _fixed_iv(fixed, 2)                         # refused here, not swallowed per trial below
+    _sigmas_iv(sigma_r, sigma_beta, 2)
+    if _probability_iv(p_detect, "p_detect", open_interval=False) <= 0:
+        raise ValueError(f"`p_detect` must lie in (0, 1]; received {p_detect!r}")
     gen = as_rng(rng)
     gate = None if p_false_reject is None else float(
-        gating.gate_threshold(as_probability(p_false_reject, "p_false_reject"), 2))
+        gating.gate_threshold(_probability_iv(p_false_reject, "p_false_reject"), 2))
     ok = np.zeros((4, trials), dtype=bool)
     for k in range(trials):
         x = gen.uniform(reg[0], reg[1], size=(n, 2))

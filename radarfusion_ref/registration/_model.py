@@ -13,6 +13,7 @@ from ..engine._validation import (
     as_float_array,
     as_int,
     as_positive,
+    as_probability,
     as_rng,
     check_size,
 )
@@ -72,7 +73,10 @@ def _radar_biases_iv(biases, m: int, name: str = "biases") -> np.ndarray:
 def _fixed_iv(fixed, m: int) -> np.ndarray:
     if fixed is None:
         return np.zeros((m, 3), dtype=bool)
-    arr = np.asarray(fixed)
+    try:
+        arr = np.asarray(fixed)
+    except ValueError:
+        arr = np.asarray(None)                  # ragged: refused just below, by name
     if arr.dtype != bool:
         raise TypeError(f"`fixed` must be a boolean array of shape ({m}, 3) (True = bias known "
                         f"to be zero); received {_describe(fixed)}")
@@ -81,6 +85,14 @@ def _fixed_iv(fixed, m: int) -> np.ndarray:
     if arr.all():
         raise ValueError("`fixed` holds every bias fixed: nothing is left to estimate")
     return arr
+
+
+def _probability_iv(value, name: str, *, open_interval: bool = True) -> float:
+    """One probability (a scalar), refused by name otherwise."""
+    p = as_probability(value, name, open_interval=open_interval)
+    if p.ndim:
+        raise ValueError(f"`{name}` must be a single probability; received {_describe(value)}")
+    return float(p)
 
 
 def _polar_reports_iv(reports, name: str, m: int | None = None) -> np.ndarray:

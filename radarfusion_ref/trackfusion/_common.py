@@ -9,10 +9,10 @@ import numpy as np
 from ..engine._validation import (
     MEMORY_LIMIT,
     _describe,
-    as_covariance,
     as_float_array,
     check_size,
 )
+from ..engine.linalg import _as_cov, _check_domain
 
 #: The criteria :func:`covariance_intersection` minimises.
 CRITERIA = ("det", "trace")
@@ -195,9 +195,14 @@ def _pair_iv(x1, P1, x2, P2, P12=None):
     d = x1.shape[-1]
     if d < 1:
         raise ValueError(f"`x1` must have shape (..., d) with d >= 1; received shape {x1.shape}")
-    x2 = as_float_array(x2, "x2", ndim_min=1, last_dims=(d,))
-    P1 = as_covariance(P1, "P1", dim=d)
-    P2 = as_covariance(P2, "P2", dim=d)
+    x2 = as_float_array(x2, "x2", ndim_min=1)
+    if x2.shape[-1] != d:
+        raise ValueError(f"`x1` and `x2` must have the same dimension d (last axis); received "
+                         f"shapes {x1.shape} and {x2.shape}")
+    _check_domain(x1, "x1")
+    _check_domain(x2, "x2")
+    P1 = _as_cov(P1, "P1", d)                   # the PD rule and the variance domain
+    P2 = _as_cov(P2, "P2", d)
     mats = {"x1": x1[..., None], "P1": P1, "x2": x2[..., None], "P2": P2}
     if P12 is not None:
         P12 = as_float_array(P12, "P12", ndim_min=2, last_dims=(d, d))
@@ -219,10 +224,10 @@ def _pair_iv(x1, P1, x2, P2, P12=None):
     return out
 
 
-def _solve(a, b):
-    """Batched solve of a x = b for matrix b (..., d, k)."""
+def _solve(a, b, name: str):
+    """Batched solve of a x = b for matrix b (..., d, k); `name` is the public argument behind `a`."""
     try:
         return np.linalg.solve(a, b)
     except np.linalg.LinAlgError:
-        raise ValueError("a covariance is numerically singular; rescale the state "
+        raise ValueError(f"`{name}`: a covariance is numerically singular; rescale the state "
                          "(for example km instead of m)") from None

@@ -218,10 +218,12 @@ def _model_iv(F, Q, H1, R1, H2, R2):
     return lead, d, {k: np.broadcast_to(v, (*lead, *v.shape[-2:])) for k, v in out.items()}
 
 
-def _update(M, H, R):
-    """Kalman update of a predicted covariance M: gain K and Joseph-form covariance."""
+def _update(M, H, R, name):
+    """Kalman update of a predicted covariance M: gain K and Joseph-form covariance.
+
+    `name` is the public argument of `R` (for the refusal of a singular innovation covariance)."""
     S = _sym(H @ M @ np.swapaxes(H, -1, -2) + R)                       # H M Hᵀ + Σ
-    K = np.swapaxes(_solve(S, H @ M), -1, -2)                          # M Hᵀ S^-1
+    K = np.swapaxes(_solve(S, H @ M, name), -1, -2)                    # M Hᵀ S^-1
     A = np.eye(M.shape[-1]) - K @ H                                    # I - K H
     P = _sym(A @ M @ np.swapaxes(A, -1, -2) + K @ R @ np.swapaxes(K, -1, -2))
     return K, A, P
@@ -324,8 +326,8 @@ def cross_covariance(F, Q, H1, R1, H2, R2, *, steps=None, P1_0=None, P2_0=None,
         check_size(int(np.prod(lead, dtype=object)) * d**4, MAX_BATCH,
                    what="entries of the steady-state systems (batch × d⁴)",
                    alternative="several calls on slices of the batch")
-        K1, A1, P1 = _update(_steady(F, Q, m["H1"], m["R1"], "R1"), m["H1"], m["R1"])
-        K2, A2, P2 = _update(_steady(F, Q, m["H2"], m["R2"], "R2"), m["H2"], m["R2"])
+        K1, A1, P1 = _update(_steady(F, Q, m["H1"], m["R1"], "R1"), m["H1"], m["R1"], "R1")
+        K2, A2, P2 = _update(_steady(F, Q, m["H2"], m["R2"], "R2"), m["H2"], m["R2"], "R2")
         B1, B2 = A1 @ F, A2 @ F
         # vec(B1 X B2ᵀ) = (B1 ⊗ B2) vec(X) for row-major vec
         kron = np.einsum("...ij,...kl->...ikjl", B1, B2).reshape(*lead, d * d, d * d)
@@ -352,8 +354,8 @@ def cross_covariance(F, Q, H1, R1, H2, R2, *, steps=None, P1_0=None, P2_0=None,
         _joint_psd(P1, P2, P12, names=("P1_0", "P2_0", "P12_0"))
     hist = {k: [] for k in ("P1", "P2", "P12", "K1", "K2")}
     for _ in range(steps):
-        K1, A1, P1 = _update(F @ P1 @ Ft + Q, m["H1"], m["R1"])
-        K2, A2, P2 = _update(F @ P2 @ Ft + Q, m["H2"], m["R2"])
+        K1, A1, P1 = _update(F @ P1 @ Ft + Q, m["H1"], m["R1"], "R1")
+        K2, A2, P2 = _update(F @ P2 @ Ft + Q, m["H2"], m["R2"], "R2")
         P12 = A1 @ (F @ P12 @ Ft + Q) @ np.swapaxes(A2, -1, -2)    # common process noise only
         for k, v in zip(hist, (P1, P2, P12, K1, K2), strict=True):
             hist[k].append(v)

@@ -8,11 +8,10 @@ import numpy as np
 from ..engine._validation import (
     _describe,
     as_choice,
-    as_covariance,
     as_float_array,
     unwrap,
 )
-from ..engine.linalg import _check_domain, _kappa, is_positive_definite
+from ..engine.linalg import _as_cov, _check_domain, _kappa, is_positive_definite
 from ..fusion import fuse_gaussian
 from ._common import (
     _OMEGA_STEPS,
@@ -140,7 +139,7 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
         raise ValueError("`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x2 - x1) is singular: "
                          "the two tracks differ by a deterministic amount and carry the same "
                          "information; use either track")
-    W = np.swapaxes(_solve(U, P1 - P21), -1, -2)                # W = (P1 - P12) U^-1
+    W = np.swapaxes(_solve(U, P1 - P21, "P12"), -1, -2)                # W = (P1 - P12) U^-1
     estimate = x1 + (W @ (x2 - x1)[..., None])[..., 0]         # x1 + W (x2 - x1)
     covariance = _sym(P1 - W @ (P1 - P21))                      # P1 - (P1 - P12) U^-1 (P1 - P21)
     return TrackEstimate(estimate, covariance)
@@ -203,8 +202,8 @@ def ci_weight(P1, P2, *, criterion="det"):
 
 def _ci_informations(P1, P2):
     """Validated, broadcast ``P1^-1, P2^-1``."""
-    P1 = as_covariance(P1, "P1")
-    P2 = as_covariance(P2, "P2", dim=P1.shape[-1])
+    P1 = _as_cov(P1, "P1")                      # the PD rule and the variance domain
+    P2 = _as_cov(P2, "P2", P1.shape[-1])
     try:
         lead = np.broadcast_shapes(P1.shape[:-2], P2.shape[:-2])
     except ValueError:
@@ -212,7 +211,7 @@ def _ci_informations(P1, P2):
                          f"{P1.shape}, {P2.shape}") from None
     eye = np.eye(P1.shape[-1])
     P1, P2 = (np.broadcast_to(P, (*lead, *P.shape[-2:])) for P in (P1, P2))
-    return _sym(_solve(P1, eye)), _sym(_solve(P2, eye))
+    return _sym(_solve(P1, eye, "P1")), _sym(_solve(P2, eye, "P2"))
 
 
 def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
@@ -274,7 +273,7 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     criterion = as_choice(criterion, "criterion", CRITERIA)
     x1, P1, x2, P2 = _pair_iv(x1, P1, x2, P2)
     eye = np.eye(x1.shape[-1])
-    I1, I2 = _sym(_solve(P1, eye)), _sym(_solve(P2, eye))      # P1^-1, P2^-1
+    I1, I2 = _sym(_solve(P1, eye, "P1")), _sym(_solve(P2, eye, "P2"))   # P1^-1, P2^-1
     if omega is None:
         w = np.asarray(ci_weight(P1, P2, criterion=criterion), dtype=float)
     else:
@@ -291,7 +290,7 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     ww = w[..., None, None]
     J = _sym(ww * I1 + (1 - ww) * I2)                           # P~^-1
     y = ww[..., 0] * (I1 @ x1[..., None])[..., 0] + (1 - ww[..., 0]) * (I2 @ x2[..., None])[..., 0]
-    covariance = _sym(_solve(J, eye))
+    covariance = _sym(_solve(J, eye, "P1`, `P2"))
     estimate = (covariance @ y[..., None])[..., 0]
     return CovarianceIntersection(estimate, covariance, w[()] if w.ndim == 0 else w, criterion)
 
