@@ -5,7 +5,7 @@ The truth is one hour of ADS-B records over Switzerland (2018-08-01 11:00–12:0
 samples, shipped inside this package (``capstone/data/``). The subpackage has one
 module per concept:
 
-* :mod:`~radarfusion_ref.capstone.data` — loads the hour (:func:`load_traffic`, read
+* :mod:`~radarfusion_ref.capstone.traffic` — loads the hour (:func:`load_traffic`, read
   with :mod:`importlib.resources`) and interpolates the aircraft at the scan times in
   the east-north-up frame about :data:`ORIGIN` (:func:`truth_scans`; the WGS-84
   projection is :func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`);
@@ -31,17 +31,6 @@ module per concept:
    data", JOSS 4(39) 1518 (2019) — the source of the ADS-B samples.
 """
 
-from .data import (
-    COLUMNS,
-    DATA_FILE,
-    ORIGIN,
-    SPEED_BOUNDS,
-    SPEED_CLASSES,
-    Traffic,
-    TruthScans,
-    load_traffic,
-    truth_scans,
-)
 from .evaluation import Evaluation, TrackEvaluation, evaluate, evaluate_tracks
 from .pipeline import (
     MIN_REGISTRATION_GROUPS,
@@ -54,6 +43,17 @@ from .pipeline import (
 )
 from .radars import RADAR_SITES, Radar, Reports, coverage_count, default_radars, simulate_reports
 from .tracking import TrackFusionResult, track_fusion
+from .traffic import (
+    COLUMNS,
+    DATA_FILE,
+    ORIGIN,
+    SPEED_BOUNDS,
+    SPEED_CLASSES,
+    Traffic,
+    TruthScans,
+    load_traffic,
+    truth_scans,
+)
 
 __all__ = [
     "COLUMNS",

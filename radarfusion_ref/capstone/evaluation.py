@@ -17,10 +17,10 @@ import numpy as np
 from ..engine._validation import _describe, as_choice, as_float, as_int, as_positive
 from ..engine.metrics import NeesResult, gospa, nees, purity
 from ..engine.montecarlo import Proportion, proportion
-from .data import TruthScans
 from .pipeline import PipelineResult
 from .radars import _coverage_count, _radars_iv
 from .tracking import TrackFusionResult
+from .traffic import TruthScans
 
 __all__ = ["Evaluation", "TrackEvaluation", "evaluate", "evaluate_tracks"]
 

@@ -159,7 +159,7 @@ class PipelineResult:
         Fused speed feature (kt) and its variance.
     class_prob : numpy.ndarray, shape (G, K)
         Posterior probability of each speed class
-        (:data:`radarfusion_ref.capstone.data.SPEED_CLASSES`).
+        (:data:`radarfusion_ref.capstone.traffic.SPEED_CLASSES`).
     group_of : numpy.ndarray of int, shape (N,)
         For every report, the index of its group in the scan's grouping, numbered over the
         whole run (singletons included) — the full partition of the reports.

@@ -1,7 +1,7 @@
 r"""The capstone's radars: sites, accuracy, biases, detection, clutter, and their reports.
 
 Frames. All geometry lives in the common ENU frame about
-:data:`radarfusion_ref.capstone.data.ORIGIN`; each radar measures range, azimuth
+:data:`radarfusion_ref.capstone.traffic.ORIGIN`; each radar measures range, azimuth
 (counter-clockwise from east, as in :mod:`radarfusion_ref.conversion`) and elevation
 of the aircraft's common-frame position relative to its own common-frame position. A
 real radar measures in its own local frame, which is rotated against the common one
@@ -22,7 +22,7 @@ import numpy as np
 from .. import registration
 from ..engine._validation import _describe, as_float_array, as_rng
 from ..engine.geodesy import geodetic_to_enu
-from .data import ORIGIN, TruthScans
+from .traffic import ORIGIN, TruthScans
 
 __all__ = [
     "RADAR_SITES",
@@ -270,7 +270,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
     Parameters
     ----------
     truth : TruthScans
-        From :func:`radarfusion_ref.capstone.data.truth_scans`.
+        From :func:`radarfusion_ref.capstone.traffic.truth_scans`.
     radars : sequence of Radar
         E.g. :func:`default_radars`.
     rng : None, int or numpy.random.Generator, optional
@@ -284,7 +284,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
     Raises
     ------
     TypeError
-        If `truth` is not a :class:`~radarfusion_ref.capstone.data.TruthScans`, `radars`
+        If `truth` is not a :class:`~radarfusion_ref.capstone.traffic.TruthScans`, `radars`
         not a sequence of :class:`Radar` or `rng` not a seed or generator.
     ValueError
         Invalid radar parameters (named).
@@ -302,7 +302,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
 
     Examples
     --------
-    >>> from radarfusion_ref.capstone.data import load_traffic, truth_scans
+    >>> from radarfusion_ref.capstone.traffic import load_traffic, truth_scans
     >>> tr = truth_scans(load_traffic(), duration=30.0)
     >>> rep = simulate_reports(tr, default_radars(), rng=1)
     >>> int(rep.n_scans)

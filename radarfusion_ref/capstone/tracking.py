@@ -134,7 +134,7 @@ def track_fusion(result, *, period=10.0, q=10.0, rule="ci", confirm=2, max_misse
         the converted reports it keeps).
     period : float, optional
         Scan period (s, default 10), as given to
-        :func:`radarfusion_ref.capstone.data.truth_scans`.
+        :func:`radarfusion_ref.capstone.traffic.truth_scans`.
     q : float, optional
         Process-noise intensity of the constant-velocity model (m²/s³, default 10:
         :func:`radarfusion_ref.trackfusion.constant_velocity`, continuous white noise).
