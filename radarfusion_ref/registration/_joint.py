@@ -15,6 +15,7 @@ from ..engine._validation import (
     as_int,
     as_rng,
 )
+from ..engine.assignment import Association
 from ..engine.errors import RadarFusionWarning
 from ..engine.montecarlo import proportion
 from ._estimation import (
@@ -74,7 +75,7 @@ class Registration:
         Final bias estimates.
     estimate : BiasEstimate
         The last bias estimate (covariance, CRLB, objects) from the final pairs.
-    association : radarfusion_ref.association.Association
+    association : radarfusion_ref.engine.assignment.Association
         The association of the reports corrected with the final biases.
     history : tuple of RegistrationStep
         Every pass, in order.
@@ -84,7 +85,7 @@ class Registration:
 
     biases: np.ndarray
     estimate: BiasEstimate
-    association: association.Association
+    association: Association
     history: tuple[RegistrationStep, ...]
     converged: bool
 
