@@ -15,7 +15,8 @@ import textwrap
 import pytest
 from book_tools import ROOT, ChapterExecutionError, execute_chapter
 
-#: chapter → (module, function, wrapper). The wrapper is Python source of a
+#: chapter (``page`` or ``page:variant`` for a further mutation of the same page) →
+#: (module, function, wrapper). The wrapper is Python source of a
 #: function ``wrap(f)`` returning the perturbed function (``np``, ``dataclasses``
 #: and ``functools`` are available to it).
 MUTATIONS = {
@@ -93,6 +94,14 @@ MUTATIONS = {
                 return dataclasses.replace(r, covariance=np.asarray(r.covariance) * 1.01)
             return g
         """),
+    # a plausible bug: ω optimised for the trace whatever criterion is asked for
+    "book/10_trackfusion:ci-criterion": ("radarfusion_ref.trackfusion", "ci_weight", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(P1, P2, *, criterion="det"):
+                return f(P1, P2, criterion="trace")
+            return g
+        """),
     "book/11_capstone": ("radarfusion_ref.engine.metrics", "gospa", """
         def wrap(f):
             @functools.wraps(f)
@@ -137,7 +146,7 @@ def preamble(module: str, name: str, wrap: str) -> str:
 def test_a_broken_function_stops_its_chapter_at_a_check(docname):
     module, name, wrap = MUTATIONS[docname]
     with pytest.raises(ChapterExecutionError) as info:
-        execute_chapter(ROOT / f"{docname}.md", cache_dir=None,
+        execute_chapter(ROOT / f"{docname.split(':')[0]}.md", cache_dir=None,
                         preamble=preamble(module, name, wrap))
     text = str(info.value)
     assert any(err in text for err in CHECK_ERRORS), (
