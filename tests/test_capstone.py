@@ -556,7 +556,7 @@ def test_ablation_features(coarse):
 
 def test_ablation_logdet(coarse):
     truth, radars, rep, base = coarse
-    nold = cp.evaluate(cp.run_pipeline(rep, radars, dataclasses.replace(NOREG, logdet=False)), truth,
+    nold = cp.evaluate(cp.run_pipeline(rep, radars, dataclasses.replace(NOREG, median_logdet=True)), truth,
                        c=5000.0)
     assert nold.mean_gospa > base.mean_gospa
     assert nold.purity.estimate <= base.purity.estimate
@@ -600,7 +600,7 @@ def test_pipeline_bad_input(short, short_runs):
         cp.run_pipeline(rep, "radars")
     with pytest.raises(ValueError, match="`reports`"):
         cp.run_pipeline(rep, radars[:2])
-    for name, bad in (("debias", 1), ("register", "yes"), ("logdet", None),
+    for name, bad in (("debias", 1), ("register", "yes"), ("median_logdet", None),
                       ("use_features", 0.0), ("warmup", "10")):
         with pytest.raises(TypeError, match=f"`{name}`"):
             cp.PipelineSettings(**{name: bad})

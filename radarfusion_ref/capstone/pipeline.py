@@ -81,11 +81,11 @@ class PipelineSettings:
         estimate_biases`, scale errors fixed at 0) from the groups of all radars in the
         first `warmup` scans (grouped without correction, then again with the first
         estimate), and remove them from every report (default). ``False``: no correction.
-    logdet : bool
-        Keep the :math:`\ln|2\pi S|` term of the ML grouping cost (default). ``False``
-        replaces it by its median over the scan's candidate groups of each size, so only
-        its variation between groups is removed (:func:`radarfusion_ref.grouping.group_sd`
-        with ``median_logdet=True``).
+    median_logdet : bool
+        As in :func:`radarfusion_ref.grouping.group_sd`: ``False`` (default) keeps the
+        :math:`\ln|2\pi S|` term of the ML grouping cost as it is; ``True`` replaces it by
+        its median over the scan's candidate groups of each size, so only its variation
+        between groups is removed (the ablation of the term).
     use_features : bool
         Group on position and speed feature (4-D reports; default) or on position only.
     warmup : int
@@ -122,7 +122,7 @@ class PipelineSettings:
 
     debias: bool = True
     register: bool = True
-    logdet: bool = True
+    median_logdet: bool = False
     use_features: bool = True
     warmup: int = 30
     p_false_reject: float = 1e-3
@@ -130,7 +130,7 @@ class PipelineSettings:
     min_reports: int = 2
 
     def __post_init__(self):
-        for name in ("debias", "register", "logdet", "use_features"):
+        for name in ("debias", "register", "median_logdet", "use_features"):
             object.__setattr__(self, name, as_bool(getattr(self, name), name))
         object.__setattr__(self, "warmup", as_int(self.warmup, "warmup", minimum=1))
         object.__setattr__(self, "min_reports", as_int(self.min_reports, "min_reports",
@@ -321,7 +321,7 @@ def _group(reports, radars, x, cov, linked, settings):
                 method=settings.method, p_false_reject=settings.p_false_reject,
                 p_detect=pd_[active], false_density=false_density[active],
                 object_density=object_density,
-                median_logdet=not settings.logdet).groups
+                median_logdet=settings.median_logdet).groups
             tuples = np.full((g.shape[0], m), -1, dtype=np.int64)
             for c, i in enumerate(active):
                 ok = g[:, c] >= 0
