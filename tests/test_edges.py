@@ -169,3 +169,11 @@ def test_fusion_rules_never_return_inf_or_nan(rule):
     else:
         np.testing.assert_allclose(out.estimate, [0.0, 0.0], atol=1e-9 * 2.0**149)
         assert np.all(np.isfinite(out.covariance))
+
+
+@pytest.mark.parametrize(("sigma_r", "sigma_beta"), [(1e-30, 1e-3), (0.05, 1e-30)])
+def test_cost_matrix_blames_the_sigmas_for_singular_report_covariances(sigma_r, sigma_beta):
+    # the refusal named `reports1`, whose values were fine
+    z = rg.draw_biased_reports(SITES, OBJS, np.zeros((2, 3)), 0.05, 1e-3, rng=1)
+    with pytest.raises(ValueError, match=r"^`sigma_r`, `sigma_beta`.*1e-30"):
+        rg.cost_matrix(SITES, z[0], z[1], sigma_r, sigma_beta)

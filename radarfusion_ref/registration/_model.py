@@ -18,7 +18,7 @@ from ..engine._validation import (
     check_size,
 )
 from ..engine.geometry import _sigma_beta_iv
-from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
+from ..engine.linalg import is_positive_definite, mahalanobis_sq, mahalanobis_sq_pairwise
 
 #: Names of the three biases of one radar, in the order of the last axis.
 BIAS_NAMES = ("range_offset", "range_scale", "azimuth_offset")
@@ -524,6 +524,13 @@ def cost_matrix(sensors, reports1, reports2, sigma_r, sigma_beta, *, biases=None
         cv = conversion.polar_to_cartesian(r, beta, sr[k], sb[k])
         c.append((cv.xy + s[k], cv.cov))
     (x1, c1), (x2, c2) = c
+    for k, cov in enumerate((c1, c2)):
+        if not np.all(is_positive_definite(cov)):
+            raise ValueError(
+                f"`sigma_r`, `sigma_beta`: radar {k}'s report covariances are singular to "
+                f"working precision (sigma_r = {sr[k]:.3g}, sigma_beta = {sb[k]:.3g} rad at "
+                f"ranges up to {float(np.max(z1[..., 0] if k == 0 else z2[..., 0])):.3g}: "
+                "ellipses too thin for float64); no proximity can be computed from them")
     try:
         return np.asarray(mahalanobis_sq_pairwise(x1, x2, c1, c2), dtype=float)
     except ValueError as exc:   # the engine names its own arguments; name ours
