@@ -171,9 +171,24 @@ def test_fusion_rules_never_return_inf_or_nan(rule):
         assert np.all(np.isfinite(out.covariance))
 
 
+@pytest.mark.filterwarnings("ignore:.*singular or nearly so")
 @pytest.mark.parametrize(("sigma_r", "sigma_beta"), [(1e-30, 1e-3), (0.05, 1e-30)])
 def test_cost_matrix_blames_the_sigmas_for_singular_report_covariances(sigma_r, sigma_beta):
     # the refusal named `reports1`, whose values were fine
     z = rg.draw_biased_reports(SITES, OBJS, np.zeros((2, 3)), 0.05, 1e-3, rng=1)
     with pytest.raises(ValueError, match=r"^`sigma_r`, `sigma_beta`.*1e-30"):
         rg.cost_matrix(SITES, z[0], z[1], sigma_r, sigma_beta)
+
+
+# --------------------------------------------------------------------------- metrics
+def test_nees_refuses_under_its_own_argument_names():
+    from radarfusion_ref.engine.metrics import nees
+
+    # the refusal named `d`, the engine kernel's argument
+    with pytest.raises(ValueError, match=r"^`error`.*2\*\*150"):
+        nees([[1e200, 0.0]], [np.eye(2)])
+    with pytest.raises(ValueError, match=r"^`cov`.*1e-300"):
+        nees([[1.0, 0.0]], [1e-300 * np.eye(2)])
+    # at the edge of the domain: the closed form e^2 / var
+    r = nees([[2.0**140, 0.0]], [2.0**140 * np.eye(2)])
+    assert r.values[0] == 2.0**140

@@ -33,7 +33,7 @@ from ._validation import (
     as_probability,
     check_size,
 )
-from .linalg import mahalanobis_sq
+from .linalg import _as_cov, _check_domain, mahalanobis_sq
 from .montecarlo import Proportion, proportion
 
 __all__ = ["GospaResult", "NeesResult", "PurityResult", "gospa", "nees", "purity"]
@@ -235,10 +235,12 @@ def _nees_iv(error, cov, level):
     if e.ndim != 2 or e.shape[0] == 0 or e.shape[1] == 0:
         raise ValueError(f"`error` must hold N >= 1 errors of shape (N, d); received shape "
                          f"{e.shape}")
+    _check_domain(e, "error")
     P = as_float_array(cov, "cov", ndim_min=3)
     if P.shape != (*e.shape, e.shape[1]):
         raise ValueError(f"`cov` must have shape {(*e.shape, e.shape[1])} (one covariance per "
                          f"error); received shape {P.shape}")
+    P = _as_cov(P, "cov", e.shape[1])              # the PD rule and the variance domain
     lv = as_probability(level, "level")
     if lv.ndim:
         raise ValueError(f"`level` must be a number in (0, 1); received {_describe(level)}")
