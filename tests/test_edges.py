@@ -192,3 +192,29 @@ def test_nees_refuses_under_its_own_argument_names():
     # at the edge of the domain: the closed form e^2 / var
     r = nees([[2.0**140, 0.0]], [2.0**140 * np.eye(2)])
     assert r.values[0] == 2.0**140
+
+
+@pytest.mark.parametrize("k", [1e-100, 1e100, 1e150])
+def test_bias_estimate_at_extreme_units_is_computed(k):
+    # at 1e150 the right association was refused as "object 0's position is not fixed" (an
+    # absolute determinant test underflowed); the estimate is the same in any unit
+    z = rg.draw_biased_reports(SITES, OBJS, [[1.0, 0, 0], [0, 0, 0]], 0.05, 1e-3, rng=1)
+    ref = rg.estimate_biases(SITES, z, 0.05, 1e-3).biases
+    est = rg.estimate_biases(SITES * k, z * [k, 1.0], 0.05 * k, 1e-3).biases
+    np.testing.assert_allclose(est / [k, 1.0, 1.0], ref, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("k", [1e-300, 1e300])
+def test_information_outside_float64_is_refused_naming_sigma_r(k):
+    # at 1e300 the refusal named the internal `jac_object`
+    for call in (lambda: rg.observability(SITES * k, OBJS * k, 0.05 * k, 1e-3),
+                 lambda: rg.bias_information(SITES * k, OBJS * k, 0.05 * k, 1e-3)):
+        with pytest.raises(ValueError, match=r"^`sigma_r` = 5e[+-]"):
+            call()
+
+
+def test_noncentrality_outside_the_domain_names_the_sigmas():
+    # the refusal named the kernel's `cov`
+    k = 1e150
+    with pytest.raises(ValueError, match=r"^`sigma_r`, `sigma_beta`.*numeric domain"):
+        rg.noncentrality(SITES * k, OBJS * k, [[k, 0, 0], [0, 0, 0]], 0.05 * k, 1e-3)

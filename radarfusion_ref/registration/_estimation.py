@@ -276,32 +276,50 @@ def _information(s, t, sr, sb, b=None):
     lead = np.broadcast_shapes(t.shape[:-2], b.shape[:-2])
     t = np.broadcast_to(t, (*lead, *t.shape[-2:]))
     b = np.broadcast_to(b, (*lead, m, 3))
-    with np.errstate(over="ignore", invalid="ignore"):
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
         _, B, G = _blocks(s, t, b, sr, sb)
         reference = _known_object_information(B)
-        _require_finite_information(reference, G, sr, sb)
+        _require_representable_information(reference, G, sr, sb)
         return reduced_information(B, G), reference
 
 
-def _require_finite_information(reference, G, sr, sb) -> None:
-    """Refuse, by name, sigmas so small that the information overflows float64."""
+def _require_representable_information(reference, G, sr, sb) -> None:
+    """Refuse, by name, sigmas for which the information leaves float64's normal range.
+
+    `reference` (…, 3m) is the biases' information with the objects known, `G`
+    (…, m, n, 2, 2) the whitened Jacobians of the objects, whose range rows go as
+    1/sigma_r and azimuth rows as 1/(sigma_beta * range); a zero or subnormal entry
+    has lost every digit.
+    """
     *lead, m3 = reference.shape
     per_bias = reference.reshape(*lead, m3 // 3, 3)
+    v_diag = np.einsum("...ikab,...ikab->...ka", G, G)              # (…, n, 2): range, azimuth
+    tiny, huge = np.finfo(float).tiny, np.finfo(float).max
+
+    def out_of_range(a):
+        return ~((a >= tiny) & (a <= huge))
+
     for bad, name, sigma, what in (
-            (~np.isfinite(per_bias[..., :2]), "sigma_r", sr, "(range / sigma_r)**2"),
-            (~np.isfinite(per_bias[..., 2]) | ~np.isfinite(G).all(axis=(-4, -3, -2, -1))[..., None],
-             "sigma_beta", sb, "1 / (sigma_beta * range)**2")):
+            (out_of_range(per_bias[..., :2]).any(-1)
+             | out_of_range(v_diag[..., 0]).any(-1)[..., None],
+             "sigma_r", sr, "1 / sigma_r**2"),
+            (out_of_range(per_bias[..., 2]) | out_of_range(v_diag[..., 1]).any(-1)[..., None],
+             "sigma_beta", sb, "1 / sigma_beta**2 and 1 / (sigma_beta * range)**2")):
         if np.any(bad):
             raise ValueError(
-                f"`{name}` = {float(np.min(sigma)):.3g}: the Fisher information of the biases, "
-                f"which grows as {what}, overflows float64 at these ranges; use a larger "
-                f"`{name}` (or express lengths in a unit where the ranges are nearer 1)")
+                f"`{name}` = {float(np.min(sigma)):.3g}: the Fisher information of the biases "
+                f"and objects, which goes as {what}, leaves float64's range [{tiny:.3g}, "
+                f"{huge:.3g}] at these ranges; express lengths in a unit where the ranges "
+                f"and `sigma_r` are nearer 1")
 
 
 def _require_determined(V, iteration: int) -> None:
     """Refuse, naming `reports`, when an object's reports do not fix its position."""
-    det = V[..., 0, 0] * V[..., 1, 1] - V[..., 0, 1] * V[..., 1, 0]
-    ok = np.isfinite(det) & (det > 1e-12 * (V[..., 0, 0] + V[..., 1, 1]) ** 2)
+    # unit-free: 1 - rho**2 of V scaled to a unit diagonal (det V / (V00 V11))
+    a, c = np.sqrt(V[..., 0, 0]), np.sqrt(V[..., 1, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = V[..., 0, 1] / a / c
+    ok = (a > 0) & (c > 0) & np.isfinite(rho) & (1.0 - rho**2 > 1e-12)
     if not np.all(ok):
         k = int(np.argwhere(~ok)[0][-1])
         raise ValueError(
@@ -560,10 +578,10 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
     mask[~free] = 1.0
 
     def step(b, x, iteration):
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
             pred, B, G = _blocks(s, x, b, sr, sb)
-        if iteration == 0:
-            _require_finite_information(_known_object_information(B), G, sr, sb)
+            if iteration == 0:
+                _require_representable_information(_known_object_information(B), G, sr, sb)
         _require_determined(_object_blocks(B, G)[1], iteration)
         B = B * free.reshape(m, 3)[:, None, None, :]           # fixed biases: no columns
         e = np.stack([(z[..., 0] - pred[..., 0]) / sr[:, None],

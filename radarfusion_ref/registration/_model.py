@@ -18,7 +18,12 @@ from ..engine._validation import (
     check_size,
 )
 from ..engine.geometry import _sigma_beta_iv
-from ..engine.linalg import is_positive_definite, mahalanobis_sq, mahalanobis_sq_pairwise
+from ..engine.linalg import (
+    MAX_MAGNITUDE,
+    is_positive_definite,
+    mahalanobis_sq,
+    mahalanobis_sq_pairwise,
+)
 
 #: Names of the three biases of one radar, in the order of the last axis.
 BIAS_NAMES = ("range_offset", "range_scale", "azimuth_offset")
@@ -462,7 +467,19 @@ def noncentrality(sensors, targets, biases, sigma_r, sigma_beta):
     cov = conversion.polar_to_cartesian(polar[..., 0], polar[..., 1], sr[:, None], sb[:, None]).cov
     # lambda = (mu1 - mu2)^T (Sigma1 + Sigma2)^-1 (mu1 - mu2)
     delta, summed = mu[..., 0, :, :] - mu[..., 1, :, :], cov[..., 0, :, :, :] + cov[..., 1, :, :, :]
+    _require_variance_domain(summed, sr, sb)
     return np.asarray(mahalanobis_sq(delta, summed), dtype=float)
+
+
+def _require_variance_domain(cov, sr, sb) -> None:
+    """Refuse, naming the sigmas, covariances outside the numeric domain of engine.linalg."""
+    var = np.diagonal(cov, axis1=-2, axis2=-1)
+    if var.size and (var.max() > MAX_MAGNITUDE or var.min() < 1.0 / MAX_MAGNITUDE):
+        raise ValueError(
+            f"`sigma_r`, `sigma_beta`: the report variances they give at these ranges, "
+            f"{var.min():.3g} to {var.max():.3g}, leave the numeric domain [2**-150, 2**150] "
+            f"(sigma_r = {np.max(sr):.3g}, sigma_beta = {np.max(sb):.3g}); express lengths "
+            "in a unit where ranges and sigma_r are nearer 1")
 
 
 def _two_radars_iv(sensors, sigma_r, sigma_beta):
