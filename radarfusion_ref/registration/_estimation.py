@@ -232,7 +232,8 @@ def bias_information(sensors, targets, sigma_r, sigma_beta, *, biases=None):
     Raises
     ------
     ValueError, TypeError
-        Bad shapes or values, named.
+        Bad shapes or values, named; `sigma_r` or `sigma_beta` for which the information
+        (as 1/sigma_r**2 and 1/(sigma_beta * range)**2) leaves float64's normal range.
 
     Notes
     -----
@@ -378,7 +379,8 @@ def observability(sensors, targets, sigma_r=1.0, sigma_beta=1e-3, *, fixed=None)
     Raises
     ------
     ValueError, TypeError
-        Bad shapes or values, named.
+        Bad shapes or values, named; `sigma_r` or `sigma_beta` for which the information
+        (as 1/sigma_r**2 and 1/(sigma_beta * range)**2) leaves float64's normal range.
 
     Notes
     -----
@@ -507,9 +509,11 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
     Raises
     ------
     ValueError
-        Bad shapes or values (named), fewer than two radars, or an
-        **unobservable configuration**: the free biases' information matrix
-        is rank deficient (the message names the unobservable combinations).
+        Bad shapes or values (named), fewer than two radars, sigmas whose
+        information leaves float64's range (named), an **unobservable
+        configuration**: the free biases' information matrix is rank deficient
+        (the message names the unobservable combinations), or reports that do
+        not determine the biases (typically a wrong association; named `reports`).
     TypeError
         Non-numeric input or a non-boolean `fixed`.
 
