@@ -309,6 +309,7 @@ def test_sparse_costs_with_nan_or_infinite_stored_entries_are_refused():
     (lambda: asg.solve_sd(np.ones((2, 2, 2)), method="greedy"), ValueError, "method"),
     (lambda: asg.solve_sd(np.ones((2, 2, 2)), max_iter=0), ValueError, "max_iter"),
     (lambda: asg.solve_sd(np.ones((2, 2, 2)), relaxation="yes"), TypeError, "relaxation"),
+    (lambda: asg.solve_sd(np.ones((2, 2, 2)), time_limit=[1.0, 2.0]), ValueError, "time_limit"),
     (lambda: asg.solve_sd(np.ones((2, 2, 2)), counts=[2, 2, 2]), ValueError, "counts"),
     (lambda: asg.solve_sd([1.0], [[0, -2]]), ValueError, "candidates"),
     (lambda: asg.solve_sd([1.0], [[-1, -1]]), ValueError, "candidates"),

@@ -671,7 +671,7 @@ def test_fuzz_bad_cost_names(value, fn):
     _raises_naming(["cost"], getattr(grouping, fn), GOOD_X, GOOD_COV, cost=value)
 
 
-@given(value=st.sampled_from([0.0, -1.0, np.nan, np.inf, "1", True, None]))
+@given(value=st.sampled_from([0.0, -1.0, np.nan, np.inf, "1", True, None, [5.0, 6.0]]))
 def test_fuzz_bad_time_limit(value):
     if value is None:
         return    # None means "no limit"

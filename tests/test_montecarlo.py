@@ -77,6 +77,7 @@ def test_mean_along_axis():
         ((1.5, 4), {}, "`successes`"),
         ((1, 0), {}, "`trials`"),
         ((1, 4), {"confidence": 1.0}, "`confidence`"),
+        ((1, 4), {"confidence": [0.9, 0.95]}, "`confidence` must be a single number"),
         ((1, 4), {"method": "exact"}, "`method`"),
         ((np.array([1, 2]), None), {}, "`successes`"),
     ],
@@ -84,6 +85,11 @@ def test_mean_along_axis():
 def test_bad_input(args, kwargs, match):
     with pytest.raises(ValueError, match=match):
         proportion(*args, **kwargs)
+
+
+def test_mean_confidence_is_one_number():
+    with pytest.raises(ValueError, match="`confidence` must be a single number"):
+        mean([1.0, 2.0, 3.0], confidence=[0.9, 0.95])
 
 
 def test_mean_needs_two_samples():

@@ -248,7 +248,7 @@ def proportion(successes, trials, *, confidence: float = 0.95,
     >>> proportion(np.array([True, False, True, True]), None).estimate
     0.75
     """
-    confidence = float(as_probability(confidence, "confidence"))
+    confidence = as_float(as_probability(confidence, "confidence"), "confidence")
     method = as_choice(method, "method", ("wilson", "clopper-pearson"))
     if trials is None:
         try:
@@ -312,7 +312,7 @@ def mean(samples, *, axis: int = -1, confidence: float = 0.95) -> MeanEstimate:
     (2.5, 0.6455)
     """
     x = as_float_array(samples, "samples", ndim_min=1)
-    confidence = float(as_probability(confidence, "confidence"))
+    confidence = as_float(as_probability(confidence, "confidence"), "confidence")
     axis = as_int(axis, "axis", minimum=-x.ndim, maximum=x.ndim - 1)
     n = x.shape[axis]
     if n < 2:

@@ -586,7 +586,7 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     cost = as_choice(cost, "cost", _COSTS)
     relaxation = as_bool(relaxation, "relaxation")
     if time_limit is not None:
-        time_limit = float(as_positive(time_limit, "time_limit"))
+        time_limit = as_float(as_positive(time_limit, "time_limit"), "time_limit")
     method = as_choice(method, "method", ("milp", "lagrangian"))
     gap = as_float(as_probability(gap, "gap"), "gap")
     max_iter = as_int(max_iter, "max_iter", minimum=1)

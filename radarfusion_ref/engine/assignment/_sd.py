@@ -11,6 +11,7 @@ from .._validation import (
     _describe,
     as_bool,
     as_choice,
+    as_float,
     as_float_array,
     as_int,
     as_positive,
@@ -192,7 +193,7 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
     max_iter = as_int(max_iter, "max_iter", minimum=1)
     relaxation = as_bool(relaxation, "relaxation")
     if time_limit is not None:
-        time_limit = float(as_positive(time_limit, "time_limit"))
+        time_limit = as_float(as_positive(time_limit, "time_limit"), "time_limit")
     integral = None
     if candidates is None:
         if counts is not None:
