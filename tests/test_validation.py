@@ -119,6 +119,19 @@ def test_single_number_check():
         v.as_float(float("nan"), "p")
     with pytest.raises(TypeError, match="`p`"):
         v.as_float("0.5", "p")
+    with pytest.raises(ValueError, match="`p` must be finite"):
+        v.as_float(float("inf"), "p")
+
+
+def test_single_number_check_with_infinities():
+    assert v.as_float(np.inf, "gate", allow_inf=True) == np.inf
+    assert v.as_float(np.array(-np.inf), "gate", allow_inf=True) == -np.inf
+    assert v.as_float(2, "gate", allow_inf=True) == 2.0
+    for nan in (float("nan"), np.array(np.nan), np.float32("nan")):
+        with pytest.raises(ValueError, match="`gate` must be a number or \\+-inf, not NaN"):
+            v.as_float(nan, "gate", allow_inf=True)
+    with pytest.raises(ValueError, match="`gate` must be a single number"):
+        v.as_float([1.0, np.inf], "gate", allow_inf=True)
 
 
 def test_covariance_rule_is_scale_free_and_refuses_singular_to_precision():

@@ -180,11 +180,11 @@ def _outcome_iv(kappa, truth, rule):
 
 
 def _as_gate(gate, name: str = "gate") -> float:
-    g = as_float_array(gate, name, allow_nonfinite=True)
-    if g.ndim != 0 or not (float(g) > 0):
+    g = as_float(gate, name, allow_inf=True)
+    if not g > 0:
         raise ValueError(f"`{name}` must be a single number > 0 (+inf: no gate); received "
                          f"{_describe(gate)}")
-    return float(g)
+    return g
 
 
 def outcome_by_gate(kappa, truth, rule: str):

@@ -396,11 +396,13 @@ def as_seed_sequence(rng) -> np.random.SeedSequence:
                     f"or a numpy.random.Generator; received {_describe(rng)}")
 
 
-def as_float(value, name: str) -> float:
-    """The one "single number" check: a finite real given as a scalar or 0-d array → float.
+def as_float(value, name: str, *, allow_inf: bool = False) -> float:
+    """The one "single number" check: a real given as a scalar or 0-d array → float.
 
-    Range rules stay with :func:`as_positive` and :func:`as_probability`
-    (``as_float(as_positive(v, "v"), "v")`` for a single positive number).
+    Finite unless ``allow_inf=True``, which also accepts ``+inf`` and ``-inf``
+    (NaN is refused either way). Range rules stay with :func:`as_positive`,
+    :func:`as_probability` and the caller (``as_float(as_positive(v, "v"), "v")``
+    for a single positive number).
 
     Examples
     --------
@@ -410,11 +412,20 @@ def as_float(value, name: str) -> float:
     Traceback (most recent call last):
     ...
     ValueError: `p` must be a single number; received array [0.01 0.02] with shape (2,)
+    >>> as_float(float("inf"), "gate", allow_inf=True)
+    inf
+    >>> as_float(float("nan"), "gate", allow_inf=True)
+    Traceback (most recent call last):
+    ...
+    ValueError: `gate` must be a number or +-inf, not NaN; received nan
     """
-    arr = as_float_array(value, name)
+    arr = as_float_array(value, name, allow_nonfinite=allow_inf)
     if arr.ndim != 0:
         raise ValueError(f"`{name}` must be a single number; received {_describe(arr)}")
-    return float(arr)
+    x = float(arr)
+    if x != x:
+        raise ValueError(f"`{name}` must be a number or +-inf, not NaN; received {_describe(value)}")
+    return x
 
 
 def broadcast(**arrays: np.ndarray) -> tuple[np.ndarray, ...]:

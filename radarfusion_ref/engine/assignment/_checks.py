@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .._validation import as_float, as_float_array, as_probability, check_size
@@ -66,11 +64,8 @@ def _as_threshold(threshold, name: str = "threshold") -> float:
     """A gate: a number > 0; ``+inf`` and None both mean "no gate" (returned as ``+inf``)."""
     if threshold is None:
         return np.inf
-    arr = as_float_array(threshold, name, allow_nonfinite=True)
-    if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single number > 0; received shape {arr.shape}")
-    value = float(arr)
-    if math.isnan(value) or value <= 0:
+    value = as_float(threshold, name, allow_inf=True)
+    if value <= 0:
         raise ValueError(f"`{name}` must be a number > 0 (or +inf for no gate); received {value}")
     return value
 
@@ -79,11 +74,8 @@ def _as_miss_cost(miss_cost, name: str = "miss_cost") -> float | None:
     """Non-assignment cost: a real number; ``+inf`` means the same as None."""
     if miss_cost is None:
         return None
-    arr = as_float_array(miss_cost, name, allow_nonfinite=True)
-    if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single number; received shape {arr.shape}")
-    value = float(arr)
-    if math.isnan(value) or value == -np.inf:
+    value = as_float(miss_cost, name, allow_inf=True)
+    if value == -np.inf:
         raise ValueError(f"`{name}` must be a real number or +inf; received {value}")
     return None if value == np.inf else value
 
