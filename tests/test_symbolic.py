@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from radarfusion_ref.kit.symbolic import SymbolicCheckError, check_close, check_zero
+from radarfusion_ref.kit.symbolic import SymbolicCheckError, check_numeric_agreement, check_zero
 
 
 def test_check_zero_accepts_identities_and_rejects_others():
@@ -24,17 +24,17 @@ def test_check_zero_on_matrices():
         check_zero("not inverse", m * m - sp.eye(2), quiet=True)
 
 
-def test_check_close():
-    assert "agree on 3 values" in check_close(np.ones(3), np.ones(3))
+def test_check_numeric_agreement():
+    assert "agree on 3 values" in check_numeric_agreement(np.ones(3), np.ones(3))
     with pytest.raises(SymbolicCheckError, match="gain: disagree"):
-        check_close([1.0], [1.001], what="gain")
+        check_numeric_agreement([1.0], [1.001], what="gain")
 
 
 @pytest.mark.parametrize("side", ["derived", "package"])
-def test_check_close_refuses_complex_input_by_name(side):
+def test_check_numeric_agreement_refuses_complex_input_by_name(side):
     # 1+1j against 1+2j used to pass, the imaginary parts dropped with a ComplexWarning
     args = {"derived": 1.0, "package": 1.0, side: 1 + 2j}
     with pytest.raises(TypeError, match=f"`{side}`.*complex"):
-        check_close(args["derived"], args["package"])
+        check_numeric_agreement(args["derived"], args["package"])
     with pytest.raises(TypeError, match="complex"):
-        check_close(1 + 1j, 1 + 2j)
+        check_numeric_agreement(1 + 1j, 1 + 2j)

@@ -6,7 +6,7 @@ make the executed book fail when a check fails:
 
 * :func:`show` — display one step of a derivation, ``lhs = expr``;
 * :func:`check_zero` — a symbolic identity that must simplify to zero;
-* :func:`check_close` — a lambdified derivation against the package's numbers.
+* :func:`check_numeric_agreement` — a lambdified derivation against the package's numbers.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 
 from .checks import CheckError, _check_close, _record
 
-__all__ = ["show", "check_zero", "check_close", "SymbolicCheckError"]
+__all__ = ["show", "check_zero", "check_numeric_agreement", "SymbolicCheckError"]
 
 
 class SymbolicCheckError(CheckError):
@@ -102,8 +102,8 @@ def check_zero(label: str, expr, *, quiet: bool = False):
     return simplified
 
 
-def check_close(derived, package, *, what: str = "derivation and package", rtol: float = 1e-9,
-                atol: float = 0.0) -> str:
+def check_numeric_agreement(derived, package, *, what: str = "derivation and package",
+                            rtol: float = 1e-9, atol: float = 0.0) -> str:
     """Require numbers from a lambdified derivation to equal the package's.
 
     Parameters
@@ -131,7 +131,7 @@ def check_close(derived, package, *, what: str = "derivation and package", rtol:
 
     Examples
     --------
-    >>> check_close([1.0, 2.0], [1.0, 2.0 + 1e-12])
+    >>> check_numeric_agreement([1.0, 2.0], [1.0, 2.0 + 1e-12])
     'derivation and package agree on 2 values'
     """
     try:
