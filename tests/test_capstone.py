@@ -722,3 +722,12 @@ def test_gospa_refuses_points_whose_distance_overflows():
     # far apart but representable: a miss plus a false estimate, found exactly
     g = gospa([[1e200, 0.0]], [[-1e200, 0.0]], c=1.0)
     assert (g.n_missed, g.n_false, g.total) == (1, 1, 1.0)
+
+
+def test_simulate_reports_refuses_a_clutter_rate_beyond_memory_before_drawing(short):
+    """clutter_rate = 1e12 once asked for 21.8 TiB of false reports before any check."""
+    truth, radars, _ = short
+    heavy = [dataclasses.replace(radars[0], clutter_rate=1e12), *radars[1:]]
+    with pytest.raises(ValueError, match=r"`radars\[0\]\.clutter_rate`.*refused: .* bytes of "
+                                         r"false reports.*limit of 1073741824.*shorter `duration`"):
+        cp.simulate_reports(truth, heavy, rng=1)

@@ -354,6 +354,22 @@ def test_sweep_refuses_results_above_the_memory_limit(monkeypatch):
     assert calls == [SEED_BLOCK]                                   # only the first task ran
 
 
+def test_sweep_refuses_a_trial_count_beyond_memory_before_building_tasks():
+    """10**12 trials once built a task list of 6e7 entries and died of MemoryError."""
+    import time
+    calls = []
+
+    def coin(params, n, rng):
+        calls.append(n)
+        return rng.random(n) < 0.5
+
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=r"`trials`.*refused: 2000000000000 .*limit of "
+                                         r"1073741824.*separate sweeps"):
+        sweep(coin, {"p": [0.25, 0.5]}, trials=10**12, rng=1)
+    assert time.perf_counter() - start < 1.0 and calls == []
+
+
 def test_sweep_refuses_a_closed_or_foreign_client():
     distributed = pytest.importorskip("distributed")
     with _cluster(n_workers=1, processes=False) as cluster:

@@ -98,6 +98,43 @@ def test_bad_input(kwargs, match):
         two_radar_scene(n, **args)
 
 
+@settings(max_examples=40, deadline=None)
+@given(n1=st.integers(1, 30), n2=st.integers(1, 30), d=st.integers(1, 3),
+       seed=st.integers(0, 99), batch=st.integers(0, 2))
+def test_nearest_neighbour_kd_route_equals_brute_force_with_ties(n1, n2, d, seed, batch):
+    """The k-d tree route gives the dense route's answer, ties to the lowest index.
+
+    Points on a small integer grid make exact ties (and duplicates) common.
+    """
+    from radarfusion_ref.engine.scenes import _helpers
+    g = np.random.default_rng(seed)
+    lead = (2,) * batch
+    r1 = g.integers(-2, 3, size=(*lead, n1, d)).astype(float)
+    r2 = g.integers(-2, 3, size=(*lead, n2, d)).astype(float)
+    flat1, flat2 = r1.reshape(-1, n1, d), r2.reshape(-1, n2, d)
+    brute = np.array([[min(range(n2), key=lambda j: (np.sum((a - b[j]) ** 2), j)) for a in A]
+                      for A, b in zip(flat1, flat2, strict=True)]).reshape(*lead, n1)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_helpers, "_DENSE_ELEMENTS", 0)                # force the k-d tree
+        np.testing.assert_array_equal(nearest_neighbour_pairing(r1, r2), brute)
+    np.testing.assert_array_equal(nearest_neighbour_pairing(r1, r2), brute)
+
+
+def test_nearest_neighbour_memory_stays_bounded_on_large_inputs():
+    """3000 x 3000 points in 2-D: the dense route held 144 MB of differences."""
+    import tracemalloc
+    g = np.random.default_rng(5)
+    r1, r2 = g.normal(size=(3000, 2)), g.normal(size=(3000, 2))
+    tracemalloc.start()
+    got = nearest_neighbour_pairing(r1, r2)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 32 * 2**20, peak
+    brute = np.concatenate([np.argmin(np.sum((r1[i:i + 300, None] - r2[None]) ** 2, -1), -1)
+                            for i in range(0, 3000, 300)])
+    np.testing.assert_array_equal(got, brute)
+
+
 def test_nearest_neighbour_dimension_mismatch():
     with pytest.raises(ValueError, match="same last dimension"):
         nearest_neighbour_pairing(np.zeros((2, 2)), np.zeros((2, 3)))

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import registration
-from ..engine._validation import _describe, as_float_array, as_rng
+from ..engine._validation import MEMORY_LIMIT, _describe, as_float_array, as_rng, check_size
 from ..engine.geodesy import geodetic_to_enu
 from .traffic import ORIGIN, TruthScans
 
@@ -152,6 +152,24 @@ def default_radars(**overrides) -> tuple[Radar, ...]:
         **{k: float(v) for k, v in overrides.items()})
         for name, site in RADAR_SITES.items())
     return _radars_iv(out)
+
+
+#: Bytes one false report of :func:`simulate_reports` occupies at most, summed over
+#: its working copies (positions, polar coordinates, noise, columns, the sorted copy).
+_FALSE_REPORT_BYTES = 8 * 32
+
+
+def _limit_false_reports(i: int, count: int, scans: int) -> int:
+    """Refuse `count` false reports of radar `i` whose working memory would not fit."""
+    try:
+        check_size(count * _FALSE_REPORT_BYTES, MEMORY_LIMIT,
+                   what=f"bytes of false reports ({count} over {scans} scans, "
+                        f"{_FALSE_REPORT_BYTES} bytes each)",
+                   alternative="a lower clutter_rate or fewer scans (a shorter `duration` "
+                               "in truth_scans, the scans simulated in batches)")
+    except ValueError as exc:
+        raise ValueError(f"`radars[{i}].clutter_rate`: {exc}") from None
+    return count
 
 
 def _radars_iv(radars):
@@ -287,7 +305,10 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
         If `truth` is not a :class:`~radarfusion_ref.capstone.traffic.TruthScans`, `radars`
         not a sequence of :class:`Radar` or `rng` not a seed or generator.
     ValueError
-        Invalid radar parameters (named).
+        Invalid radar parameters (named), or false reports (`clutter_rate` times
+        the scans, then the drawn count) whose working memory would exceed
+        :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT`: refused naming the
+        radar's `clutter_rate` before anything is drawn or allocated.
 
     Notes
     -----
@@ -314,6 +335,8 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
     radars = _radars_iv(radars)
     gen = as_rng(rng)
     S = truth.n_scans
+    for i, rad in enumerate(radars):                 # refused before any draw
+        _limit_false_reports(i, math.ceil(rad.clutter_rate * S), S)
     cols = {k: [] for k in ("scan", "radar", "r", "beta", "epsilon", "feature", "source")}
     for i, rad in enumerate(radars):
         site = rad.enu
@@ -323,7 +346,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
         rb, bb = registration.apply_biases(r[det], beta[det],
                                            [rad.bias_range, 0.0, rad.bias_azimuth])
         n_false = gen.poisson(rad.clutter_rate, size=S)
-        nf = int(n_false.sum())
+        nf = _limit_false_reports(i, int(n_false.sum()), S)
         rho = rad.max_range * np.sqrt(gen.random(nf))
         phi = gen.uniform(-np.pi, np.pi, nf)
         z = gen.uniform(*_CLUTTER_ALT, nf) - site[2]

@@ -723,6 +723,18 @@ def _as_client(client):
     return client, workers
 
 
+def _limit_trials(points: int, trials: int) -> None:
+    """Refuse `trials` whose results cannot fit, before any task exists."""
+    try:
+        check_size(points * trials, MEMORY_LIMIT,
+                   what=f"bytes at least of per-trial results ({points} grid points x "
+                        f"{trials} trials x 1 byte)",
+                   alternative="fewer `trials` per call (separate sweeps with separate "
+                               "seeds, combined afterwards) or a reduction inside `experiment`")
+    except ValueError as exc:
+        raise ValueError(f"`trials`: {exc}") from None
+
+
 def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_BLOCK,
           client=None, progress: bool | None = None) -> SweepResult:
     r"""Run a vectorized experiment over a parameter grid, here or on a Dask cluster.
@@ -791,8 +803,10 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
     ValueError
         If a `grid` axis is empty, not 1-D or holds NaN/inf, the grid is empty or
         exceeds :data:`MAX_POINTS`; `trials` < 1; `block` is not a positive
-        multiple of :data:`SEED_BLOCK`; `client` is closed, cannot reach its
-        scheduler or has no workers; or the outputs (points × trials × bytes
+        multiple of :data:`SEED_BLOCK`; grid points × `trials` exceeds
+        :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` (each trial's
+        result takes at least a byte; refused before any task is built);
+        `client` is closed, cannot reach its scheduler or has no workers; or the outputs (points × trials × bytes
         per trial, known after the first task) would exceed
         :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` — refused before they
         are allocated.
@@ -848,6 +862,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
     else:
         backend = "local"
 
+    _limit_trials(len(points), trials)
     n_units = -(-trials // SEED_BLOCK)
     per_task = block // SEED_BLOCK
     tasks = [(i, b, tuple(range(b * per_task, min((b + 1) * per_task, n_units))))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._validation import (
@@ -28,13 +30,22 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
     Returns
     -------
     numpy.ndarray of int, shape (..., n1)
-        Index in `reports2` of the report nearest (Euclidean) to each radar-1 report.
+        Index in `reports2` of the report nearest (Euclidean) to each radar-1
+        report; of equally near reports, the one with the lowest index.
+
+    Notes
+    -----
+    Memory stays bounded: small scenes compare every pair (in batches of
+    trials), large ones search a k-d tree (:class:`scipy.spatial.cKDTree`,
+    megabytes at 10^5 reports where every pair would take tens of GiB) and
+    re-score the reports the tree finds within the least distance, so both
+    routes give the same indices, ties included.
 
     Raises
     ------
     ValueError
-        If the last dimensions differ, or an input is not finite or has fewer
-        than two axes.
+        If the last dimensions differ, an input is not finite or has fewer
+        than two axes, or `reports2` holds no report.
 
     Examples
     --------
@@ -48,8 +59,61 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
             "`reports1` and `reports2` must have the same last dimension d; "
             f"received shapes {r1.shape} and {r2.shape}"
         )
-    d2 = np.sum((r1[..., :, None, :] - r2[..., None, :, :]) ** 2, axis=-1)
-    return np.argmin(d2, axis=-1)
+    if r2.shape[-2] == 0:
+        raise ValueError(f"`reports2` must hold at least one report to be nearest; received "
+                         f"shape {r2.shape}")
+    return _nearest(r1, r2)
+
+
+#: Largest n1 x n2 x d for which one scene's nearest neighbours are found from the
+#: dense difference array (8 MiB); larger scenes use a k-d tree.
+_DENSE_ELEMENTS = 1 << 20
+
+
+def _nearest(r1, r2):
+    """Nearest neighbours over broadcast leading axes, in bounded memory."""
+    lead = np.broadcast_shapes(r1.shape[:-2], r2.shape[:-2])
+    (n1, d), n2 = r1.shape[-2:], r2.shape[-2]
+    m = math.prod(lead)
+    a = np.broadcast_to(r1, (*lead, n1, d)).reshape(m, n1, d)
+    b = np.broadcast_to(r2, (*lead, n2, d)).reshape(m, n2, d)
+    out = np.empty((m, n1), dtype=np.intp)
+    per = n1 * n2 * d
+    if per <= _DENSE_ELEMENTS:
+        step = max(1, _DENSE_ELEMENTS // max(per, 1))
+        for k in range(0, a.shape[0], step):
+            out[k:k + step] = _nearest_dense(a[k:k + step], b[k:k + step])
+    else:
+        for k in range(a.shape[0]):
+            out[k] = _nearest_kdtree(a[k], b[k])
+    return out.reshape(*lead, n1)
+
+
+def _nearest_dense(a, b):
+    """The defining rule: least squared distance, ties to the lowest index (argmin)."""
+    return np.argmin(np.sum((a[..., :, None, :] - b[..., None, :, :]) ** 2, axis=-1), axis=-1)
+
+
+def _nearest_kdtree(a, b):
+    """:func:`_nearest_dense` for one scene through a k-d tree, with the same answer.
+
+    The tree's nearest point bounds the least distance; every point within that
+    bound (widened by 1e-9 relative and 1e-150 absolute, far above rounding and
+    underflow) is re-scored by the dense formula, and the lowest index among the
+    least scores wins, as :func:`numpy.argmin` picks.
+    """
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(b)
+    _, idx = tree.query(a, k=1)
+    bound = np.sqrt(np.sum((a - b[idx]) ** 2, axis=-1))
+    near = tree.query_ball_point(a, bound * (1 + 1e-9) + 1e-150)
+    out = np.asarray(idx, dtype=np.intp)
+    for i, cand in enumerate(near):
+        if len(cand) > 1:
+            cand = np.sort(cand)
+            out[i] = cand[np.argmin(np.sum((a[i] - b[cand]) ** 2, axis=-1))]
+    return out
 
 
 def ellipse_covariance(angle, major, minor) -> np.ndarray:
