@@ -1348,3 +1348,34 @@ def test_outcome_by_gate_bad_input_names_its_argument(args, name):
         A.outcome_by_gate(*args)
     with pytest.raises(ValueError, match="`gate`"):
         A.outcome_by_gate([[1.0]], [0], "scan")(-1.0)
+
+
+# ------------------------------------------------------------------ joint outcome, by definition
+def _outcome_by_definition(decided, truth, passed):
+    """correct: every pair right and the test passed; false accept: a wrong pair accepted."""
+    wrong = any(d >= 0 and d != t for d, t in zip(decided, truth, strict=True))
+    return passed and list(decided) == list(truth), passed and wrong
+
+
+def test_joint_outcome_with_only_forbidden_pairs_left_is_a_rejection():
+    """Row 1 has only forbidden pairs: nothing wrong is accepted, so no false accept."""
+    k = np.array([[0.1, np.inf], [np.inf, np.inf]])
+    o = A.decision_outcome(k, [0, 1], "joint", 10.0)
+    assert (bool(o.correct), bool(o.false_accept), bool(o.rejected)) == (False, False, True)
+
+
+@given(seed=st.integers(0, 10**6), n1=st.integers(1, 4), n2=st.integers(1, 4),
+       gate=st.sampled_from([0.5, 2.0, 6.0, np.inf]))
+def test_joint_outcome_matches_the_definition_on_the_brute_force_pairing(seed, n1, n2, gate):
+    g = np.random.default_rng(seed)
+    k = g.exponential(1.0, (n1, n2))
+    k[g.random((n1, n2)) < 0.4] = np.inf                           # forbidden pairs
+    truth = g.permutation(max(n1, n2))[:n1]
+    truth = np.where(truth < n2, truth, -1)
+    truth = np.where(np.isfinite(k[np.arange(n1), np.maximum(truth, 0)]) | (truth < 0), truth,
+                     g.integers(-1, n2, n1))
+    best = A.associate_bruteforce(k)
+    total = sum(k[i, j] for i, j in enumerate(best.row_to_col) if j >= 0)
+    expect = _outcome_by_definition(best.row_to_col, truth, total < gate)
+    o = A.decision_outcome(k, truth, "joint", gate)
+    assert (bool(o.correct), bool(o.false_accept)) == expect

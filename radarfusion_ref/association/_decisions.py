@@ -203,19 +203,24 @@ def outcome_by_gate(kappa, truth, rule: str):
     if rule == "joint":
         res = associate_joint(c)
         right = all_correct(res.row_to_col, t)
+        wrong = _wrong_pair(res.row_to_col, t)
         total = np.asarray(res.cost)
 
         def joint(gate):
             passed = total < _as_gate(gate)             # the joint test, kappa*_n < gamma_n
-            return DecisionOutcome(right & passed, ~right & passed)
+            return DecisionOutcome(right & passed, wrong & passed)
         return joint
     order = "scan" if rule == "scan" else "best_first"
 
     def pointwise(gate):
         decided = associate_pointwise(c, _as_gate(gate), order=order).row_to_col
-        return DecisionOutcome(all_correct(decided, t),
-                               np.any((decided >= 0) & (decided != t), axis=-1))
+        return DecisionOutcome(all_correct(decided, t), _wrong_pair(decided, t))
     return pointwise
+
+
+def _wrong_pair(decided, truth):
+    """Per trial: some pair accepted that the truth does not hold (a false accept)."""
+    return np.any((decided >= 0) & (decided != truth), axis=-1)
 
 
 def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
