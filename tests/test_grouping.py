@@ -1195,3 +1195,15 @@ def test_ml_group_cost_is_the_group_costs_entry():
 def test_ml_group_cost_bad_input_names_its_argument(x, cov, name):
     with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
         grouping.ml_group_cost(x, cov)
+
+
+def test_group_sd_size_refusal_advises_the_direction_that_narrows_the_gate(monkeypatch):
+    """A smaller P_lo is a wider gate: the advice must ask for a larger `p_false_reject`."""
+    from radarfusion_ref.grouping import _solve
+    g = np.random.default_rng(3)
+    x = 0.3 * np.arange(20)[None, :, None] + 0.01 * g.standard_normal((3, 20, 1))
+    cov = np.ones((3, 20, 1, 1))
+    monkeypatch.setattr(_solve, "MEMORY_LIMIT", 200_000)
+    with pytest.raises(ValueError, match=r"narrower gate \(larger `p_false_reject`\)"):
+        grouping.group_sd(x, cov, method="lagrangian", p_false_reject=1e-3)
+    grouping.group_sd(x, cov, method="lagrangian", p_false_reject=0.5)     # the advice works

@@ -286,7 +286,7 @@ def _gated_tuples(gates, counts, dummy):
         check_size(T.shape[0] * counts[k], MEMORY_LIMIT,
                    what=f"bytes of the gate mask ({T.shape[0]} partial groups x "
                         f"{counts[k]} reports of source {k})",
-                   alternative="a narrower gate (smaller `p_false_reject`)")
+                   alternative="a narrower gate (larger `p_false_reject`)")
         mask = np.ones((T.shape[0], counts[k]), dtype=bool)
         for i in range(k):
             col = T[:, i]
@@ -299,7 +299,7 @@ def _gated_tuples(gates, counts, dummy):
         T = np.vstack(parts)
         check_size(8 * T.shape[0] * (m + 1), MEMORY_LIMIT,
                    what=f"bytes of gated candidate groups ({T.shape[0]} after source {k})",
-                   alternative="a narrower gate (smaller `p_false_reject`)")
+                   alternative="a narrower gate (larger `p_false_reject`)")
     if dummy:
         T = T[np.any(T >= 0, axis=1)]
     return T
@@ -316,7 +316,7 @@ def _tuple_ml_costs(xs, cs, T, log_s2, median_logdet=False):
     d = xs[0].shape[1]
     check_size(8 * K * (3 * d * d + 3 * d + 4), MEMORY_LIMIT,
                what=f"bytes of group costs ({K} gated candidate groups)",
-               alternative="a narrower gate (smaller `p_false_reject`)")
+               alternative="a narrower gate (larger `p_false_reject`)")
     infos, lds = zip(*(_information(c) for c in cs), strict=True)
     W = np.zeros((K, d, d))
     b = np.zeros((K, d))
