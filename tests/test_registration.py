@@ -324,6 +324,23 @@ def test_non_convergence_warns_or_raises_with_history():
     assert len(info.value.history) == 1
 
 
+def test_warn_without_any_estimate_warns_and_returns_the_last_pass():
+    """Too few pairs to estimate anything: "warn" warns and returns, as documented."""
+    s = [[0.0, 0.0], [20.0, 0.0]]
+    z1, z2 = [[60.0, 0.1]], [[58.0, 0.5]]
+    initial = [[0.1, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.warns(RadarFusionWarning, match="did not converge.*too few"):
+            reg = rg.register_and_associate(s, z1, z2, 0.02, 2e-4, initial=initial)
+    assert not reg.converged and reg.estimate is None and len(reg.history) == 1
+    np.testing.assert_array_equal(reg.biases, initial)
+    expect = association.associate_joint(rg.cost_matrix(s, z1, z2, 0.02, 2e-4, biases=initial))
+    np.testing.assert_array_equal(reg.association.row_to_col, expect.row_to_col)
+    with pytest.raises(rg.RegistrationError, match="too few"):
+        rg.register_and_associate(s, z1, z2, 0.02, 2e-4, on_failure="raise")
+
+
 def test_accuracy_monte_carlo_orders_the_methods():
     acc = rg.association_accuracy(SITES, [[0.4, 0, 0.006], [0, 0, 0]], SR, SB, n_objects=8,
                                   region=[[12, 47], [18, 53]], trials=30, p_detect=0.9,

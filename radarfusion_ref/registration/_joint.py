@@ -73,8 +73,10 @@ class Registration:
     ----------
     biases : numpy.ndarray, shape (2, 3)
         Final bias estimates.
-    estimate : BiasEstimate
-        The last bias estimate (covariance, CRLB, objects) from the final pairs.
+    estimate : BiasEstimate or None
+        The last bias estimate (covariance, CRLB, objects) from the final pairs;
+        ``None`` when no pass paired enough reports to make one (``converged``
+        is then False and `biases` are the initial biases).
     association : radarfusion_ref.engine.assignment.Association
         The association of the reports corrected with the final biases.
     history : tuple of RegistrationStep
@@ -171,8 +173,9 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
         On non-convergence (no repeat within `max_iter` passes, a cycle, or
         too few pairs to estimate the biases): warn with
         :class:`~radarfusion_ref.engine.errors.RadarFusionWarning` and return the
-        last pass (``converged=False``), or raise :class:`RegistrationError`.
-        Both carry the iteration history.
+        last pass (``converged=False``; with no estimate made, ``estimate=None``
+        and the initial biases with their association), or raise
+        :class:`RegistrationError`. Both carry the iteration history.
 
     Returns
     -------
@@ -267,16 +270,11 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
         b = np.array(est.biases)
     else:
         failure = f"no pass repeated the previous association within {max_iter} passes"
-    if est is None:
-        # no estimate at all: fall back to the initial biases' association
-        est_text = "no bias estimate was made"
-    else:
-        est_text = f"last biases {np.round(b, 6).tolist()}"
+    est_text = ("no bias estimate was made (the initial biases are returned)" if est is None
+                else f"last biases {np.round(b, 6).tolist()}")
     message = (f"register_and_associate did not converge: {failure}; {est_text}. History: "
                f"{_history_text(history)}")
-    if on_failure == "raise" or est is None:
-        if on_failure == "warn":
-            message += " (raised, not warned: there is no estimate to return)"
+    if on_failure == "raise":
         raise RegistrationError(message, tuple(history))
     warnings.warn(message, RadarFusionWarning, stacklevel=2)
     cost = cost_matrix(s, z1, z2, sr, sb, biases=b)
@@ -437,7 +435,7 @@ def association_accuracy(sensors, biases, sigma_r, sigma_beta, *, n_objects: int
     -----
     A failed registration (a :class:`RegistrationError`, or a warning of
     non-convergence) counts as converged = False; its last association is
-    scored (an error with no association at all scores as wrong).
+    scored (an error, or a pass that made no bias estimate, scores as wrong).
 
     Examples
     --------
@@ -479,6 +477,8 @@ def association_accuracy(sensors, biases, sigma_r, sigma_beta, *, n_objects: int
                                            fixed=fixed, p_false_reject=p_false_reject)
             except (RegistrationError, ValueError):
                 continue
+        if r.estimate is None:                  # nothing registered: scored as wrong
+            continue
         ok[1, k] = np.array_equal(r.association.row_to_col, sc.true_row_to_col)
         ok[3, k] = r.converged
     return AccuracyComparison(*(proportion(o, None) for o in ok))
