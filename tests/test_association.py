@@ -1379,3 +1379,18 @@ def test_joint_outcome_matches_the_definition_on_the_brute_force_pairing(seed, n
     expect = _outcome_by_definition(best.row_to_col, truth, total < gate)
     o = A.decision_outcome(k, truth, "joint", gate)
     assert (bool(o.correct), bool(o.false_accept)) == expect
+
+
+@pytest.mark.parametrize("call", [
+    lambda k: A.decision_outcome(k, [[0, 1]], "joint", 1.0),
+    lambda k: A.calibrate_gate(k, [[0, 1]], "joint", 0.1),
+    lambda k: A.outcome_by_gate(k, [[0, 1]], "joint"),
+    lambda k: A.decision_outcome(k, [[0, 1]], "greedy", np.inf),
+    lambda k: A.calibrate_gate(k, [[0, 1]], "greedy", 0.1),
+])
+def test_joint_outcome_overflow_names_kappa_not_the_solver_arguments(call):
+    """Each pair's kappa is finite but the pairing's sum is not: blame `kappa`."""
+    k = np.array([[[1e308, np.inf], [np.inf, 1e308]]])
+    with pytest.raises(ValueError, match=r"`kappa`.*1e\+308") as info:
+        call(k)
+    assert "cost`" not in str(info.value)

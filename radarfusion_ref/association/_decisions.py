@@ -201,7 +201,7 @@ def outcome_by_gate(kappa, truth, rule: str):
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
     if rule == "joint":
-        res = associate_joint(c)
+        res = _named(associate_joint, c)
         right = all_correct(res.row_to_col, t)
         wrong = _wrong_pair(res.row_to_col, t)
         total = np.asarray(res.cost)
@@ -213,9 +213,23 @@ def outcome_by_gate(kappa, truth, rule: str):
     order = "scan" if rule == "scan" else "best_first"
 
     def pointwise(gate):
-        decided = associate_pointwise(c, _as_gate(gate), order=order).row_to_col
+        decided = _named(associate_pointwise, c, _as_gate(gate), order=order).row_to_col
         return DecisionOutcome(all_correct(decided, t), _wrong_pair(decided, t))
     return pointwise
+
+
+def _named(rule, c, *args, **kwargs):
+    """``rule(c, ...)``, its summed-cost overflow refused naming `kappa`, not the solver's names."""
+    try:
+        return rule(c, *args, **kwargs)
+    except ValueError as exc:
+        if "float range" not in str(exc):
+            raise
+        big = float(np.max(np.where(np.isfinite(c), np.abs(c), 0.0)))
+        raise ValueError(f"`kappa`: a pairing's summed kappa overflows float64 (above "
+                         f"{np.finfo(float).max:.3g}); largest finite kappa received "
+                         f"{big:.4g} (proximity measures this large pass no gate: give "
+                         f"kappa in a smaller unit or forbid such pairs with +inf)") from None
 
 
 def _wrong_pair(decided, truth):
