@@ -458,3 +458,29 @@ def test_a_user_in_metres_with_realistic_noise_is_not_refused():
     est = rg.estimate_biases(sites, z, 50.0, 1e-3)
     err = (est.biases - bias_m) / est.crlb
     assert np.all(np.abs(err.mean(axis=0)) < 5 / np.sqrt(200))
+
+
+def test_a_pass_estimate_outside_the_model_is_a_failure_not_an_internal_name():
+    """A pass's bias estimate beyond the azimuth domain once leaked `biases` (no such argument)."""
+    s = [[0.0, 0.0], [0.03471110916176175, 0.0]]
+    z1 = [[1.0224992689242969, 1.3431159961090886], [0.001002726555166524, -2.691676416655084],
+          [0.011562528200655309, -1.5678555983956006], [0.015709384372036422, 1.19471429104538],
+          [1.057022351995125e-05, 1.591803018146205], [4.132102234519689e-05, -2.329311732360455]]
+    z2 = [[7.211384153654566, 0.244439220934777], [8.220494513958334, -1.003564138768824],
+          [6.164055377748589e-05, -1.35205783573173], [0.7283928490955967, -2.938217357619693],
+          [0.0007886597605728409, 2.945597401058798], [0.13979254408386216, -1.2938459369689774]]
+    sr, sb = 0.003959362588973653, 5.370047290402376e-05
+    with pytest.raises(rg.RegistrationError, match=r"did not converge.*outside") as info:
+        rg.register_and_associate(s, z1, z2, sr, sb, on_failure="raise")
+    assert "`biases`" not in str(info.value)
+    with pytest.warns(RadarFusionWarning, match="did not converge.*outside"):
+        reg = rg.register_and_associate(s, z1, z2, sr, sb)
+    assert not reg.converged
+    np.testing.assert_array_equal(reg.biases, reg.history[-1].biases)
+
+
+def test_initial_biases_outside_the_model_are_refused_as_initial():
+    s = [[0.0, 0.0], [20.0, 0.0]]
+    with pytest.raises(ValueError, match=r"^`initial`"):
+        rg.register_and_associate(s, [[60.0, 0.1], [61, 0.2]], [[58.0, 0.5], [59, 0.6]], 0.02,
+                                  2e-4, initial=[[100.0, 0, 0], [0, 0, 0]])

@@ -170,8 +170,9 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
     max_iter : int, optional
         Largest number of passes (default 20).
     on_failure : {"warn", "raise"}, optional
-        On non-convergence (no repeat within `max_iter` passes, a cycle, or
-        too few pairs to estimate the biases): warn with
+        On non-convergence (no repeat within `max_iter` passes, a cycle, too
+        few pairs to estimate the biases, or a pass's estimate outside the
+        model, e.g. a range offset beyond a measured range): warn with
         :class:`~radarfusion_ref.engine.errors.RadarFusionWarning` and return the
         last pass (``converged=False``; with no estimate made, ``estimate=None``
         and the initial biases with their association), or raise
@@ -184,8 +185,9 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
     Raises
     ------
     ValueError, TypeError
-        Bad input (named), or a geometry whose biases are unobservable even
-        with every report paired (see :func:`estimate_biases`).
+        Bad input (named; `initial` biases outside the model included), or a
+        geometry whose biases are unobservable even with every report paired
+        (see :func:`estimate_biases`).
     RegistrationError
         With ``on_failure="raise"``, on non-convergence.
 
@@ -242,9 +244,20 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
 
     history: list[RegistrationStep] = []
     seen: list[np.ndarray] = []
-    est, failure = None, None
+    est, prev_est, failure = None, None, None
     for t in range(1, max_iter + 1):
-        cost = cost_matrix(s, z1, z2, sr, sb, biases=b)
+        try:
+            cost = cost_matrix(s, z1, z2, sr, sb, biases=b)
+        except ValueError as exc:
+            if not str(exc).startswith("`biases`"):
+                raise
+            if t == 1:                                  # the caller's `initial` biases
+                raise ValueError("`initial`" + str(exc)[len("`biases`"):]) from None
+            failure = (f"pass {t - 1}'s bias estimate lies outside the model "
+                       f"({str(exc)[len('`biases`: '):]}); the biases of pass {t - 1} are "
+                       "kept")
+            b, est = history[-1].biases.copy(), prev_est
+            break
         res = association.associate_joint(cost, threshold=None if t == 1 else gate)
         history.append(RegistrationStep(t, b.copy(), res.row_to_col.copy(),
                                         float(res.cost), int(res.n_assigned)))
@@ -266,7 +279,7 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
             failure = (f"pass {t} paired {len(rows)} reports, too few (or too degenerate) to "
                        f"observe the biases (information rank {rank})")
             break
-        est = _trimmed_estimate(s, paired, sr, sb, fx, gate)
+        prev_est, est = est, _trimmed_estimate(s, paired, sr, sb, fx, gate)
         b = np.array(est.biases)
     else:
         failure = f"no pass repeated the previous association within {max_iter} passes"
