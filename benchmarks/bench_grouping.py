@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from radarfusion_ref import grouping
+from radarfusion_ref.engine import scenes
 
 LIMIT = 5.0          # seconds: "practical" for one exact grouping
 TARGET = (3, 20)     # (m, n) that must be solved exactly within LIMIT
@@ -38,7 +39,7 @@ def scene(m, n, seed, noise=0.25):
     rot = np.stack([[np.cos(thetas), -np.sin(thetas)], [np.sin(thetas), np.cos(thetas)]])
     rot = np.moveaxis(rot, -1, 0)                                  # (m, 2, 2)
     cov = rot @ np.diag([(2 * noise) ** 2, (noise / 2) ** 2]) @ np.swapaxes(rot, -1, -2)
-    s = grouping.grouping_scene(n, m, cov=cov[:, None], layout="uniform", rng=rng)
+    s = scenes.grouping_scene(n, m, cov=cov[:, None], layout="uniform", rng=rng)
     return s.reports[0], s.cov
 
 

@@ -27,7 +27,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from radarfusion_ref import association, features, grouping, separated
-from radarfusion_ref.engine import scenes
+from radarfusion_ref.engine import geometry, scenes
 from radarfusion_ref.engine._validation import MEMORY_LIMIT
 from radarfusion_ref.engine.montecarlo import binomial_tolerance, mean, proportion
 from radarfusion_ref.engine.scenes import nearest_neighbour_pairing, two_radar_scene
@@ -222,7 +222,7 @@ def test_same_seed_same_draws_as_before_the_move(case, home):
 
 
 def test_polar_draws_across_a_block_boundary_are_unchanged():
-    assert separated.BLOCK_TRIALS < 70_000
+    assert geometry.BLOCK_TRIALS < 70_000
     rep = scenes.polar_scene(separated.paper_geometry(2.0, 3.0), sigma_r=0.2,
                              sigma_beta=0.01, trials=70_000,
                              rng=np.random.SeedSequence(52))
@@ -231,16 +231,15 @@ def test_polar_draws_across_a_block_boundary_are_unchanged():
         np.testing.assert_array_equal(getattr(rep, field)[rows], want)
 
 
-def test_a_chapter_name_for_a_scene_is_the_scenes_object():
-    """Where a chapter package still offers a scene name, it is the engine's object (no copy)."""
+def test_no_chapter_module_offers_a_scene_under_its_own_name():
+    """A scene has one name, the engine's: chapter modules do not re-export it."""
     pairs = [(features, "typed_scene"), (features, "TypedScene"), (features, "FEATURE_MODELS"),
              (separated, "polar_scene"), (separated, "PolarReports"),
              (grouping, "GroupingScene"), (association, "two_radar_clutter_scene"),
              (association, "ClutterScene")]
-    present = [(module, name) for module, name in pairs if hasattr(module, name)]
-    assert (separated, "polar_scene") in present          # re-exported by the package
-    for module, name in present:
-        assert getattr(module, name) is getattr(scenes, name), (module.__name__, name)
+    assert all(hasattr(scenes, name) for _, name in pairs)
+    offered = [(m.__name__, name) for m, name in pairs if name in getattr(m, "__all__", ())]
+    assert not offered, offered
 
 
 # ================================================================ statistics
@@ -401,9 +400,7 @@ def test_results_share_the_base_and_the_trial_axis(key, name, counts, kwargs):
             assert np.shape(getattr(sc, field))[0] == sc.trials, field
 
 
-def test_grouping_old_name_keeps_its_first_argument_name():
-    with pytest.raises(ValueError, match="`n_targets`"):
-        grouping.grouping_scene(0, 2, cov=np.eye(2)[None, None])
+def test_grouping_scene_names_its_first_argument():
     with pytest.raises(ValueError, match="`n_objects`"):
         scenes.grouping_scene(0, 2, cov=np.eye(2)[None, None])
 

@@ -15,7 +15,7 @@ reports into ``n`` groups holding one report of each source. This module
 * scores the ``(n!)**m`` binding hypotheses — the paper's hypotheses I–IV for
   two sources and two tracks — by the paper's product of independent
   densities or by the exact likelihood (:func:`binding_costs`);
-* simulates scenes (:func:`grouping_scene`, from :mod:`radarfusion_ref.engine.scenes`).
+* is tried on the scenes of :func:`radarfusion_ref.engine.scenes.grouping_scene`.
 
 Arrays follow one convention: ``x[..., i, j, :]`` is report ``j`` of source
 ``i`` (shape ``(..., m, n, d)``) and ``cov[..., i, j, :, :]`` its error
@@ -37,7 +37,7 @@ array unique.
 
 from __future__ import annotations
 
-from ._binding import PAPER_HYPOTHESES, binding_costs, grouping_scene
+from ._binding import PAPER_HYPOTHESES, binding_costs
 from ._costs import group_costs, ml_group_cost, n_groupings
 from ._solve import (
     MAX_CANDIDATE_GROUPS,
@@ -56,7 +56,6 @@ __all__ = [
     "group_bruteforce",
     "group_costs",
     "group_sd",
-    "grouping_scene",
     "ml_group_cost",
     "n_groupings",
 ]

@@ -6,17 +6,15 @@ import math
 
 import numpy as np
 
-from ..engine import scenes
 from ..engine._validation import (
     MEMORY_LIMIT,
     as_choice,
     as_covariance,
     as_float_array,
-    as_int,
     check_size,
 )
 from ..engine.linalg import mahalanobis_sq_pairwise
-from ..engine.scenes import GroupingScene, binding_hypotheses
+from ..engine.scenes import binding_hypotheses
 from ._costs import _finite_costs, _ml_tensor, _reports_iv, _rescale
 
 #: (0-based; the paper's :math:`J_{ij}` is report ``j`` of source ``i``).
@@ -142,39 +140,3 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
         flat = np.arange(n) * w[0] + np.einsum("hip,i->hp", hyp, w[1:])   # (H, n)
         out = tensor[:, flat].sum(axis=-1)
     return _finite_costs(out).reshape(*batch, hyp.shape[0])
-
-
-# ----------------------------------------------------------------------------- scenes
-def grouping_scene(n_targets: int, n_sources: int, *, spacing: float = 1.0,
-                   layout: str = "line", cov, track_cov=None, trials: int = 1,
-                   rng=None) -> GroupingScene:
-    """Draw `trials` scenes of `n_targets` targets reported by `n_sources` sources.
-
-    :func:`radarfusion_ref.engine.scenes.grouping_scene` under this chapter's name for
-    its first argument (the same draws for the same seed).
-
-    Parameters
-    ----------
-    n_targets : int
-        Number of targets ``n`` (every source reports every target once).
-    n_sources, spacing, layout, cov, track_cov, trials, rng
-        As in :func:`radarfusion_ref.engine.scenes.grouping_scene`.
-
-    Returns
-    -------
-    GroupingScene
-
-    Raises
-    ------
-    ValueError, TypeError
-        As :func:`radarfusion_ref.engine.scenes.grouping_scene`, naming `n_targets`.
-
-    Examples
-    --------
-    >>> s = grouping_scene(3, 2, cov=np.eye(2)[None, None] * 0.01, trials=4, rng=1)
-    >>> s.reports.shape, s.true_groups.shape
-    ((4, 2, 3, 2), (4, 3, 2))
-    """
-    n = as_int(n_targets, "n_targets", minimum=1)
-    return scenes.grouping_scene(n, n_sources, spacing=spacing, layout=layout, cov=cov,
-                                 track_cov=track_cov, trials=trials, rng=rng)

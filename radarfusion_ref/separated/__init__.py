@@ -56,14 +56,6 @@ Units: kilometres and radians throughout.
 .. [2] D. Lerro, Y. Bar-Shalom, "Tracking with debiased consistent converted
    measurements versus EKF", IEEE Trans. AES 29 (1993) 1015–1022.
 """
-from ..engine.geometry import (
-    BLOCK_TRIALS,
-    MAX_TRIALS,
-    Geometry,
-    polar_from,
-    radar2_position,
-)
-from ..engine.scenes import PolarReports, polar_scene
 from ._approximation import approximate_outcomes, false_pair_noncentrality
 from ._experiment import (
     ExperimentResult,
@@ -99,20 +91,13 @@ __all__ = [
     "NO_DECISION",
     "OUTCOMES",
     "PAPER",
-    "BLOCK_TRIALS",
-    "MAX_TRIALS",
     "MAX_JOINT_PAIRINGS",
     "MAX_GRID_POINTS",
     "PAPER_TABLE1",
-    "Geometry",
-    "PolarReports",
     "CartesianReports",
     "MethodResult",
     "ExperimentResult",
-    "radar2_position",
-    "polar_from",
     "paper_geometry",
-    "polar_scene",
     "to_common_frame",
     "pair_statistic",
     "per_report_outcome",

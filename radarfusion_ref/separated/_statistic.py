@@ -117,7 +117,8 @@ def to_common_frame(reports: PolarReports, *, method: str = "linearized",
 
     Examples
     --------
-    >>> from radarfusion_ref.separated import paper_geometry, polar_scene
+    >>> from radarfusion_ref.engine.scenes import polar_scene
+    >>> from radarfusion_ref.separated import paper_geometry
     >>> rep = polar_scene(paper_geometry(0.0, -5.0), sigma_r=0.1,
     ...                  sigma_beta=np.deg2rad(1.0), trials=2, rng=0)
     >>> cart = to_common_frame(rep)
