@@ -145,7 +145,7 @@ def distinctive_lines(root: Path, docnames: list[str]) -> tuple[list[str], list[
                 line.strip() for line in src if len(line.strip()) >= 30)
         prose.append(re.sub(r"```\{code-cell\}.*?\n```", "", text, flags=re.S))
     package = "\n".join(p.read_text(encoding="utf-8")
-                        for p in (root / "radarfusion_ref").glob("*.py"))
+                        for p in (root / "radarfusion_ref").rglob("*.py"))
     elsewhere = "\n".join(prose) + package
     hidden_text, shown_text = "\n".join(hidden), "\n".join(shown)
     only_hidden = sorted({h for h in hidden if h not in shown_text and h not in elsewhere})

@@ -7,8 +7,8 @@ them (closed form, no iteration) to east, north and up about a chosen origin.
 .. rubric:: References
 
 .. [1] National Imagery and Mapping Agency, "Department of Defense World Geodetic
-   System 1984", NIMA TR8350.2, 3rd ed. (2000): the constants :data:`WGS84_A` and
-   :data:`WGS84_F`.
+   System 1984", NIMA TR8350.2, 3rd ed. (2000): the constants ``WGS84_A`` and
+   ``WGS84_F``.
 """
 
 from __future__ import annotations
