@@ -1,15 +1,15 @@
 """radarfusion_ref — the reference package behind the radarfusion book.
 
-One module per topic, sharing its stem with a chapter and a test file
-(``book/NN_<stem>.md`` ↔ ``radarfusion_ref/<stem>.py`` ↔ ``tests/test_<stem>.py``).
-Shared infrastructure:
+Three layers, imports pointing one way (``pyproject.toml`` holds the contract):
 
-* :mod:`radarfusion_ref.engine.montecarlo` — proportions and means with confidence intervals;
-* :mod:`radarfusion_ref.kit.plotting` — the book's look; helpers draw into a given ``ax``;
-* :mod:`radarfusion_ref.kit.interactive` — live sliders and static sweeps for chapters;
-* :mod:`radarfusion_ref.engine.scenes` — simulated two-radar scenes;
-* :mod:`radarfusion_ref.engine.errors` — :class:`~radarfusion_ref.engine.errors.RadarFusionWarning`;
-* :mod:`radarfusion_ref.kit.catalog` — the chapter map.
+* the engine, :mod:`radarfusion_ref.engine` — validation, linear algebra (the one
+  squared-Mahalanobis home), assignment, Monte Carlo, metrics, scenes and geodesy;
+* the chapter modules — the papers' rules and experiments, one per chapter and sharing
+  its stem with the chapter and its test file (``book/NN_<stem>.md`` ↔
+  ``radarfusion_ref/<stem>`` ↔ ``tests/test_<stem>.py``), built only from the engine
+  and from one another;
+* the book kit, :mod:`radarfusion_ref.kit` — checks, symbolic derivations, interactive
+  controls, plotting and the chapter catalog.
 
 Randomness follows SPEC 7: every stochastic function takes keyword ``rng``
 (``None``, a seed or a :class:`numpy.random.Generator`); nothing touches
