@@ -57,6 +57,113 @@ MUTATIONS = {
                 return np.asarray(f(*a, **k)) * 1.01
             return g
         """),
+    # plausible variants, chapters 01–05
+    # standard deviations passed where variances belong: weights sigma^-1, not sigma^-2
+    "book/01_fusion:sigma-weights": ("radarfusion_ref.fusion", "fuse", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x, var):
+                return f(x, np.sqrt(np.asarray(var, dtype=float)))
+            return g
+        """),
+    # vector fusion per axis: the off-diagonal (correlation) terms of each covariance dropped
+    "book/01_fusion_vector:diagonal-only": ("radarfusion_ref.fusion", "fuse_gaussian", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x, cov):
+                c = np.asarray(cov, dtype=float)
+                return f(x, c * np.eye(c.shape[-1]))
+            return g
+        """),
+    # the first report's covariance counted twice (2 C1 for C1 + C2): wrong only when unequal
+    "book/02_proximity:cov1-twice": ("radarfusion_ref.proximity", "proximity_gaussian", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x1, x2, cov1, cov2):
+                return f(x1, x2, cov1, cov1)
+            return g
+        """),
+    # the profile measure without its ln(sigma_1 sigma_2) term (the missing ln det)
+    "book/02_proximity_marginal:profile-no-logdet": ("radarfusion_ref.proximity",
+                                                     "log_likelihood_measure", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x1, x2, var1, var2, *, kind="profile"):
+                r = f(x1, x2, var1, var2, kind=kind)
+                if kind != "profile":
+                    return r
+                return r + 0.5 * (np.log(np.asarray(var1, dtype=float))
+                                  + np.log(np.asarray(var2, dtype=float)))
+            return g
+        """),
+    # the gate's degree of freedom ignored: the 1-D threshold used in every dimension
+    "book/03_gating:dof-ignored": ("radarfusion_ref.gating", "gate_threshold", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(p_false_reject, dof=1):
+                return f(p_false_reject, np.ones_like(np.asarray(dof)))
+            return g
+        """),
+    # the distance passed where its square (the noncentrality) belongs
+    "book/03_gating:distance-not-squared": ("radarfusion_ref.gating", "p_false_accept", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(noncentrality, dof=1, p_false_reject=0.01):
+                return f(np.sqrt(np.asarray(noncentrality, dtype=float)), dof, p_false_reject)
+            return g
+        """),
+    # ln det(2 pi S) counted once instead of once per dimension d (right only in 1-D)
+    "book/04_association_logdet:logdet-once": ("radarfusion_ref.association",
+                                               "proximity_matrix", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(reports1, reports2, sigma1, sigma2, *, logdet=False):
+                r = np.asarray(f(reports1, reports2, sigma1, sigma2, logdet=logdet))
+                if not logdet:
+                    return r
+                r0 = np.asarray(f(reports1, reports2, sigma1, sigma2, logdet=False))
+                return r0 + (r - r0) / np.shape(reports1)[-1]
+            return g
+        """),
+    # a report's object term without (1 - P_other): the other sensor's miss left out
+    "book/04_association_clutter:miss-factor": ("radarfusion_ref.association",
+                                                "non_assignment_cost", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*, p_detect1, p_detect2, false_density1, false_density2, object_density,
+                  **k):
+                r = f(p_detect1=p_detect1, p_detect2=p_detect2, false_density1=false_density1,
+                      false_density2=false_density2, object_density=object_density, **k)
+                p1, p2 = np.asarray(p_detect1, float), np.asarray(p_detect2, float)
+                l1, l2 = np.asarray(false_density1, float), np.asarray(false_density2, float)
+                b = np.asarray(object_density, float)
+                r = r + np.log((l1 + b * p1 * (1 - p2)) / (l1 + b * p1))
+                r = r + np.log((l2 + b * p2 * (1 - p1)) / (l2 + b * p2))
+                return float(r) if np.ndim(r) == 0 else r
+            return g
+        """),
+    # the posterior from the type spread alone: the feature's measurement variance not added
+    "book/05_features:no-feature-var": ("radarfusion_ref.features", "type_posterior", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(feature, feature_var, *a, **k):
+                return f(feature, 0.0 * np.asarray(feature_var, dtype=float), *a, **k)
+            return g
+        """),
+    # the agreement without the division by the prior: sum_k P1_k P2_k, not / p_k
+    "book/05_features_models:prior-not-divided": ("radarfusion_ref.features",
+                                                  "type_agreement", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(feature1, feature_var1, feature2, feature_var2, type_means, type_vars,
+                  priors=None):
+                from radarfusion_ref.features import type_posterior
+                p1 = type_posterior(feature1, feature_var1, type_means, type_vars, priors)
+                p2 = type_posterior(feature2, feature_var2, type_means, type_vars, priors)
+                r = -2.0 * np.log(np.sum(np.asarray(p1) * np.asarray(p2), axis=-1))
+                return float(r) if np.ndim(r) == 0 else r
+            return g
+        """),
     "book/06_conversion": ("radarfusion_ref.conversion", "conversion_bias", """
         def wrap(f):
             @functools.wraps(f)
