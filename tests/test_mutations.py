@@ -224,6 +224,123 @@ MUTATIONS = {
                 return f(root, 0, unit)   # every point, one stream
             return g
         """),
+    # plausible bugs in chapters 06-11: one function the chapter teaches, one slip each
+    # κ with the off-diagonal of S dropped (x and y errors taken as independent)
+    "book/07_separated:kappa-diagonal-only": ("radarfusion_ref.separated", "pair_statistic", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(xy1, cov1, xy2, cov2, **k):
+                eye = np.eye(2)
+                return f(xy1, np.asarray(cov1, float) * eye, xy2, np.asarray(cov2, float) * eye, **k)
+            return g
+        """),
+    # a report whose true partner passes counts as correct even when others pass too
+    "book/07_separated:several-pass-correct": ("radarfusion_ref.separated", "per_report_outcome", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(statistic, threshold):
+                out = np.array(f(statistic, threshold))
+                s = np.asarray(statistic, float)
+                out[np.diagonal(s < threshold, axis1=-2, axis2=-1)] = 0   # CORRECT
+                return out
+            return g
+        """),
+    # the ML group cost without its -ln det of the fused covariance
+    "book/08_grouping:ml-no-fused-logdet": ("radarfusion_ref.grouping", "ml_group_cost", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x, cov):
+                W = sum(np.linalg.inv(np.asarray(c, float)) for c in cov)
+                return f(x, cov) - np.linalg.slogdet(W)[1]
+            return g
+        """),
+    # off by one: ln det Sigma_i summed over sources 2..m only
+    "book/08_grouping:ml-logdet-off-by-one": ("radarfusion_ref.grouping", "ml_group_cost", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x, cov):
+                return f(x, cov) - np.linalg.slogdet(np.asarray(cov[0], float))[1]
+            return g
+        """),
+    # the 3-D azimuth Jacobian copied from 2-D: no cos(elevation) factor
+    "book/06_conversion_modern:azimuth-no-cos-elevation": (
+        "radarfusion_ref.conversion", "spherical_covariance", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, *, method="linearized"):
+                out = f(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, method=method)
+                if method != "linearized":
+                    return out
+                b, e = np.asarray(beta, float), np.asarray(epsilon, float)
+                u = np.stack(np.broadcast_arrays(-np.sin(b), np.cos(b), 0.0 * b), -1)
+                w = (np.asarray(r, float) * np.asarray(sigma_beta, float) * np.sin(e)) ** 2
+                return out + np.asarray(w)[..., None, None] * u[..., :, None] * u[..., None, :]
+            return g
+        """),
+    # the unbiasing gain e^{sigma^2} instead of e^{sigma^2/2}
+    "book/06_conversion:gain-exponent-twice": ("radarfusion_ref.conversion", "conversion_gain", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(sigma_beta, *, method="linearized"):
+                if method in ("multiplicative", "decorrelated"):
+                    return np.exp(np.asarray(sigma_beta, float) ** 2)
+                return f(sigma_beta, method=method)
+            return g
+        """),
+    # the object positions taken as known: U alone, no Schur complement U - sum_k W V^-1 W^T
+    "book/09_registration:info-no-elimination": (
+        "radarfusion_ref.registration", "reduced_information", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(jac_bias, jac_object):
+                f(jac_bias, jac_object)                                   # its door checks
+                B = np.asarray(jac_bias, float)
+                *lead, m, _, _, _ = B.shape
+                U = np.einsum("...ikab,...ikac->...ibc", B, B)
+                info = np.zeros((*lead, 3 * m, 3 * m))
+                for i in range(m):
+                    info[..., 3 * i:3 * i + 3, 3 * i:3 * i + 3] = U[..., i, :, :]
+                return info
+            return g
+        """),
+    # λ with radar 1's covariance counted for both radars (S = 2 Σ1 instead of Σ1 + Σ2)
+    "book/09_registration:lambda-one-covariance": (
+        "radarfusion_ref.registration", "noncentrality", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(sensors, targets, biases, sigma_r, sigma_beta):
+                import radarfusion_ref.registration as rg
+                from radarfusion_ref.conversion import polar_to_cartesian
+                f(sensors, targets, biases, sigma_r, sigma_beta)          # its door checks
+                s = np.asarray(sensors, float)
+                sr = np.broadcast_to(np.asarray(sigma_r, float), (2,))
+                sb = np.broadcast_to(np.asarray(sigma_beta, float), (2,))
+                polar = rg.true_polar(s, targets)
+                mu = rg.bias_displacement(s, targets, biases)
+                cov = polar_to_cartesian(polar[..., 0], polar[..., 1], sr[:, None],
+                                         sb[:, None]).cov
+                d = mu[..., 0, :, :] - mu[..., 1, :, :]
+                S = 2.0 * cov[..., 0, :, :, :]
+                return np.einsum("...i,...ij,...j->...", d, np.linalg.inv(S), d)
+            return g
+        """),
+    # the cross-covariance transposed: P21 where P12 belongs (matters only when P12 is asymmetric)
+    "book/10_trackfusion:bsc-cross-transposed": (
+        "radarfusion_ref.trackfusion", "bar_shalom_campo", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x1, P1, x2, P2, P12):
+                r = f(x1, P1, x2, P2, P12)                                # its door checks
+                x1, P1, x2, P2, P12 = (np.asarray(a, float) for a in (x1, P1, x2, P2, P12))
+                P21 = np.swapaxes(P12, -1, -2)
+                U = P1 + P2 - P12 - P21
+                W = np.swapaxes(np.linalg.solve(U, P1 - P12), -1, -2)    # (P1 - P21) U^-1
+                cov = P1 - W @ (P1 - P12)
+                return dataclasses.replace(
+                    r, estimate=x1 + (W @ (x2 - x1)[..., None])[..., 0],
+                    covariance=0.5 * (cov + np.swapaxes(cov, -1, -2)))
+            return g
+        """),
 }
 
 PREAMBLE = """\
