@@ -164,6 +164,38 @@ MUTATIONS = {
                 return float(r) if np.ndim(r) == 0 else r
             return g
         """),
+    # the misweighted variance with the weights not squared: sum_i w_i sigma_i^2
+    "book/01_fusion_misweight:weights-not-squared": ("radarfusion_ref.fusion", "misweighted", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(var_true, var_assumed):
+                r = f(var_true, var_assumed)
+                actual = np.sum(r.weights * np.asarray(var_true, dtype=float), axis=-1)
+                return dataclasses.replace(r, actual_variance=actual)
+            return g
+        """),
+    # hypothesis weights exp(-C/2), as for a proximity, where the costs are -ln L: exp(-C)
+    "book/04_association_kbest:half-cost": ("radarfusion_ref.association",
+                                            "association_probabilities", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(cost, *, k=None):
+                return f(np.asarray(cost, dtype=float) / 2, k=k)
+            return g
+        """),
+    # the fused feature weighted by sigma^-1 (standard deviations for variances): wrong only
+    # when the two accuracies differ
+    "book/05_features:fused-sigma-weights": ("radarfusion_ref.features", "fused_feature", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(feature1, feature_var1, feature2, feature_var2):
+                r = f(feature1, feature_var1, feature2, feature_var2)
+                w1 = 1 / np.sqrt(np.asarray(feature_var1, dtype=float))
+                w2 = 1 / np.sqrt(np.asarray(feature_var2, dtype=float))
+                value = (w1 * np.asarray(feature1) + w2 * np.asarray(feature2)) / (w1 + w2)
+                return dataclasses.replace(r, value=value)
+            return g
+        """),
     "book/06_conversion": ("radarfusion_ref.conversion", "conversion_bias", """
         def wrap(f):
             @functools.wraps(f)
@@ -339,6 +371,46 @@ MUTATIONS = {
                 return dataclasses.replace(
                     r, estimate=x1 + (W @ (x2 - x1)[..., None])[..., 0],
                     covariance=0.5 * (cov + np.swapaxes(cov, -1, -2)))
+            return g
+        """),
+    # the ellipsoid's z taken as (N + h) sin φ, without the factor 1 - e² on N
+    "book/11_capstone:ecef-z-no-eccentricity": (
+        "radarfusion_ref.engine.geodesy", "geodetic_to_enu", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(lat, lon, h, *, origin):
+                from radarfusion_ref.engine import geodesy as gd
+                f(lat, lon, h, origin=origin)                             # its door checks
+                e2 = gd.WGS84_F * (2.0 - gd.WGS84_F)
+                def ecef(la, lo, hh):
+                    ph, lm = np.radians(la), np.radians(lo)
+                    n = gd.WGS84_A / np.sqrt(1.0 - e2 * np.sin(ph) ** 2)
+                    return np.stack([(n + hh) * np.cos(ph) * np.cos(lm),
+                                     (n + hh) * np.cos(ph) * np.sin(lm), (n + hh) * np.sin(ph)], -1)
+                o = np.asarray(origin, float)
+                la, lo, hh = np.broadcast_arrays(*(np.asarray(v, float) for v in (lat, lon, h)))
+                d = ecef(la, lo, hh) - ecef(o[0], o[1], o[2])
+                return d @ gd._enu_rotation(o[0], o[1]).T
+            return g
+        """),
+    # a pair beyond the cut-off kept in the assignment at c^p instead of one miss plus one false
+    # (the total is unchanged; the parts are not)
+    "book/11_capstone:gospa-cut-pairs-kept": ("radarfusion_ref.engine.metrics", "gospa", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x, y, *, c, p=2.0, alpha=2.0, parts=True):
+                from scipy.optimize import linear_sum_assignment
+                r = f(x, y, c=c, p=p, alpha=alpha, parts=parts)
+                X, Y = np.asarray(x, float), np.asarray(y, float)
+                if X.size == 0 or Y.size == 0:
+                    return r
+                u = np.linalg.norm(X[:, None] - Y[None], axis=-1) / c
+                ri, ci = linear_sum_assignment(np.minimum(u, 1.0) ** p)
+                far, cp = int((u[ri, ci] >= 1.0).sum()), float(c) ** p
+                return dataclasses.replace(
+                    r, localisation=r.localisation + far * cp, missed=r.missed - far * cp / 2,
+                    false=r.false - far * cp / 2, n_assigned=r.n_assigned + far,
+                    n_missed=r.n_missed - far, n_false=r.n_false - far)
             return g
         """),
 }
