@@ -22,22 +22,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import time
 
 import numpy as np
+from bench_gating import pin_one_core  # the same pinning as the gating benchmark
 
 from radarfusion_ref import proximity
 from radarfusion_ref.engine import linalg
-
-
-def pin_one_core() -> str:
-    try:
-        cpu = min(os.sched_getaffinity(0))
-        os.sched_setaffinity(0, {cpu})
-        return f"pinned to CPU {cpu}"
-    except (AttributeError, OSError):
-        return "not pinned (no sched_setaffinity)"
 
 
 def best(func, repeats, clock=time.perf_counter):

@@ -116,16 +116,9 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     >>> float(r.joint.estimate)
     1.0
     """
-    c = _as_cost(kappa, "kappa")
+    c, truth = _kappa_truth_iv(kappa, truth)
     if c.ndim != 3:
         raise ValueError(f"`kappa` must have shape (trials, n1, n2); received shape {c.shape}")
-    truth = _as_decisions(truth, "truth")
-    if truth.shape != c.shape[:-1]:
-        raise ValueError(f"`truth` must have shape (trials, n1) = {c.shape[:-1]} to match "
-                         f"`kappa`; received shape {truth.shape}")
-    if np.any(truth >= c.shape[-1]):
-        raise ValueError(f"`truth` entries must be radar-2 indices < n2 = {c.shape[-1]} or -1; "
-                         f"received largest entry {int(truth.max())}")
     th = _as_threshold(threshold)
     jth = _as_threshold(joint_threshold, "joint_threshold")
     pw = associate_pointwise(c, th, order="scan")
@@ -167,7 +160,8 @@ class DecisionOutcome(NamedTuple):
 _RULES = ("scan", "greedy", "joint")
 
 
-def _outcome_iv(kappa, truth, rule):
+def _kappa_truth_iv(kappa, truth):
+    """`kappa` (..., n1, n2) and the true partners `truth` (..., n1): one check for both."""
     c = _as_cost(kappa, "kappa")
     t = _as_decisions(truth, "truth")
     if t.shape != c.shape[:-1]:
@@ -176,6 +170,11 @@ def _outcome_iv(kappa, truth, rule):
     if np.any(t >= c.shape[-1]):
         raise ValueError(f"`truth` entries must be radar-2 indices < n2 = {c.shape[-1]} or -1; "
                          f"received largest entry {int(t.max())}")
+    return c, t
+
+
+def _outcome_iv(kappa, truth, rule):
+    c, t = _kappa_truth_iv(kappa, truth)
     return c, t, as_choice(rule, "rule", _RULES)
 
 
