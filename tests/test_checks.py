@@ -150,3 +150,30 @@ def test_check_close_refuses_complex_input_by_name(side, z):
         check_close(args["value"], args["reference"], what="complex")
     with pytest.raises(TypeError, match=r"`value`.*complex"):
         check_close(1 + 1j, 1 + 2j, what="complex")
+
+
+def test_page_summary_counts_this_kernels_checks_and_folds_their_list(monkeypatch):
+    monkeypatch.setattr(checks, "_LEDGER", [])
+    with pytest.raises(CheckError, match="no check has run"):
+        checks.page_summary()
+    check_true(True, what="weights <sum> to one & more")
+    for _ in range(3):
+        check_close(2.0, 2.0, what="two routes")
+    with pytest.raises(CheckError):
+        check_close(1.0, 2.0, what="a failing check is not counted")
+    check_zero("an identity", sp.Integer(0), quiet=True)
+    summary = checks.page_summary()
+    assert summary.total == 5
+    assert str(summary) == repr(summary) == "Verified on this page: 5 checks"
+    assert summary.items == [("property", "weights <sum> to one & more", 1),
+                             ("numeric", "two routes", 3), ("symbolic", "an identity", 1)]
+    html = summary._repr_html_()
+    assert html.startswith("<details") and html.endswith("</details>")
+    assert "<summary><strong>Verified on this page: 5 checks</strong></summary>" in html
+    assert "weights &lt;sum&gt; to one &amp; more" in html  # escaped, not markup
+    assert "two routes (×3)" in html and html.count("<li>") == 3
+    assert "failing" not in html
+    # the PDF edition shows the line alone
+    assert summary._repr_markdown_() == "**Verified on this page: 5 checks**"
+    monkeypatch.setattr(checks, "_LEDGER", [("numeric", "one")])
+    assert str(checks.page_summary()) == "Verified on this page: 1 check"

@@ -17,7 +17,9 @@ tolerance — and raises :class:`CheckError` (an :class:`AssertionError`) when
 the claim is false, so a failing check stops the executed book with its
 message in the build log.
 
-Every passing check is counted (:func:`passed`). When the environment variable
+Every passing check is counted (:func:`passed`) and its description kept, so
+that a page closes with one line, :func:`page_summary` ("Verified on this
+page: N checks", the list folded beneath it). When the environment variable
 ``RADARFUSION_CHECK_LOG`` names a file, each passing check also appends one
 line ``<kind>\t<what>`` to it; the test suite uses that ledger to prove that
 hiding a check from the page never skipped its execution.
@@ -25,6 +27,7 @@ hiding a check from the page never skipped its execution.
 
 from __future__ import annotations
 
+import html
 import os
 from collections import Counter
 
@@ -34,12 +37,14 @@ from ..engine._validation import _describe
 from ..engine.montecarlo import MeanEstimate, Proportion
 
 __all__ = ["CheckError", "check_close", "check_equal", "check_true", "passed", "summary",
-           "require", "MonteCarloCheckError", "LOG_ENV"]
+           "page_summary", "PageSummary", "require", "MonteCarloCheckError", "LOG_ENV"]
 
 #: Environment variable naming the ledger file of passing checks.
 LOG_ENV = "RADARFUSION_CHECK_LOG"
 
 _PASSED: Counter = Counter()
+#: Every passing check of this process, in order: ``(kind, what)``.
+_LEDGER: list[tuple[str, str]] = []
 
 
 class CheckError(AssertionError):
@@ -49,9 +54,10 @@ class CheckError(AssertionError):
 def _record(kind: str, what: str) -> None:
     """Count one passing check (and append it to the ledger file, if one is named)."""
     _PASSED[kind] += 1
+    line = " ".join(str(what).split())[:200]
+    _LEDGER.append((kind, line))
     path = os.environ.get(LOG_ENV)
     if path:
-        line = " ".join(str(what).split())[:200]
         with open(path, "a", encoding="utf-8") as fh:
             fh.write(f"{kind}\t{line}\n")
 
@@ -82,6 +88,95 @@ def summary() -> str:
         return "Verification: no checks have run in this kernel."
     parts = ", ".join(f"{n} {kind}" for kind, n in sorted(_PASSED.items()))
     return f"Verification: all {total} checks executed on this page passed ({parts})."
+
+
+class PageSummary:
+    """The closing line of a page and, folded beneath it, what the page verified.
+
+    Displayed by Jupyter (and so by the built book) as
+
+    * HTML: ``<details>`` whose ``<summary>`` is the line "Verified on this
+      page: N checks" and whose body lists the checks (repeated descriptions
+      once, with their count);
+    * Markdown (the PDF edition's choice): the line alone;
+    * plain text: the line alone.
+
+    Attributes
+    ----------
+    total : int
+        How many checks passed in this kernel.
+    items : list of (str, str, int)
+        ``(kind, description, count)`` in the order each was first recorded.
+    """
+
+    def __init__(self, ledger: list[tuple[str, str]]):
+        counts: dict[tuple[str, str], int] = {}
+        for entry in ledger:
+            counts[entry] = counts.get(entry, 0) + 1
+        self.total = len(ledger)
+        self.items = [(kind, what, n) for (kind, what), n in counts.items()]
+
+    @property
+    def line(self) -> str:
+        """The one closing line: ``"Verified on this page: N checks"``."""
+        noun = "check" if self.total == 1 else "checks"
+        return f"Verified on this page: {self.total} {noun}"
+
+    def __str__(self) -> str:
+        return self.line
+
+    def __repr__(self) -> str:
+        return self.line
+
+    def _repr_markdown_(self) -> str:
+        return f"**{self.line}**"
+
+    def _repr_html_(self) -> str:
+        rows = "".join(
+            f"<li><span class=\"rf-check-kind\">{html.escape(kind)}</span> "
+            f"{html.escape(what)}{f' (×{n})' if n > 1 else ''}</li>"
+            for kind, what, n in self.items
+        )
+        return (f'<details class="rf-page-summary tex2jax_ignore mathjax_ignore">'
+                f"<summary><strong>{html.escape(self.line)}</strong></summary>"
+                f'<ol class="rf-check-list">{rows}</ol></details>')
+
+
+def page_summary() -> PageSummary:
+    """The closing line of a page: how many checks it executed, the list folded beneath.
+
+    Put it in the last cell of a page, tagged ``remove-input``, as the cell's
+    last expression (not inside ``print``) so the page shows the folded list::
+
+        checks.page_summary()
+
+    The count is the ledger of this kernel: every :func:`check_close`,
+    :func:`check_equal`, :func:`check_true`, :func:`require` and
+    :func:`radarfusion_ref.kit.symbolic.check_zero` that passed since the
+    kernel started, i.e. on this page.
+
+    Returns
+    -------
+    PageSummary
+        Shown as "Verified on this page: N checks" with the list in an HTML
+        ``<details>`` fold (the line alone in Markdown, LaTeX and plain text).
+
+    Raises
+    ------
+    CheckError
+        If no check has run: a page that claims no checks is a broken page.
+
+    Examples
+    --------
+    >>> _ = check_true(True, what="one is one")
+    >>> str(page_summary()).startswith("Verified on this page:")
+    True
+    """
+    if not _LEDGER:
+        raise CheckError("page_summary: no check has run in this kernel; a page must verify "
+                         "what it teaches (check_close, check_equal, check_true, require or "
+                         "symbolic.check_zero) before its closing line")
+    return PageSummary(list(_LEDGER))
 
 
 def _as_what(what) -> str:
