@@ -105,6 +105,10 @@ def _polar_reports_iv(reports, name: str, m: int | None = None) -> np.ndarray:
     if np.any(z[..., 0] <= 0):
         raise ValueError(f"`{name}`: ranges (entry [..., 0]) must be > 0; received "
                          f"{_describe(z)}")
+    if np.any(z[..., 0] > MAX_MAGNITUDE):
+        raise ValueError(f"`{name}`: ranges (entry [..., 0]) must lie within the numeric domain "
+                         f"<= 2**150 (about 1.4e45; see engine.linalg); received a range of "
+                         f"{float(z[..., 0].max()):.4g}")
     if m is not None and (z.ndim < 3 or z.shape[-3] != m):
         raise ValueError(f"`{name}` must have shape (..., {m}, n, 2): per radar, n reports of "
                          f"(range, azimuth); received shape {z.shape}")
