@@ -15,6 +15,7 @@ from ..engine._validation import (
     as_rng,
     check_size,
 )
+from ..engine.tracking._kalman import cv_matrices, predict_kernel
 from ._common import (
     MAX_BATCH,
     MAX_DIM,
@@ -98,25 +99,11 @@ def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
                          f"{np.shape(dt)}, {np.shape(q)}") from None
     check_size(dt.size * 4 * dim * dim, MAX_BATCH, what="model entries",
                alternative="several calls on slices of `dt`")
-    if noise == "continuous":
-        qpp, qpv, qvv = q * dt**3 / 3, q * dt**2 / 2, q * dt
-    else:
-        qpp, qpv, qvv = q * dt**4 / 4, q * dt**3 / 2, q * dt**2
-    if not all(np.all(np.isfinite(v)) for v in (qpp, qpv, qvv)):
+    model = MotionModel(*cv_matrices(dt, q, dim, noise))
+    if not np.all(np.isfinite(model.Q)):
         raise ValueError("`dt`, `q`: the process-noise covariance overflows float64; use a "
                          "smaller time unit")
-    eye = np.eye(dim)
-
-    def blocks(a, b, c):
-        top = np.concatenate([a[..., None, None] * eye, b[..., None, None] * eye], axis=-1)
-        bottom = np.concatenate([b[..., None, None] * eye, c[..., None, None] * eye], axis=-1)
-        return np.concatenate([top, bottom], axis=-2)
-
-    one, zero = np.ones_like(dt), np.zeros_like(dt)
-    F = np.concatenate([np.concatenate([one[..., None, None] * eye, dt[..., None, None] * eye], -1),
-                        np.concatenate([zero[..., None, None] * eye, one[..., None, None] * eye], -1)],
-                       axis=-2)
-    return MotionModel(F, blocks(qpp, qpv, qvv))
+    return model
 
 
 def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
@@ -183,9 +170,7 @@ def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
                          f"{x.shape}, {P.shape}, {np.shape(dt)}, {np.shape(q)}") from None
     check_size(int(np.prod(lead, dtype=object)) * n * n, MAX_BATCH,
                what="batch elements × state entries", alternative="several calls on slices")
-    F = model.F
-    estimate = (F @ x[..., None])[..., 0]                             # F x
-    covariance = _sym(F @ P @ np.swapaxes(F, -1, -2) + model.Q)      # F P Fᵀ + Q
+    estimate, covariance = predict_kernel(x, P, dt, q, noise)        # F x, F P Fᵀ + Q
     if not (np.all(np.isfinite(estimate)) and np.all(np.isfinite(covariance))):
         raise ValueError("`dt`: the predicted track overflows float64")
     return TrackEstimate(np.broadcast_to(estimate, (*lead, n)).copy(),
