@@ -108,8 +108,9 @@ def test_sprt_thresholds_wald_inequality_by_simulation():
     hit, miss = math.log(p1 / p0), math.log((1 - p1) / (1 - p0))
     for truth, bound in ((p0, alpha / (1 - beta)), (p1, beta / (1 - alpha))):
         h = rng.random((trials, steps)) < truth
-        L = np.cumsum(np.where(h, hit, miss), axis=1)
-        above, below = L >= t.upper, L <= t.lower
+        score = np.cumsum(np.where(h, hit, miss), axis=1)
+        t_up, t_lo = t.upper, t.lower
+        above, below = score >= t_up, score <= t_lo
         up = np.where(above.any(1), np.argmax(above, 1), steps)
         lo = np.where(below.any(1), np.argmax(below, 1), steps)
         assert np.all(np.minimum(up, lo) < steps)
