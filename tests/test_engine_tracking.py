@@ -183,3 +183,17 @@ def test_m_of_n_against_loop():
         m_of_n(h, 4, 3)
     with pytest.raises(TypeError, match="`hits`"):
         m_of_n([1, 0], 1, 2)
+
+
+@pytest.mark.parametrize(("dt", "q"), [(1e200, 1.0), (1.0, 1e300), (1e60, 1e-10)])
+def test_prediction_beyond_the_numeric_domain_refused_by_name(dt, q):
+    import warnings
+
+    from radarfusion_ref import trackfusion
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for f in (kalman_predict, trackfusion.predict):
+            with pytest.raises(ValueError, match=r"`dt`, `q`.*numeric domain"):
+                f(np.zeros(4), np.eye(4), dt, q)
+        with pytest.raises(ValueError, match=r"`dt`, `q`.*numeric domain"):
+            trackfusion.constant_velocity(dt, q)

@@ -15,7 +15,7 @@ from ..engine._validation import (
     as_rng,
     check_size,
 )
-from ..engine.tracking._kalman import cv_matrices, predict_kernel
+from ..engine.tracking._kalman import check_prediction, cv_matrices, predict_kernel
 from ._common import (
     MAX_BATCH,
     MAX_DIM,
@@ -99,10 +99,9 @@ def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
                          f"{np.shape(dt)}, {np.shape(q)}") from None
     check_size(dt.size * 4 * dim * dim, MAX_BATCH, what="model entries",
                alternative="several calls on slices of `dt`")
-    model = MotionModel(*cv_matrices(dt, q, dim, noise))
-    if not np.all(np.isfinite(model.Q)):
-        raise ValueError("`dt`, `q`: the process-noise covariance overflows float64; use a "
-                         "smaller time unit")
+    with np.errstate(over="ignore", invalid="ignore"):
+        model = MotionModel(*cv_matrices(dt, q, dim, noise))
+    check_prediction(model.F[..., 0, :], model.Q, dt, q)
     return model
 
 
@@ -170,9 +169,9 @@ def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
                          f"{x.shape}, {P.shape}, {np.shape(dt)}, {np.shape(q)}") from None
     check_size(int(np.prod(lead, dtype=object)) * n * n, MAX_BATCH,
                what="batch elements × state entries", alternative="several calls on slices")
-    estimate, covariance = predict_kernel(x, P, dt, q, noise)        # F x, F P Fᵀ + Q
-    if not (np.all(np.isfinite(estimate)) and np.all(np.isfinite(covariance))):
-        raise ValueError("`dt`: the predicted track overflows float64")
+    with np.errstate(over="ignore", invalid="ignore"):
+        estimate, covariance = predict_kernel(x, P, dt, q, noise)    # F x, F P Fᵀ + Q
+    check_prediction(estimate, covariance, dt, q)
     return TrackEstimate(np.broadcast_to(estimate, (*lead, n)).copy(),
                          np.broadcast_to(covariance, (*lead, n, n)).copy())
 

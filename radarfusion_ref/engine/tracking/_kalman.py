@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import as_choice, as_covariance, as_float_array, as_positive, check_size
+from ..linalg import MAX_MAGNITUDE, _kappa
 
 #: Largest number of batch elements × state entries of one call.
 MAX_BATCH = 1 << 24
@@ -77,6 +78,21 @@ def cv_matrices(dt, q, dim, noise="continuous"):
     return blocks(one, dt, zero, one), blocks(qpp, qpv, qpv, qvv)
 
 
+def check_prediction(xp, Pp, dt, q) -> None:
+    """Refuse, naming `dt` and `q`, a prediction beyond the numeric domain.
+
+    The domain (:data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`): coordinates of
+    magnitude at most :math:`2^{150}`, variances at most :math:`2^{150}`.
+    """
+    var = np.diagonal(Pp, axis1=-2, axis2=-1)
+    if not (np.all(np.abs(xp) <= MAX_MAGNITUDE) and np.all(var <= MAX_MAGNITUDE)):
+        raise ValueError(
+            f"`dt`, `q`: the predicted track leaves the numeric domain (variances and "
+            f"coordinates up to 2**150, about 1.4e45; largest predicted variance "
+            f"{float(np.max(var)):.6g}) for dt up to {float(np.max(dt)):.6g} and q up to "
+            f"{float(np.max(q)):.6g}; predict over a shorter interval or use larger units")
+
+
 def predict_kernel(x, P, dt, q, noise="continuous"):
     r"""Kernel: :math:`F\mathbf x` and :math:`FPF^\mathsf T + Q` (trusted input)."""
     F, Q = cv_matrices(dt, q, x.shape[-1] // 2, noise)
@@ -92,16 +108,15 @@ def update_kernel(x, P, z, R):
     """
     d = z.shape[-1]
     S = _sym(P[..., :d, :d] + R)                                      # H P Hᵀ + Σ
-    L = np.linalg.cholesky(S)
     nu = z - x[..., :d]                                               # ν = z - H x
     PHt = P[..., :, :d]                                               # P Hᵀ
     K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)   # P Hᵀ S⁻¹
     xn = x + (K @ nu[..., None])[..., 0]                              # x + K ν
     A = np.eye(x.shape[-1]) - np.concatenate([K, np.zeros(K.shape)], -1)      # I - K H
     Pn = _sym(A @ P @ np.swapaxes(A, -1, -2) + K @ R @ np.swapaxes(K, -1, -2))
-    w = np.linalg.solve(L, nu[..., None])[..., 0]
-    stat = np.sum(w * w, axis=-1)
-    logdet = 2.0 * np.sum(np.log(np.diagonal(L, axis1=-2, axis2=-1)), axis=-1)
+    ld: list = []
+    stat = _kappa(nu, S, "`z`, `R`", ld)                              # νᵀ S⁻¹ ν, ln det S
+    logdet = np.broadcast_to(ld[0], stat.shape)
     return xn, Pn, stat, logdet
 
 
@@ -169,9 +184,9 @@ def kalman_predict(x, P, dt, q, *, noise="continuous") -> KalmanEstimate:
     n = x.shape[-1]
     check_size(math.prod(lead) * n * n, MAX_BATCH, what="batch elements × state entries",
                alternative="several calls on slices of the batch")
-    xp, Pp = predict_kernel(x, P, dt, q, noise)
-    if not (np.all(np.isfinite(xp)) and np.all(np.isfinite(Pp))):
-        raise ValueError("`dt`: the predicted track overflows float64; use a smaller time unit")
+    with np.errstate(over="ignore", invalid="ignore"):
+        xp, Pp = predict_kernel(x, P, dt, q, noise)
+    check_prediction(xp, Pp, dt, q)
     return KalmanEstimate(np.broadcast_to(xp, (*lead, n)).copy(),
                           np.broadcast_to(Pp, (*lead, n, n)).copy())
 
