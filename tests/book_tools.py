@@ -11,15 +11,20 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
+import subprocess
 import sys
 import time
 from pathlib import Path
 
 import nbformat
 
-from radarfusion_ref.kit.checks import LOG_ENV as CHECK_LOG_ENV
-
 ROOT = Path(__file__).resolve().parents[1]
+if __name__ == "__main__":  # run as a script: the package of this checkout
+    sys.path.insert(0, str(ROOT))
+
+from radarfusion_ref.kit.checks import LOG_ENV as CHECK_LOG_ENV  # noqa: E402
+
 BUILD_DIR = ROOT / "_build"
 CACHE_DIR = BUILD_DIR / ".jupyter_cache"
 
@@ -142,3 +147,90 @@ def _store_in_cache(nb, path: Path, seconds: float, cache_dir: Path) -> None:
         CacheBundleIn(nb, str(path), data={"execution_seconds": seconds}),
         check_validity=False, overwrite=True,
     )
+
+
+def page_docname(page: str | Path) -> str:
+    """``book/01_fusion`` from ``book/01_fusion.md``, ``01_fusion`` or a path to the file."""
+    text = str(page)
+    if text.endswith(".md"):
+        text = text[:-3]
+    path = Path(text)
+    if path.is_absolute() and path.is_relative_to(ROOT):
+        text = str(path.relative_to(ROOT))
+    if not text.startswith("book/"):
+        text = f"book/{text}"
+    if text not in toc_docnames(ROOT):
+        raise ValueError(f"`pages`: {page!r} is not a page of _toc.yml")
+    return text
+
+
+def build_pages(pages, out_dir: Path, *, timeout: int = 3600) -> Path:
+    """Build the whole book into `out_dir`, executing only `pages`; return the HTML dir.
+
+    Every page of ``_toc.yml`` is built, so numbering (chapters, equations,
+    exercises) and cross-references are those of the full book, but only the
+    chosen notebooks are executed (or taken from the execution cache): the
+    others are listed in ``execute.exclude_patterns`` of a private copy of
+    ``_config.yml`` and are rendered without outputs. The first build copies the
+    checkout's execution cache (``_build/.jupyter_cache``), if any, into
+    `out_dir`; later builds of the same pages are incremental. Nothing is written
+    outside `out_dir`.
+    """
+    import yaml
+
+    chosen = {page_docname(p) for p in pages}
+    if not chosen:
+        raise ValueError("`pages`: name at least one page to build")
+    out_dir = Path(out_dir).resolve()
+    if out_dir == BUILD_DIR.resolve() or out_dir == ROOT.resolve():
+        raise ValueError(f"`out_dir` must be a private directory, not {out_dir}")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    config = yaml.safe_load((ROOT / "_config.yml").read_text(encoding="utf-8"))
+    others = [f"{d}.md" for d in notebook_docnames(ROOT) if d not in chosen]
+    config.setdefault("execute", {})["exclude_patterns"] = others
+    # paths in the config are read relative to the config file: make them absolute
+    local = config.get("sphinx", {}).get("local_extensions", {})
+    for name, where in local.items():
+        local[name] = str(ROOT / where)
+    config["bibtex_bibfiles"] = [str(ROOT / b) for b in config.get("bibtex_bibfiles", [])]
+    config_path = out_dir / "_config.yml"
+    config_path.write_text(yaml.safe_dump(config, allow_unicode=True, sort_keys=False),
+                           encoding="utf-8")
+    cache = out_dir / "_build" / ".jupyter_cache"
+    if not cache.exists() and CACHE_DIR.exists():
+        shutil.copytree(CACHE_DIR, cache)
+    cmd = [sys.executable, "-c", "from jupyter_book.cli.main import main; main()", "build",
+           "--keep-going", "--path-output", str(out_dir), "--config", str(config_path),
+           str(ROOT)]
+    # the kernels (run in book/) import this checkout's package, installed or not
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
+    env = dict(os.environ, PYDEVD_DISABLE_FILE_VALIDATION="1", PYTHONPATH=path)
+    proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env,
+                          timeout=timeout)
+    (out_dir / "build.log").write_text(proc.stdout + proc.stderr, encoding="utf-8")
+    html = out_dir / "_build" / "html"
+    if proc.returncode != 0 or not (html / "index.html").exists():
+        tail = "\n".join((proc.stdout + proc.stderr).splitlines()[-40:])
+        raise RuntimeError(f"the build failed (exit {proc.returncode}):\n{tail}")
+    failed = [d for d in sorted(chosen)
+              if (html / "reports" / f"{d}.err.log").exists()
+              and f"{d}.md: WARNING: Executing notebook failed" in proc.stdout + proc.stderr]
+    if failed:
+        raise RuntimeError(f"{', '.join(failed)} failed to execute; the tracebacks are in "
+                           f"{html / 'reports'}")
+    return html
+
+
+def main(argv: list[str]) -> None:
+    """``python tests/book_tools.py build-pages OUT_DIR PAGE...``: build only some pages."""
+    if len(argv) < 3 or argv[0] != "build-pages":
+        sys.exit("usage: python tests/book_tools.py build-pages OUT_DIR PAGE [PAGE...]\n"
+                 "  e.g. python tests/book_tools.py build-pages /tmp/me_build book/01_fusion")
+    start = time.perf_counter()
+    html = build_pages(argv[2:], Path(argv[1]))
+    print(f"built {html} in {time.perf_counter() - start:.0f} s "
+          f"(log: {Path(argv[1]).resolve() / 'build.log'})")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

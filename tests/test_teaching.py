@@ -55,7 +55,47 @@ def test_a_chapter_has_the_lesson_shape(docname):
     for kind in ("Check your understanding", "Derive", "Code", "Explore"):
         assert re.search(rf"```\{{exercise-start\}}\s*{kind}", text), (
             f"{docname}: no '{kind}' exercise")
-    assert "checks.summary()" in text, f"{docname}: the page's verification verdict"
+
+
+def closing_cell_problem(path) -> str | None:
+    """What is wrong with a page's closing cell, or None (see CONTRIBUTING.md, checks)."""
+    import jupytext
+
+    code = [c for c in jupytext.read(path).cells if c.cell_type == "code"]
+    if not code:
+        return "no code cell, so no closing line"
+    last = code[-1]
+    lines = [ln.strip() for ln in last.source.splitlines() if ln.strip()]
+    if not lines or lines[-1] != "checks.page_summary()":
+        return (f"the last code cell must end with the expression `checks.page_summary()` "
+                f"(not printed); it ends with {lines[-1] if lines else '(nothing)'!r}")
+    if "remove-input" not in last.metadata.get("tags", []):
+        return "the closing `checks.page_summary()` cell must be tagged remove-input"
+    return None
+
+
+@pytest.mark.parametrize("docname", ALL_NOTEBOOKS)
+def test_a_page_closes_with_its_verified_checks(docname):
+    problem = closing_cell_problem(ROOT / f"{docname}.md")
+    assert problem is None, f"{docname}: {problem}"
+
+
+def test_the_closing_cell_rule_can_fail(tmp_path):
+    front = (ROOT / "book" / "intro.md").read_text(encoding="utf-8").split("---", 2)[1]
+    page = tmp_path / "page.md"
+    cell = "```{{code-cell}} ipython3\n:tags: [{tags}]\n\n{src}\n```\n"
+    for tags, src, expected in (
+        ("remove-input", "checks.page_summary()", None),
+        ("remove-input", "print(checks.summary())", "must end with"),
+        ("remove-input", "print(checks.page_summary())", "must end with"),
+        ("hide-input", "checks.page_summary()", "tagged remove-input"),
+    ):
+        page.write_text(f"---{front}---\n# T\n\n" + cell.format(tags=tags, src=src))
+        problem = closing_cell_problem(page)
+        if expected is None:
+            assert problem is None, problem
+        else:
+            assert problem is not None and expected in problem, (src, problem)
 
 
 @pytest.mark.parametrize("docname", ALL_NOTEBOOKS)
