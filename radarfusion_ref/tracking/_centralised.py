@@ -1,0 +1,382 @@
+r"""Architecture (a): one tracker fed every report in time order (:func:`track_reports`)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time as _time
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from .. import gating
+from ..engine import assignment
+from ..engine._validation import _describe, as_covariance, as_float_array
+from ..engine.linalg import mahalanobis_sq
+from ..engine.tracking._jpda import event_bound, exact_kernel, kbest_kernel
+from ..engine.tracking._kalman import predict_kernel, update_kernel
+from ..engine.tracking._score import increments_kernel
+from ._settings import TrackerSettings, TrackHistory
+
+#: Largest number of reports of one call (memory of the inputs and their sort).
+MAX_REPORTS = 50_000_000
+
+
+class _Live:
+    """The live tracks, as parallel arrays (one row per track)."""
+
+    FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "bits", "scored",
+              "last_seen")
+
+    def __init__(self, n_radars):
+        self.x = np.zeros((0, 6))
+        self.P = np.zeros((0, 6, 6))
+        self.t = np.zeros(0)
+        self.t_hit = np.zeros(0)
+        self.score = np.zeros(0)
+        self.peak = np.zeros(0)
+        self.confirmed = np.zeros(0, dtype=bool)
+        self.ids = np.zeros(0, dtype=np.int64)
+        self.bits = np.zeros(0, dtype=np.int64)
+        self.scored = np.zeros(0, dtype=np.int64)
+        self.last_seen = np.zeros((0, n_radars), dtype=np.int64)
+
+    def keep(self, mask):
+        for f in self.FIELDS:
+            setattr(self, f, getattr(self, f)[mask])
+
+    def extend(self, **new):
+        for f in self.FIELDS:
+            setattr(self, f, np.concatenate([getattr(self, f), new[f]]))
+
+
+class _Rows:
+    """Rows written out: confirmed tracks' rows, and the pending rows of tentative tracks."""
+
+    def __init__(self):
+        self.out = []          # (ids, time, state, cov, confirmed) chunks
+        self.pending = []      # same, of tentative tracks
+
+    def add(self, ids, t, x, P, confirmed):
+        if not ids.size:
+            return
+        chunk = (ids.copy(), np.full(ids.size, t), x.copy(), P.copy(), confirmed.copy())
+        if confirmed.all():
+            self.out.append(chunk)
+        elif not confirmed.any():
+            self.pending.append(chunk)
+        else:
+            self.out.append(tuple(c[confirmed] for c in chunk))
+            self.pending.append(tuple(c[~confirmed] for c in chunk))
+
+    def settle(self, promoted, dropped):
+        """Move the pending rows of `promoted` tracks out; forget those of `dropped` ones."""
+        if not self.pending or not (promoted.size or dropped.size):
+            return
+        cols = [np.concatenate(c) for c in zip(*self.pending, strict=True)]
+        up = np.isin(cols[0], promoted)
+        gone = np.isin(cols[0], dropped)
+        if up.any():
+            self.out.append(tuple(c[up] for c in cols))
+        rest = ~(up | gone)
+        self.pending = [tuple(c[rest] for c in cols)] if rest.any() else []
+
+    def history(self, seconds, initiated):
+        if not self.out:
+            return TrackHistory(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
+                                np.zeros((0, 6, 6)), np.zeros(0, bool), seconds, initiated)
+        ids, t, x, P, c = (np.concatenate(v) for v in zip(*self.out, strict=True))
+        o = np.lexsort((ids, t))
+        return TrackHistory(ids[o], t[o], x[o], P[o], c[o], seconds, initiated)
+
+
+def _reports_iv(time, position, covariance, radar, scan, settings):
+    if not isinstance(settings, TrackerSettings):
+        raise TypeError(f"`settings` must be a TrackerSettings; received {_describe(settings)}")
+    t = as_float_array(time, "time", ndim_min=1)
+    if t.ndim != 1:
+        raise ValueError(f"`time` must have shape (N,); received shape {t.shape}")
+    n = t.size
+    if n > MAX_REPORTS:
+        raise ValueError(f"`time`: {n} reports exceed the limit MAX_REPORTS = {MAX_REPORTS}; "
+                         "track the window in consecutive slices")
+    z = as_float_array(position, "position", ndim_min=2, last_dims=(3,))
+    if z.shape != (n, 3):
+        raise ValueError(f"`position` must have shape ({n}, 3); received shape {z.shape}")
+    R = as_covariance(covariance, "covariance", dim=3) if n else np.zeros((0, 3, 3))
+    if R.shape != (n, 3, 3):
+        raise ValueError(f"`covariance` must have shape ({n}, 3, 3); received shape {R.shape}")
+    out = []
+    for name, v in (("radar", radar), ("scan", scan)):
+        a = np.asarray(v) if not isinstance(v, (str, bytes)) and v is not None else None
+        if a is None or a.dtype.kind not in "iu" or a.shape != (n,):
+            raise TypeError(f"`{name}` must be an integer array of shape ({n},); received "
+                            f"{_describe(v)}")
+        if n and a.min() < 0:
+            raise ValueError(f"`{name}` must be >= 0; received smallest entry {a.min()}")
+        out.append(a.astype(np.int64))
+    return t, z, R, out[0], out[1]
+
+
+def track_reports(time, position, covariance, radar, scan, *,
+                  settings=None) -> TrackHistory:
+    r"""Architecture (a): every report, in time order, updates one tracker.
+
+    Parameters
+    ----------
+    time : array_like, shape (N,)
+        Report instants (s). Reports are processed in order of (time, radar): input out
+        of that order is **sorted** (stably; no report is dropped), as a fusion centre
+        that buffers the window would.
+    position : array_like, shape (N, 3)
+        Reports in the common east-north-up frame (m), finite.
+    covariance : array_like, shape (N, 3, 3)
+        Each report's own error covariance (m²), positive definite.
+    radar : array_like of int, shape (N,)
+        The radar of each report (≥ 0).
+    scan : array_like of int, shape (N,)
+        The radar's own scan number of each report: the reports of one radar at one
+        instant form a scan, processed together.
+    settings : TrackerSettings, optional
+        Defaults if None.
+
+    Returns
+    -------
+    TrackHistory
+        One row per (track, update); tentative tracks that were deleted leave no row.
+
+    Raises
+    ------
+    ValueError
+        NaN or infinite entries (named, with the row), a covariance not positive
+        definite, wrong shapes, negative radar or scan numbers, too many reports.
+    TypeError
+        Non-numeric input, non-integer `radar` or `scan`, `settings` not a
+        :class:`TrackerSettings`.
+
+    Notes
+    -----
+    Per scan (one radar at one instant): every live track is predicted to the instant
+    (:func:`radarfusion_ref.engine.tracking.kalman_predict`'s kernel); a report enters a
+    track's gate when :math:`d^2 = \boldsymbol\nu^\mathsf T S^{-1}\boldsymbol\nu` is below
+    :func:`radarfusion_ref.gating.gate_threshold` (3 degrees of freedom). Clusters of
+    tracks and reports linked by gates are solved apart:
+
+    * ``"gnn"`` — the assignment that maximises the summed score increments
+      :math:`\ln\frac{P_D\mathcal N(\boldsymbol\nu; 0, S)}{\lambda}` (hit) and
+      :math:`\ln(1 - P_D)` (miss), by :func:`radarfusion_ref.engine.assignment.solve_2d`
+      on :math:`[\,-\Delta L_{ij} \mid \operatorname{diag}(-\ln(1 - P_D))\,]`;
+    * ``"jpda"`` — each track is updated with the mixture of its gated reports weighted by
+      :func:`radarfusion_ref.engine.tracking.jpda_probabilities` (exact up to
+      `settings.max_events` joint events, else the `settings.k` best), its score grows by
+      :math:`\ln(1 - P_DP_G + \sum_j \ell_{ij})`.
+
+    A report no track takes (JPDA: total association probability below 1/2) starts a
+    tentative track at the report with velocity :math:`0 \pm` `speed_max` and score 0.
+    A radar's miss lowers a score only if that radar reported the track within its last
+    `miss_scans` scans. With ``confirmation="sprt"`` a tentative track is confirmed when
+    its score reaches :math:`\ln\frac{1-\beta}{\alpha}` and deleted at
+    :math:`\ln\frac{\beta}{1-\alpha}`; a confirmed one is deleted when its score falls
+    that same width below its peak. With ``"m_of_n"`` a track is confirmed when `m` of its
+    last `n` scored scans were hits, and deleted (tentative) when it can no longer be or
+    (confirmed) after `n` scored misses in a row. Any track is deleted after `max_coast`
+    seconds without a hit.
+
+    The memory is bounded by the live tracks: a deleted tentative track's rows are
+    forgotten, a confirmed track's rows are written out as they come.
+
+    Examples
+    --------
+    >>> t = np.repeat(np.arange(6) * 5.0, 1)
+    >>> z = np.c_[100.0 * t, np.zeros(6), np.full(6, 9000.0)]
+    >>> h = track_reports(t, z, np.tile(np.eye(3) * 100.0, (6, 1, 1)), np.zeros(6, int),
+    ...                   np.arange(6), settings=TrackerSettings(alpha=0.01))
+    >>> int(h.n_confirmed), bool(h.confirmed[-1]), round(float(h.state[-1, 3]))
+    (1, True, 100)
+    """
+    t0 = _time.perf_counter()
+    settings = TrackerSettings() if settings is None else settings
+    t, z, R, radar, scan = _reports_iv(time, position, covariance, radar, scan, settings)
+    if not t.size:
+        return _Rows().history(_time.perf_counter() - t0, 0)
+    order = np.lexsort((radar, t))                       # (time, radar), stable
+    t, z, R, radar, scan = t[order], z[order], R[order], radar[order], scan[order]
+    new_group = np.r_[True, (np.diff(t) != 0) | (np.diff(radar) != 0)]
+    starts = np.flatnonzero(new_group)
+    ends = np.r_[starts[1:], t.size]
+    state = _Tracker(settings, int(radar.max()) + 1)
+    for a, b in zip(starts, ends, strict=True):
+        state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
+    return state.rows.history(_time.perf_counter() - t0, state.next_id)
+
+
+class _Tracker:
+    """The tracker's state between scans and the processing of one scan."""
+
+    def __init__(self, s: TrackerSettings, n_radars: int):
+        self.s = s
+        self.live = _Live(n_radars)
+        self.rows = _Rows()
+        self.next_id = 0
+        self.gamma = float(gating.gate_threshold(s.p_false_reject, 3))
+        self.p_gate = 1.0 - s.p_false_reject
+        self.miss_inc = math.log(1.0 - s.p_detection)
+        self.mask = (1 << s.n) - 1
+
+    # ------------------------------------------------------------------ gate
+    def _gate(self, z, R):
+        """Gated (track, report) pairs with d² and ln det S."""
+        lv = self.live
+        T, M = lv.ids.size, z.shape[0]
+        empty = np.zeros(0, np.int64)
+        if not T or not M:
+            return empty, empty, np.zeros(0), np.zeros(0)
+        spread = np.trace(lv.P[:, :3, :3], axis1=1, axis2=2) + np.trace(R, axis1=1, axis2=2).max()
+        radius = np.sqrt(self.gamma * spread)            # |ν|² <= tr(S) d²: a sound prefilter
+        lists = cKDTree(z).query_ball_point(lv.x[:, :3], radius)
+        counts = np.fromiter((len(v) for v in lists), np.int64, T)
+        if not counts.sum():
+            return empty, empty, np.zeros(0), np.zeros(0)
+        ti = np.repeat(np.arange(T), counts)
+        rj = np.fromiter((j for v in lists for j in v), np.int64, int(counts.sum()))
+        d2, ld = mahalanobis_sq(z[rj] - lv.x[ti, :3], lv.P[ti, :3, :3] + R[rj],
+                                return_logdet=True)
+        d2, ld = np.atleast_1d(d2), np.atleast_1d(ld)
+        ok = d2 < self.gamma
+        return ti[ok], rj[ok], d2[ok], ld[ok]
+
+    # ------------------------------------------------------------------ one scan
+    def scan(self, t, r, s, z, R):
+        lv, st = self.live, self.s
+        if lv.ids.size:
+            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - lv.t, st.q)
+            lv.t[:] = t
+        T, M = lv.ids.size, z.shape[0]
+        scored = (s - lv.last_seen[:, r]) <= st.miss_scans
+        ti, rj, d2, ld = self._gate(z, R)
+        inc_pair = increments_kernel(d2, ld, st.p_detection, st.clutter_density)
+        inc = np.where(scored, self.miss_inc, 0.0)       # a miss, unless a report is taken
+        hit = np.zeros(T, dtype=bool)
+        used = np.zeros(M)                               # total probability of each report
+        if ti.size:
+            _n_c, label = connected_components(
+                coo_matrix((np.ones(ti.size), (ti, T + rj)), shape=(T + M, T + M)),
+                directed=False)
+            track_lab, pair_lab = label[:T], label[ti]
+            if st.association == "gnn":
+                self._gnn(z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used)
+            else:
+                self._jpda(z, R, ti, rj, inc_pair, pair_lab, track_lab, scored, inc, hit, used)
+        lv.last_seen[hit, r] = s
+        lv.t_hit[hit] = t
+        self._score(t, inc, hit, scored)
+        fresh = used < 0.5
+        self._start(t, r, s, z[fresh], R[fresh])
+
+    def _gnn(self, z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used):
+        lv = self.live
+        take = np.zeros(ti.size, dtype=bool)
+        order = np.argsort(pair_lab, kind="stable")
+        cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
+        for a, b in itertools.pairwise(cut):
+            p = order[a:b]
+            rows, cols = np.unique(ti[p], return_inverse=True)
+            rep, rcol = np.unique(rj[p], return_inverse=True)
+            if p.size == 1:                              # one track, one report
+                take[p] = inc_pair[p] > inc[rows]
+                continue
+            nt, nm = rows.size, rep.size
+            cost = np.full((nt, nm + nt), np.inf)
+            cost[cols, rcol] = -inc_pair[p]
+            cost[np.arange(nt), nm + np.arange(nt)] = -inc[rows]
+            choice = assignment.solve_2d(cost).row_to_col
+            sel = choice[cols] == rcol
+            take[p[sel]] = True
+        i, j = ti[take], rj[take]
+        lv.x[i], lv.P[i], _, _ = update_kernel(lv.x[i], lv.P[i], z[j], R[j])
+        inc[i] = inc_pair[take]
+        hit[i] = True
+        used[j] = 1.0
+
+    def _jpda(self, z, R, ti, rj, inc_pair, pair_lab, track_lab, scored, inc, hit, used):
+        lv, st = self.live, self.s
+        xu, Pu, _, _ = update_kernel(lv.x[ti], lv.P[ti], z[rj], R[rj])
+        w_miss = np.where(scored, 1.0 - st.p_detection * self.p_gate, 1.0)
+        beta = np.zeros(ti.size)
+        b0 = np.ones(lv.ids.size)
+        order = np.argsort(pair_lab, kind="stable")
+        cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
+        for a, b in itertools.pairwise(cut):
+            p = order[a:b]
+            rows, cols = np.unique(ti[p], return_inverse=True)
+            rep, rcol = np.unique(rj[p], return_inverse=True)
+            shift = inc_pair[p].max()
+            ratio = np.zeros((rows.size, rep.size))
+            ratio[cols, rcol] = np.exp(inc_pair[p] - shift)
+            w = w_miss[rows] * math.exp(-shift)
+            if w.min() <= 0:                             # a report far likelier than a miss
+                w = np.maximum(w, 1e-300)
+            res = (exact_kernel(ratio, w) if event_bound(ratio) <= st.max_events
+                   else kbest_kernel(ratio, w, st.k))
+            beta[p] = res.probabilities[cols, rcol]
+            b0[rows] = res.miss
+            inc[rows] = shift + np.log(w + ratio.sum(axis=1))
+        np.add.at(used, rj, beta)
+        rows = np.unique(ti)
+        x0, P0 = lv.x[rows].copy(), lv.P[rows].copy()
+        mean = b0[rows, None] * x0
+        loc = np.searchsorted(rows, ti)
+        np.add.at(mean, loc, beta[:, None] * xu)
+        dx0 = x0 - mean
+        cov = b0[rows, None, None] * (P0 + dx0[:, :, None] * dx0[:, None, :])
+        dxu = xu - mean[loc]
+        np.add.at(cov, loc, beta[:, None, None] * (Pu + dxu[:, :, None] * dxu[:, None, :]))
+        lv.x[rows], lv.P[rows] = mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
+        hit[rows] = b0[rows] < 0.5
+
+    # ------------------------------------------------------------------ score and life
+    def _score(self, t, inc, hit, scored):
+        lv, st = self.live, self.s
+        counted = hit | scored
+        lv.score += inc
+        lv.bits = np.where(counted, ((lv.bits << 1) | hit) & self.mask, lv.bits)
+        lv.scored += counted
+        tent = ~lv.confirmed
+        if st.confirmation == "sprt":
+            promote = tent & (lv.score >= st.upper)
+            drop = (tent & (lv.score <= st.lower)) | (
+                lv.confirmed & (lv.peak - lv.score >= st.upper - st.lower))
+        else:
+            ones = np.bitwise_count(lv.bits)
+            window = np.minimum(lv.scored, st.n)
+            promote = tent & (ones >= st.m)
+            drop = (tent & (ones + (st.n - window) < st.m)) | (
+                lv.confirmed & (window >= st.n) & (ones == 0))
+        drop |= (t - lv.t_hit) > st.max_coast
+        promote &= ~drop
+        lv.confirmed |= promote
+        lv.peak = np.where(lv.confirmed, np.maximum(lv.peak, lv.score), lv.score)
+        rec = hit & ~drop
+        self.rows.add(lv.ids[rec], t, lv.x[rec], lv.P[rec], lv.confirmed[rec])
+        self.rows.settle(lv.ids[promote], lv.ids[drop & ~lv.confirmed])
+        lv.keep(~drop)
+
+    def _start(self, t, r, s, z, R):
+        n = z.shape[0]
+        if not n:
+            return
+        x = np.zeros((n, 6))
+        x[:, :3] = z
+        P = np.zeros((n, 6, 6))
+        P[:, :3, :3] = R
+        P[:, 3:, 3:] = self.s.speed_max ** 2 * np.eye(3)
+        seen = np.full((n, self.live.last_seen.shape[1]), -(1 << 40), dtype=np.int64)
+        seen[:, r] = s
+        ids = self.next_id + np.arange(n, dtype=np.int64)
+        self.next_id += n
+        self.live.extend(x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
+                         peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
+                         bits=np.ones(n, np.int64), scored=np.ones(n, np.int64), last_seen=seen)
+        self.rows.add(ids, t, x, P, np.zeros(n, bool))

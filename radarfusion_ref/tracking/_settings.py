@@ -1,0 +1,150 @@
+"""The tracker's settings and its output: :class:`TrackerSettings` and :class:`TrackHistory`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..engine._validation import as_choice, as_float, as_int, as_positive, as_probability
+
+#: Association rules of the tracker.
+ASSOCIATIONS = ("gnn", "jpda")
+#: Confirmation logics of the tracker.
+CONFIRMATIONS = ("sprt", "m_of_n")
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    r"""Settings of :func:`~radarfusion_ref.tracking.track_reports` (validated when built).
+
+    Attributes
+    ----------
+    p_detection : float
+        :math:`P_D`, probability that a radar reports a target it covers (default 0.9).
+    clutter_density : float
+        :math:`\lambda`, false reports per m³ per radar scan (default 1e-14: about ten
+        false reports per scan in a radar's 220 km coverage below 15 km).
+    alpha, beta : float
+        Design rates of the sequential test: false confirmation :math:`\alpha`
+        (default 1e-3) and false deletion :math:`\beta` (default 0.01),
+        :math:`\alpha + \beta < 1` (:func:`radarfusion_ref.engine.tracking.sprt_thresholds`).
+    confirmation : {"sprt", "m_of_n"}
+        Confirm by the score's sequential test (default) or by M-of-N logic.
+    m, n : int
+        M-of-N: confirm when `m` of the last `n` scored scans were hits
+        (:math:`1 \le m \le n`, defaults 3 and 4).
+    q : float
+        Process-noise intensity of the constant-velocity model (m²/s³, default 5).
+    p_false_reject : float
+        The gate: :math:`P_{lo}` of :func:`radarfusion_ref.gating.gate_threshold` with
+        3 degrees of freedom (default 1e-4).
+    association : {"gnn", "jpda"}
+        Global nearest neighbour (default) or joint probabilistic data association.
+    k : int
+        JPDA: clusters with more joint events than `max_events` use the `k` best
+        (default 200, :math:`k \ge 1`).
+    max_events : int
+        JPDA: largest cluster (in joint events) enumerated exactly (default 5000).
+    speed_max : float
+        Standard deviation of each velocity component of a new track (m/s, default 250).
+    max_coast : float
+        Seconds without an update after which a track is deleted (default 40, > 0).
+    miss_scans : int
+        A radar's missed detection lowers a track's score only while that radar has
+        reported the track within its last `miss_scans` scans (default 3, ≥ 1): a radar
+        that stops seeing an aircraft (coverage, terrain) stops scoring it.
+
+    Raises
+    ------
+    ValueError
+        A probability outside (0, 1), :math:`\alpha + \beta \ge 1`, ``m > n``,
+        ``k < 1``, a non-positive period or intensity, an unknown choice; the message
+        names the attribute and shows the value.
+    TypeError
+        A non-numeric value.
+    """
+
+    p_detection: float = 0.9
+    clutter_density: float = 1e-14
+    alpha: float = 1e-3
+    beta: float = 0.01
+    confirmation: str = "sprt"
+    m: int = 3
+    n: int = 4
+    q: float = 5.0
+    p_false_reject: float = 1e-4
+    association: str = "gnn"
+    k: int = 200
+    max_events: int = 5000
+    speed_max: float = 250.0
+    max_coast: float = 40.0
+    miss_scans: int = 3
+    lower: float = field(init=False, repr=False)
+    upper: float = field(init=False, repr=False)
+
+    def __post_init__(self):
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        for name in ("p_detection", "alpha", "beta", "p_false_reject"):
+            put(name, as_float(as_probability(getattr(self, name), name), name))
+        for name in ("clutter_density", "q", "speed_max", "max_coast"):
+            put(name, as_float(as_positive(getattr(self, name), name), name))
+        if self.alpha + self.beta >= 1:
+            raise ValueError(f"`alpha` + `beta` must be < 1, else the deletion threshold "
+                             f"ln(beta/(1-alpha)) is not below the confirmation threshold "
+                             f"ln((1-beta)/alpha); received alpha={self.alpha!r}, "
+                             f"beta={self.beta!r}")
+        put("confirmation", as_choice(self.confirmation, "confirmation", CONFIRMATIONS))
+        put("association", as_choice(self.association, "association", ASSOCIATIONS))
+        put("n", as_int(self.n, "n", minimum=1, maximum=62))
+        put("m", as_int(self.m, "m", minimum=1))
+        if self.m > self.n:
+            raise ValueError(f"`m` must be <= `n` (m of the last n scans); received m={self.m}, "
+                             f"n={self.n}")
+        put("k", as_int(self.k, "k", minimum=1))
+        put("max_events", as_int(self.max_events, "max_events", minimum=1))
+        put("miss_scans", as_int(self.miss_scans, "miss_scans", minimum=1))
+        put("lower", math.log(self.beta / (1 - self.alpha)))
+        put("upper", math.log((1 - self.beta) / self.alpha))
+
+
+@dataclass(frozen=True)
+class TrackHistory:
+    """Tracks over time: one row per (track, update instant), sorted by (time, track).
+
+    Attributes
+    ----------
+    track : numpy.ndarray of int, shape (K,)
+        Track identity.
+    time : numpy.ndarray, shape (K,)
+        Instant of the update (s).
+    state : numpy.ndarray, shape (K, 6)
+        ``[x, y, z, vx, vy, vz]`` in the common east-north-up frame (m, m/s).
+    covariance : numpy.ndarray, shape (K, 6, 6)
+    confirmed : numpy.ndarray of bool, shape (K,)
+        The row is of a confirmed track (False: still tentative at that instant; the
+        rows of a tentative track are kept only if it is confirmed later).
+    seconds : float
+        Wall time of the tracking (s).
+    initiated : int
+        Tracks started, confirmed or not.
+    """
+
+    track: np.ndarray
+    time: np.ndarray
+    state: np.ndarray
+    covariance: np.ndarray
+    confirmed: np.ndarray
+    seconds: float = 0.0
+    initiated: int = 0
+
+    def __len__(self) -> int:
+        return int(self.track.size)
+
+    @property
+    def n_confirmed(self) -> int:
+        """Number of distinct tracks that were ever confirmed."""
+        return int(np.unique(self.track[self.confirmed]).size)
