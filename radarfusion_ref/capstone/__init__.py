@@ -13,6 +13,12 @@ module per concept:
   (:data:`RADAR_SITES`, :func:`default_radars`) reporting range, azimuth, elevation and
   a speed feature, with noise, systematic biases, missed detections, clutter and
   coverage limits (:func:`simulate_reports`);
+* :mod:`~radarfusion_ref.capstone.detections` — the radars' reports over time
+  (:func:`simulate_detections`): synchronous in the common frame (``mode="simple"``), or
+  each radar at its own period and phase in its own east-north-up frame
+  (``"realistic"``, :func:`realistic_radars`); :func:`to_common` converts them, with a
+  registration estimate, into the common frame, and :func:`truth_at` gives the truth at
+  any instant;
 * :mod:`~radarfusion_ref.capstone.pipeline` — the fusion centre scan by scan
   (:func:`run_pipeline`, configured by a frozen :class:`PipelineSettings`), each step
   calling the function its chapter teaches;
@@ -31,6 +37,7 @@ module per concept:
    data", JOSS 4(39) 1518 (2019) — the source of the ADS-B samples.
 """
 
+from .detections import MODES, Detections, local_rotation, simulate_detections, to_common
 from .evaluation import Evaluation, TrackEvaluation, evaluate, evaluate_tracks
 from .pipeline import (
     MIN_REGISTRATION_GROUPS,
@@ -41,31 +48,46 @@ from .pipeline import (
     PipelineSettings,
     run_pipeline,
 )
-from .radars import RADAR_SITES, Radar, Reports, coverage_count, default_radars, simulate_reports
+from .radars import (
+    RADAR_SITES,
+    REALISTIC_TIMING,
+    Radar,
+    Reports,
+    coverage_count,
+    default_radars,
+    realistic_radars,
+    simulate_reports,
+)
 from .tracking import TrackFusionResult, track_fusion
 from .traffic import (
     COLUMNS,
     DATA_FILE,
+    FRESH_BAND,
     ORIGIN,
     SPEED_BOUNDS,
     SPEED_CLASSES,
     Traffic,
     TruthScans,
     load_traffic,
+    truth_at,
     truth_scans,
 )
 
 __all__ = [
     "COLUMNS",
     "DATA_FILE",
+    "FRESH_BAND",
     "MIN_REGISTRATION_GROUPS",
+    "MODES",
     "ORIGIN",
     "RADAR_SITES",
+    "REALISTIC_TIMING",
     "SPEED_BOUNDS",
     "SPEED_CLASSES",
     "SPEED_TYPE_MEANS",
     "SPEED_TYPE_VARS",
     "STAGES",
+    "Detections",
     "Evaluation",
     "PipelineResult",
     "PipelineSettings",
@@ -80,8 +102,13 @@ __all__ = [
     "evaluate",
     "evaluate_tracks",
     "load_traffic",
+    "local_rotation",
+    "realistic_radars",
     "run_pipeline",
+    "simulate_detections",
     "simulate_reports",
+    "to_common",
     "track_fusion",
+    "truth_at",
     "truth_scans",
 ]

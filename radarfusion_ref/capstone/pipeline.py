@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .. import conversion, features, fusion, gating, grouping, registration
+from .. import features, fusion, gating, grouping, registration
 from ..engine._validation import (
     _describe,
     as_bool,
@@ -30,6 +30,7 @@ from ..engine._validation import (
     as_int,
     as_probability,
 )
+from .detections import _convert as _convert_polar
 from .radars import _FEATURE_SPAN, Reports, _coverage_count, _radars_iv
 
 __all__ = [
@@ -203,17 +204,9 @@ class PipelineResult:
 # ----------------------------------------------------------------------------- the stages
 def _convert(reports, radars, biases, debias):
     """Bias-corrected, converted reports in the common frame: (N, 3) and (N, 3, 3)."""
-    r, b = reports.r, reports.beta
-    if biases is not None:
-        r, b = registration.remove_biases(r, b, biases[reports.radar])
-        r = np.abs(r)
-    sr, sb, se = (np.array([getattr(x, k) for x in radars])[reports.radar]
-                  for k in ("sigma_r", "sigma_beta", "sigma_epsilon"))
-    out = conversion.spherical_to_cartesian(
-        r, b, reports.epsilon, sr, sb, se,
-        method="measurement_conditioned" if debias else "linearized")
-    sites = np.stack([x.enu for x in radars])
-    return out.xyz + sites[reports.radar], out.cov
+    sigma = np.array([[x.sigma_r, x.sigma_beta, x.sigma_epsilon] for x in radars])
+    return _convert_polar(reports.r, reports.beta, reports.epsilon, sigma[reports.radar],
+                          reports.radar, radars, biases, debias, False)
 
 
 def _register(reports, radars, settings):

@@ -26,10 +26,12 @@ from .traffic import ORIGIN, TruthScans
 
 __all__ = [
     "RADAR_SITES",
+    "REALISTIC_TIMING",
     "Radar",
     "Reports",
     "coverage_count",
     "default_radars",
+    "realistic_radars",
     "simulate_reports",
 ]
 
@@ -77,6 +79,14 @@ class Radar:
         ... and elevation at least this (rad).
     sigma_feature : float
         Noise standard deviation of the speed feature (kt).
+    period : float
+        Scan period (s, > 0; default 10). The radar's scans are at the instants
+        ``phase + k * period`` (s from the traffic start), k = 0, 1, ...
+    phase : float
+        Time of its scan 0 (s, ``0 <= phase < period``; default 0).
+    bias_scale : float
+        Systematic range scale error :math:`g` (dimensionless, > -1; default 0): the
+        biased range is :math:`(1 + g) r + \Delta r`.
     """
 
     name: str
@@ -93,11 +103,19 @@ class Radar:
     max_range: float = 220_000.0
     min_elevation: float = 0.0
     sigma_feature: float = 10.0
+    period: float = 10.0
+    phase: float = 0.0
+    bias_scale: float = 0.0
 
     @property
     def enu(self) -> np.ndarray:
         """Site in the common ENU frame (m)."""
         return geodetic_to_enu(self.lat, self.lon, self.height, origin=ORIGIN)
+
+    @property
+    def biases(self) -> np.ndarray:
+        """(range offset m, range scale, azimuth offset rad), as registration orders them."""
+        return np.array([self.bias_range, self.bias_scale, self.bias_azimuth])
 
     @property
     def coverage_volume(self) -> float:
@@ -144,13 +162,61 @@ def default_radars(**overrides) -> tuple[Radar, ...]:
         raise TypeError(f"`overrides`: {', '.join(f'`{k}`' for k in bad)} not a radar "
                         f"parameter; allowed: {', '.join(sorted(allowed))}")
     for k, v in overrides.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+        if not _is_number(v):
             raise TypeError(f"`{k}` must be a number; received {_describe(v)}")
     out = tuple(dataclasses.replace(
         Radar(name, *site, bias_range=extra[name][0],
               bias_azimuth=math.radians(extra[name][1]), p_detect=extra[name][2]),
         **{k: float(v) for k, v in overrides.items()})
         for name, site in RADAR_SITES.items())
+    return _radars_iv(out)
+
+
+#: Scan period (s), phase (s) and range scale error of each radar in
+#: :func:`realistic_radars`.
+REALISTIC_TIMING = {"La Dole": (12.0, 5.0, 2e-4), "Albis": (8.0, 2.5, -1.5e-4),
+                    "Monte Lema": (5.0, 1.0, 1e-4)}
+
+
+def realistic_radars(**overrides) -> tuple[Radar, ...]:
+    """The three radars of :func:`default_radars`, asynchronous and with range scale errors.
+
+    Each radar keeps its site, noise, offsets and detection model, and gets its own scan
+    period, phase and range scale error (:data:`REALISTIC_TIMING`): La Dôle every 12 s from
+    5 s (+2e-4, i.e. +40 m at 200 km), Albis every 8 s from 2.5 s (-1.5e-4), Monte Lema
+    every 5 s from 1 s (+1e-4). With ``mode="realistic"``
+    (:func:`radarfusion_ref.capstone.simulate_detections`) each also measures in its own
+    local east-north-up frame.
+
+    Parameters
+    ----------
+    **overrides
+        As :func:`default_radars` (the same value for all three; `period`, `phase` and
+        `bias_scale` among them).
+
+    Returns
+    -------
+    tuple of Radar
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`default_radars`; a period, phase or scale error outside its meaning is
+        refused naming ``radars[i].period`` (or ``phase``, ``bias_scale``).
+
+    Examples
+    --------
+    >>> [r.period for r in realistic_radars()]
+    [12.0, 8.0, 5.0]
+    """
+    base = default_radars()
+    out = tuple(dataclasses.replace(r, period=REALISTIC_TIMING[r.name][0],
+                                    phase=REALISTIC_TIMING[r.name][1],
+                                    bias_scale=REALISTIC_TIMING[r.name][2]) for r in base)
+    if overrides:
+        default_radars(**overrides)                          # the same checks, by name
+        out = tuple(dataclasses.replace(r, **{k: float(v) for k, v in overrides.items()})
+                    for r in out)
     return _radars_iv(out)
 
 
@@ -172,6 +238,27 @@ def _limit_false_reports(i: int, count: int, scans: int) -> int:
     return count
 
 
+def _is_number(v) -> bool:
+    return not isinstance(v, bool) and isinstance(v, (int, float, np.floating, np.integer))
+
+
+def _timing_iv(i, r):
+    """Refuse, naming ``radars[i].<field>``, a bad scan period, phase or range scale."""
+    for name in ("period", "phase", "bias_scale"):
+        v = getattr(r, name)
+        if not _is_number(v) or not math.isfinite(v):
+            raise (ValueError if _is_number(v) else TypeError)(
+                f"`radars[{i}].{name}` (radar {r.name!r}) must be a finite number; received "
+                f"{_describe(v)}")
+    for name, bad, rule in (
+            ("period", not r.period > 0, "> 0 s"),
+            ("phase", not 0 <= r.phase < r.period, f">= 0 and < its period ({r.period!r} s)"),
+            ("bias_scale", not abs(r.bias_scale) < 0.5, "in (-0.5, 0.5) (a range scale error)")):
+        if bad:
+            raise ValueError(f"`radars[{i}].{name}` (radar {r.name!r}) must be {rule}; "
+                             f"received {_describe(getattr(r, name))}")
+
+
 def _radars_iv(radars):
     """The door check of a `radars` argument: a list or tuple of valid :class:`Radar`."""
     if isinstance(radars, Radar) or not isinstance(radars, (list, tuple)) or not all(
@@ -180,7 +267,8 @@ def _radars_iv(radars):
                         f"received {_describe(radars)}")
     if len(radars) < 2:
         raise ValueError(f"`radars` must hold at least two radars; received {len(radars)}")
-    for r in radars:
+    for i, r in enumerate(radars):
+        _timing_iv(i, r)
         vals = np.array([r.lat, r.lon, r.height, r.sigma_r, r.sigma_beta, r.sigma_epsilon,
                          r.bias_range, r.bias_azimuth, r.p_detect, r.clutter_rate,
                          r.max_range, r.min_elevation, r.sigma_feature], dtype=float)
@@ -343,8 +431,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
         r, beta, eps = _polar(truth.position - site)
         cover = (r <= rad.max_range) & (eps >= rad.min_elevation)
         det = cover & (gen.random(r.size) < rad.p_detect)
-        rb, bb = registration.apply_biases(r[det], beta[det],
-                                           [rad.bias_range, 0.0, rad.bias_azimuth])
+        rb, bb = registration.apply_biases(r[det], beta[det], rad.biases)
         n_false = gen.poisson(rad.clutter_rate, size=S)
         nf = _limit_false_reports(i, int(n_false.sum()), S)
         rho = rad.max_range * np.sqrt(gen.random(nf))

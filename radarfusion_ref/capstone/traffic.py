@@ -22,18 +22,27 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine._validation import MEMORY_LIMIT, _describe, as_float, as_positive, check_size
+from ..engine._validation import (
+    MEMORY_LIMIT,
+    _describe,
+    as_float,
+    as_float_array,
+    as_positive,
+    check_size,
+)
 from ..engine.geodesy import geodetic_to_enu
 
 __all__ = [
     "COLUMNS",
     "DATA_FILE",
+    "FRESH_BAND",
     "ORIGIN",
     "SPEED_BOUNDS",
     "SPEED_CLASSES",
     "Traffic",
     "TruthScans",
     "load_traffic",
+    "truth_at",
     "truth_scans",
 ]
 
@@ -55,6 +64,11 @@ SPEED_CLASSES = ("slow", "medium", "fast")
 SPEED_BOUNDS = (440.0, 465.0)
 
 _FT = 0.3048                        # metres per foot
+_KT = 1852.0 / 3600.0               # metres per second per knot
+#: A record is fresh when its horizontal move from the last fresh record is within this
+#: band of what the ground speed allows (times the elapsed time), or within _SLACK m of it.
+FRESH_BAND = (0.5, 1.5)
+_SLACK = 50.0
 
 
 @dataclass(frozen=True)
@@ -323,3 +337,133 @@ def truth_scans(traffic, *, period=10.0, start=0.0, duration=600.0,
                       position=pos[order], speed=speed,
                       speed_class=np.searchsorted(SPEED_BOUNDS, speed, side="right"),
                       icao24=traffic.icao24, period=period)
+
+
+# ----------------------------------------------------------------------------- truth at any time
+def _fresh(t, xy, speed, max_gap):
+    """Mask of the fresh records of one aircraft (the rule of :func:`truth_at`)."""
+    keep = np.ones(t.size, dtype=bool)
+    last = 0
+    lo, hi = FRESH_BAND
+    for k in range(1, t.size):
+        dt = t[k] - t[last]
+        d = math.hypot(xy[k, 0] - xy[last, 0], xy[k, 1] - xy[last, 1])
+        e = 0.5 * (speed[k] + speed[last]) * _KT * dt
+        if dt > max_gap or lo * e <= d <= hi * e or abs(d - e) <= _SLACK:
+            last = k
+        else:
+            keep[k] = False
+    return keep
+
+
+def _truth_at_iv(traffic, times, max_gap):
+    if not isinstance(traffic, Traffic):
+        raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
+                        f"{_describe(traffic)}")
+    tt = np.asarray(as_float_array(times, "times"), dtype=float)
+    if tt.ndim != 1:
+        raise ValueError(f"`times` must be a 1-D array of instants (s); received shape "
+                         f"{tt.shape}")
+    max_gap = as_float(as_positive(max_gap, "max_gap"), "max_gap")
+    check_size(8 * 8 * tt.size * len(traffic.icao24), MEMORY_LIMIT,
+               what=f"bytes of truth ({tt.size} `times` x {len(traffic.icao24)} aircraft)",
+               alternative="fewer `times` per call (the distinct scan instants, in windows)")
+    return tt, max_gap
+
+
+def truth_at(traffic, times, *, max_gap=30.0, return_velocity=False, fresh_only=True):
+    r"""Every aircraft at any instants: ADS-B records interpolated by their own time stamps.
+
+    Parameters
+    ----------
+    traffic : Traffic
+        From :func:`load_traffic`.
+    times : array_like, shape (T,)
+        Instants (s from the window start), in any order.
+    max_gap : float, optional
+        Largest time between the two records an instant is interpolated between
+        (s, default 30); never extrapolated.
+    return_velocity : bool, optional
+        Also return the velocity (default False).
+    fresh_only : bool, optional
+        Interpolate between the fresh records only (default; the rule below) or between
+        all records (``False``: the stop-and-jump steps of stale records stay in).
+
+    Returns
+    -------
+    position : numpy.ndarray, shape (A, T, 3)
+        East, north, up (m) about :data:`ORIGIN` of aircraft ``a`` (index into
+        ``traffic.icao24``) at ``times[j]``; NaN where not valid.
+    valid : numpy.ndarray of bool, shape (A, T)
+        Whether the aircraft is known at that instant.
+    velocity : numpy.ndarray, shape (A, T, 3)
+        Only with `return_velocity`: the slope (m/s) of the segment the instant lies on
+        (the segment after it at a record's own time; the one before at the last record).
+
+    Raises
+    ------
+    TypeError
+        If `traffic` is not a :class:`Traffic`.
+    ValueError
+        Non-finite or non-1-D `times`, non-positive `max_gap`, or A x T beyond the memory
+        limit.
+
+    Notes
+    -----
+    The rule. A record's time stamp is the instant of its position only if the position
+    was updated for it; a stale record repeats an old position, so the aircraft seems to
+    stop, then jump ahead at the next fresh record. A record is **fresh** when its
+    horizontal move from the last fresh record of its aircraft lies within
+    :data:`FRESH_BAND` (0.5 to 1.5 times) of the distance its ground speed allows over
+    the elapsed time (the mean of the two records' ground speeds), or within 50 m of it;
+    the first record is fresh, and so is any record more than `max_gap` after the last
+    fresh one (a new segment). Positions are linear in time between consecutive fresh
+    records (WGS-84 to ENU first, :func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`),
+    at an instant bracketed by two fresh records at most `max_gap` apart, or at a fresh
+    record's own time.
+
+    Examples
+    --------
+    >>> pos, ok = truth_at(load_traffic(), [0.0, 5.0])
+    >>> pos.shape, ok.shape
+    ((142, 2, 3), (142, 2))
+    """
+    tt, max_gap = _truth_at_iv(traffic, times, max_gap)
+    A, T = len(traffic.icao24), tt.size
+    pos = np.full((A, T, 3), np.nan)
+    vel = np.full((A, T, 3), np.nan)
+    valid = np.zeros((A, T), dtype=bool)
+    enu = geodetic_to_enu(traffic.lat, traffic.lon, traffic.alt, origin=ORIGIN)
+    bounds = np.flatnonzero(np.diff(traffic.aircraft)) + 1
+    for a0, a1 in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [traffic.t.size]]),
+                      strict=True):
+        a = int(traffic.aircraft[a0])
+        t, p = traffic.t[a0:a1], enu[a0:a1]
+        if fresh_only:
+            keep = _fresh(t, p, traffic.speed[a0:a1], max_gap)
+            t, p = t[keep], p[keep]
+        k = np.searchsorted(t, tt, side="right") - 1                  # record at or before
+        exact = (k >= 0) & (t[np.maximum(k, 0)] == tt)
+        inside = (k >= 0) & (k < t.size - 1)
+        kk = np.clip(k, 0, max(t.size - 2, 0))
+        if t.size >= 2:
+            inside &= (t[kk + 1] - t[kk]) <= max_gap
+            seg = np.where(inside | (k < t.size - 1), kk, t.size - 2)  # segment of the slope
+            slope = (p[seg + 1] - p[seg]) / (t[seg + 1] - t[seg])[:, None]
+            near = (exact & ~inside) & ((t[seg + 1] - t[seg]) > max_gap)
+            slope[near] = np.nan                      # a lone record: no segment to read
+        else:
+            inside[:] = False
+            slope = np.full((T, 3), np.nan)
+        ok = inside | exact
+        w = np.where(inside, (tt - t[kk]) / np.where(t.size >= 2, t[kk + 1] - t[kk], 1.0)
+                     if t.size >= 2 else 0.0, 0.0)
+        if t.size >= 2:
+            here = p[kk] + w[:, None] * (p[kk + 1] - p[kk])
+            here[exact] = p[k[exact]]
+        else:
+            here = np.repeat(p[:1], T, axis=0)
+        pos[a, ok] = here[ok]
+        vel[a, ok] = slope[ok]
+        valid[a] = ok
+    return (pos, valid, vel) if return_velocity else (pos, valid)
