@@ -9,11 +9,15 @@ its code cells, so the build that follows in the same test run re-uses it.
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import http.server
 import os
 import re
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -149,6 +153,39 @@ def _store_in_cache(nb, path: Path, seconds: float, cache_dir: Path) -> None:
     )
 
 
+#: Debian's Chromium, driven by Playwright through ``executable_path`` (no browser download).
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update",
+                 "--disable-sync", "--disable-dev-shm-usage"]
+
+
+def chromium_path() -> str | None:
+    """The system's Chromium, or None."""
+    for name in ("chromium", "chromium-browser"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, *args):
+        pass
+
+
+@contextlib.contextmanager
+def serve(directory: Path):
+    """Serve `directory` on an ephemeral loopback port; yields the base URL."""
+    handler = functools.partial(_QuietHandler, directory=str(directory))
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{httpd.server_address[1]}"
+    finally:
+        httpd.shutdown()
+
+
 def page_docname(page: str | Path) -> str:
     """``book/01_fusion`` from ``book/01_fusion.md``, ``01_fusion`` or a path to the file."""
     text = str(page)
@@ -164,7 +201,7 @@ def page_docname(page: str | Path) -> str:
     return text
 
 
-def build_pages(pages, out_dir: Path, *, timeout: int = 3600) -> Path:
+def build_pages(pages, out_dir: Path, *, fresh: bool = False, timeout: int = 3600) -> Path:
     """Build the whole book into `out_dir`, executing only `pages`; return the HTML dir.
 
     Every page of ``_toc.yml`` is built, so numbering (chapters, equations,
@@ -175,6 +212,11 @@ def build_pages(pages, out_dir: Path, *, timeout: int = 3600) -> Path:
     checkout's execution cache (``_build/.jupyter_cache``), if any, into
     `out_dir`; later builds of the same pages are incremental. Nothing is written
     outside `out_dir`.
+
+    Sphinx re-reads only pages whose source changed: pass ``fresh=True`` (the
+    command line's ``--fresh``) after changing the package, so that every chosen
+    page is executed again (or taken from the cache if its code is unchanged).
+    A build in which a chosen page failed makes the next one fresh by itself.
     """
     import yaml
 
@@ -199,35 +241,42 @@ def build_pages(pages, out_dir: Path, *, timeout: int = 3600) -> Path:
     cache = out_dir / "_build" / ".jupyter_cache"
     if not cache.exists() and CACHE_DIR.exists():
         shutil.copytree(CACHE_DIR, cache)
+    marker = out_dir / ".fresh-next"
+    fresh = fresh or marker.exists()
     cmd = [sys.executable, "-c", "from jupyter_book.cli.main import main; main()", "build",
            "--keep-going", "--path-output", str(out_dir), "--config", str(config_path),
-           str(ROOT)]
+           *(["--all"] if fresh else []), str(ROOT)]
     # the kernels (run in book/) import this checkout's package, installed or not
     path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
     env = dict(os.environ, PYDEVD_DISABLE_FILE_VALIDATION="1", PYTHONPATH=path)
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env,
                           timeout=timeout)
     (out_dir / "build.log").write_text(proc.stdout + proc.stderr, encoding="utf-8")
+    marker.unlink(missing_ok=True)
     html = out_dir / "_build" / "html"
     if proc.returncode != 0 or not (html / "index.html").exists():
+        marker.touch()
         tail = "\n".join((proc.stdout + proc.stderr).splitlines()[-40:])
         raise RuntimeError(f"the build failed (exit {proc.returncode}):\n{tail}")
     failed = [d for d in sorted(chosen)
-              if (html / "reports" / f"{d}.err.log").exists()
-              and f"{d}.md: WARNING: Executing notebook failed" in proc.stdout + proc.stderr]
+              if f"{d}.md: WARNING: Executing notebook failed" in proc.stdout + proc.stderr]
     if failed:
+        marker.touch()
         raise RuntimeError(f"{', '.join(failed)} failed to execute; the tracebacks are in "
                            f"{html / 'reports'}")
     return html
 
 
 def main(argv: list[str]) -> None:
-    """``python tests/book_tools.py build-pages OUT_DIR PAGE...``: build only some pages."""
+    """``python tests/book_tools.py build-pages [--fresh] OUT_DIR PAGE...``: build some pages."""
+    fresh = "--fresh" in argv
+    argv = [a for a in argv if a != "--fresh"]
     if len(argv) < 3 or argv[0] != "build-pages":
-        sys.exit("usage: python tests/book_tools.py build-pages OUT_DIR PAGE [PAGE...]\n"
-                 "  e.g. python tests/book_tools.py build-pages /tmp/me_build book/01_fusion")
+        sys.exit("usage: python tests/book_tools.py build-pages [--fresh] OUT_DIR PAGE...\n"
+                 "  e.g. python tests/book_tools.py build-pages /tmp/me_build book/01_fusion\n"
+                 "  --fresh: re-read every page (after a change to the package)")
     start = time.perf_counter()
-    html = build_pages(argv[2:], Path(argv[1]))
+    html = build_pages(argv[2:], Path(argv[1]), fresh=fresh)
     print(f"built {html} in {time.perf_counter() - start:.0f} s "
           f"(log: {Path(argv[1]).resolve() / 'build.log'})")
 
