@@ -127,9 +127,10 @@ def track_reports(time, position, covariance, radar, scan, *,
     Parameters
     ----------
     time : array_like, shape (N,)
-        Report instants (s). Reports are processed in order of (time, radar): input out
-        of that order is **sorted** (stably; no report is dropped), as a fusion centre
-        that buffers the window would.
+        Report instants (s). Reports are processed in order of time, then radar, then
+        (within one scan) east, north and up position: input in any other order is
+        **sorted** so (no report is dropped), as a fusion centre that buffers the window
+        would; the result depends on the reports, not on their order.
     position : array_like, shape (N, 3)
         Reports in the common east-north-up frame (m), finite.
     covariance : array_like, shape (N, 3, 3)
@@ -170,8 +171,9 @@ def track_reports(time, position, covariance, radar, scan, *,
       on :math:`[\,-\Delta L_{ij} \mid \operatorname{diag}(-\ln(1 - P_D))\,]`;
     * ``"jpda"`` — each track is updated with the mixture of its gated reports weighted by
       :func:`radarfusion_ref.engine.tracking.jpda_probabilities` (exact up to
-      `settings.max_events` joint events, else the `settings.k` best), its score grows by
-      :math:`\ln(1 - P_DP_G + \sum_j \ell_{ij})`.
+      `settings.max_events` joint events, else the `settings.k` best); a track whose
+      probability of a report exceeds 1/2 counts a hit, and its score grows by the
+      probability-weighted hit increment, otherwise by a miss.
 
     A report no track takes (JPDA: total association probability below 1/2) starts a
     tentative track at the report with velocity :math:`0 \pm` `speed_max` and score 0.
@@ -201,7 +203,7 @@ def track_reports(time, position, covariance, radar, scan, *,
     t, z, R, radar, scan = _reports_iv(time, position, covariance, radar, scan, settings)
     if not t.size:
         return _Rows().history(_time.perf_counter() - t0, 0)
-    order = np.lexsort((radar, t))                       # (time, radar), stable
+    order = np.lexsort((z[:, 2], z[:, 1], z[:, 0], radar, t))   # time, radar, then position
     t, z, R, radar, scan = t[order], z[order], R[order], radar[order], scan[order]
     new_group = np.r_[True, (np.diff(t) != 0) | (np.diff(radar) != 0)]
     starts = np.flatnonzero(new_group)
@@ -278,22 +280,12 @@ class _Tracker:
     def _gnn(self, z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used):
         lv = self.live
         take = np.zeros(ti.size, dtype=bool)
-        order = np.argsort(pair_lab, kind="stable")
-        cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
-        for a, b in itertools.pairwise(cut):
-            p = order[a:b]
-            rows, cols = np.unique(ti[p], return_inverse=True)
-            rep, rcol = np.unique(rj[p], return_inverse=True)
-            if p.size == 1:                              # one track, one report
-                take[p] = inc_pair[p] > inc[rows]
-                continue
-            nt, nm = rows.size, rep.size
-            cost = np.full((nt, nm + nt), np.inf)
-            cost[cols, rcol] = -inc_pair[p]
-            cost[np.arange(nt), nm + np.arange(nt)] = -inc[rows]
-            choice = assignment.solve_2d(cost).row_to_col
-            sel = choice[cols] == rcol
-            take[p[sel]] = True
+        first = lv.confirmed[ti]                         # confirmed tracks choose first
+        _assign_clusters(np.flatnonzero(first), ti, rj, inc_pair, pair_lab, inc, take)
+        taken = np.zeros(z.shape[0], dtype=bool)
+        taken[rj[take]] = True
+        _assign_clusters(np.flatnonzero(~first & ~taken[rj]), ti, rj, inc_pair, pair_lab, inc,
+                         take)
         i, j = ti[take], rj[take]
         lv.x[i], lv.P[i], _, _ = update_kernel(lv.x[i], lv.P[i], z[j], R[j])
         inc[i] = inc_pair[take]
@@ -322,7 +314,6 @@ class _Tracker:
                    else kbest_kernel(ratio, w, st.k))
             beta[p] = res.probabilities[cols, rcol]
             b0[rows] = res.miss
-            inc[rows] = shift + np.log(w + ratio.sum(axis=1))
         np.add.at(used, rj, beta)
         rows = np.unique(ti)
         x0, P0 = lv.x[rows].copy(), lv.P[rows].copy()
@@ -335,6 +326,10 @@ class _Tracker:
         np.add.at(cov, loc, beta[:, None, None] * (Pu + dxu[:, :, None] * dxu[:, None, :]))
         lv.x[rows], lv.P[rows] = mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
         hit[rows] = b0[rows] < 0.5
+        gain = np.zeros(lv.ids.size)                     # expected increment given a hit
+        np.add.at(gain, ti, beta * inc_pair)
+        h = rows[hit[rows]]
+        inc[h] = gain[h] / (1.0 - b0[h])
 
     # ------------------------------------------------------------------ score and life
     def _score(self, t, inc, hit, scored):
@@ -380,3 +375,24 @@ class _Tracker:
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
                          bits=np.ones(n, np.int64), scored=np.ones(n, np.int64), last_seen=seen)
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
+
+
+def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):
+    """GNN in each gated cluster among `pairs`: the assignment of largest summed increment."""
+    if not pairs.size:
+        return
+    order = pairs[np.argsort(pair_lab[pairs], kind="stable")]
+    cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
+    for a, b in itertools.pairwise(cut):
+        p = order[a:b]
+        rows, cols = np.unique(ti[p], return_inverse=True)
+        rep, rcol = np.unique(rj[p], return_inverse=True)
+        if p.size == 1:                                  # one track, one report
+            take[p] = inc_pair[p] > inc[rows]
+            continue
+        nt, nm = rows.size, rep.size
+        cost = np.full((nt, nm + nt), np.inf)
+        cost[cols, rcol] = -inc_pair[p]
+        cost[np.arange(nt), nm + np.arange(nt)] = -inc[rows]
+        choice = assignment.solve_2d(cost).row_to_col
+        take[p[choice[cols] == rcol]] = True

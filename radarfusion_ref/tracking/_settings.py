@@ -36,10 +36,11 @@ class TrackerSettings:
         M-of-N: confirm when `m` of the last `n` scored scans were hits
         (:math:`1 \le m \le n`, defaults 3 and 4).
     q : float
-        Process-noise intensity of the constant-velocity model (m²/s³, default 5).
+        Process-noise intensity of the constant-velocity model (m²/s³, default 50: airliners
+        turn and change level).
     p_false_reject : float
         The gate: :math:`P_{lo}` of :func:`radarfusion_ref.gating.gate_threshold` with
-        3 degrees of freedom (default 1e-4).
+        3 degrees of freedom (default 1e-6).
     association : {"gnn", "jpda"}
         Global nearest neighbour (default) or joint probabilistic data association.
     k : int
@@ -73,8 +74,8 @@ class TrackerSettings:
     confirmation: str = "sprt"
     m: int = 3
     n: int = 4
-    q: float = 5.0
-    p_false_reject: float = 1e-4
+    q: float = 50.0
+    p_false_reject: float = 1e-6
     association: str = "gnn"
     k: int = 200
     max_events: int = 5000

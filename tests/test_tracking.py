@@ -1,0 +1,210 @@
+"""The tracker of chapter 12 ("From reports to tracks"): settings, bad input, behaviour.
+
+References come from independent routes: a hand-written Kalman loop with explicit
+matrices for a lone target, the truth of simulated scenes for identities, a binomial
+tolerance for the false-confirmation rate in pure clutter, tracemalloc for memory.
+"""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from radarfusion_ref.engine.montecarlo import binomial_tolerance
+from radarfusion_ref.tracking import TrackerSettings, TrackHistory, track_reports
+
+SIGMA = np.array([60.0, 60.0, 150.0])
+
+
+def _scene(n_targets=1, scans=40, period=5.0, radars=1, clutter=0, seed=0, crossing=False,
+           p_detect=1.0):
+    """Straight-line targets seen by `radars` radars of one period, phases spread."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for k in range(scans):
+        for r in range(radars):
+            t = k * period + r * period / radars
+            for a in range(n_targets):
+                if rng.random() > p_detect:
+                    continue
+                if crossing:
+                    p0 = np.array([-20000.0, 3000.0 * (1 - 2 * a), 9000.0])
+                    v = np.array([200.0, -30.0 * (1 - 2 * a), 0.0])
+                else:
+                    p0 = np.array([0.0, 20000.0 * a, 9000.0])
+                    v = np.array([220.0, 10.0, 0.0])
+                rows.append((t, r, k, *(p0 + v * t + SIGMA * rng.standard_normal(3)), a))
+            for _ in range(rng.poisson(clutter)):
+                rows.append((t, r, k, *rng.uniform([-5e4, -5e4, 0], [5e4, 5e4, 1.2e4]), -1))
+    a = np.array(rows)
+    R = np.broadcast_to(np.diag(SIGMA**2), (len(a), 3, 3)).copy()
+    return (a[:, 0], a[:, 3:6], R, a[:, 1].astype(int), a[:, 2].astype(int)), a[:, 6].astype(int)
+
+
+def _labels(h, inputs, truth):
+    """Per confirmed track: the truth of the report nearest each of its rows."""
+    t, z = inputs[0], inputs[1]
+    out = {}
+    for tid in np.unique(h.track[h.confirmed]):
+        sel = (h.track == tid) & h.confirmed
+        lab = []
+        for tt, x in zip(h.time[sel], h.state[sel, :3], strict=True):
+            at = np.flatnonzero(t == tt)
+            lab.append(truth[at[np.argmin(np.linalg.norm(z[at] - x, axis=1))]])
+        out[int(tid)] = np.array(lab)
+    return out
+
+
+# --------------------------------------------------------------------------- settings
+@pytest.mark.parametrize(("field", "value"), [
+    ("p_detection", 0.0), ("p_detection", 1.0), ("alpha", 1.5), ("beta", -0.1),
+    ("p_false_reject", 1.0), ("k", 0), ("m", 0), ("n", 0), ("max_coast", 0.0),
+    ("q", -1.0), ("clutter_density", 0.0), ("speed_max", np.inf), ("miss_scans", 0),
+    ("association", "nn"), ("confirmation", "both"), ("max_events", 0),
+])
+def test_settings_refuse_each_field_by_name(field, value):
+    with pytest.raises(ValueError, match=f"`{field}`"):
+        TrackerSettings(**{field: value})
+
+
+def test_settings_thresholds_in_order():
+    with pytest.raises(ValueError, match=r"`alpha` \+ `beta`"):
+        TrackerSettings(alpha=0.6, beta=0.5)
+    with pytest.raises(ValueError, match="`m` must be <= `n`"):
+        TrackerSettings(m=5, n=3)
+    with pytest.raises(TypeError, match="`k`"):
+        TrackerSettings(k=2.5)
+    s = TrackerSettings(alpha=1e-3, beta=0.01)
+    assert s.lower == pytest.approx(np.log(0.01 / 0.999))
+    assert s.upper == pytest.approx(np.log(0.99 / 1e-3))
+
+
+# --------------------------------------------------------------------------- bad input
+def test_bad_reports_refused_by_name():
+    inputs, _ = _scene(scans=5)
+    t, z, R, r, s = inputs
+    bad = z.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="`position` must be finite"):
+        track_reports(t, bad, R, r, s)
+    tb = t.copy()
+    tb[2] = np.inf
+    with pytest.raises(ValueError, match="`time` must be finite"):
+        track_reports(tb, z, R, r, s)
+    Rb = R.copy()
+    Rb[0] = -Rb[0]
+    with pytest.raises(ValueError, match="`covariance`"):
+        track_reports(t, z, Rb, r, s)
+    with pytest.raises(TypeError, match="`radar`"):
+        track_reports(t, z, R, r.astype(float), s)
+    with pytest.raises(ValueError, match="`scan`"):
+        track_reports(t, z, R, r, -s - 1)
+    with pytest.raises(ValueError, match="`position` must have shape"):
+        track_reports(t, z[:-1], R, r, s)
+    with pytest.raises(TypeError, match="`settings`"):
+        track_reports(t, z, R, r, s, settings={"q": 1.0})
+
+
+def test_empty_input_and_empty_scans():
+    h = track_reports(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, int),
+                      np.zeros(0, int))
+    assert isinstance(h, TrackHistory) and len(h) == 0 and h.initiated == 0
+    inputs, _ = _scene(scans=30)
+    t, z, R, r, s = inputs
+    gap = (s < 12) | (s > 14)                      # three scans with no report at all
+    h = track_reports(t[gap], z[gap], R[gap], r[gap], s[gap])
+    assert h.n_confirmed == 1
+    assert h.time[h.confirmed].max() == t.max()
+
+
+def test_out_of_order_input_is_sorted_by_time_then_radar():
+    inputs, _ = _scene(n_targets=2, scans=20, radars=2, clutter=2, seed=3)
+    ref = track_reports(*inputs)
+    perm = np.random.default_rng(0).permutation(inputs[0].size)
+    got = track_reports(*(a[perm] for a in inputs))
+    np.testing.assert_array_equal(got.track, ref.track)
+    np.testing.assert_allclose(got.state, ref.state, rtol=1e-12)
+
+
+# --------------------------------------------------------------------------- behaviour
+def test_lone_target_matches_a_hand_written_kalman_filter():
+    inputs, _ = _scene(scans=12)
+    t, z, R, _, _ = inputs
+    s = TrackerSettings(q=30.0)
+    h = track_reports(*inputs, settings=s)
+    assert h.n_confirmed == 1 and np.unique(h.track).size == 1
+    x = np.r_[z[0], 0, 0, 0]
+    P = np.zeros((6, 6))
+    P[:3, :3], P[3:, 3:] = R[0], s.speed_max**2 * np.eye(3)
+    H = np.hstack([np.eye(3), np.zeros((3, 3))])
+    for k in range(1, t.size):
+        dt = t[k] - t[k - 1]
+        F = np.eye(6) + np.diag([dt] * 3, 3)
+        Q = s.q * np.block([[dt**3 / 3 * np.eye(3), dt**2 / 2 * np.eye(3)],
+                            [dt**2 / 2 * np.eye(3), dt * np.eye(3)]])
+        x, P = F @ x, F @ P @ F.T + Q
+        K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R[k])
+        x, P = x + K @ (z[k] - H @ x), (np.eye(6) - K @ H) @ P
+    np.testing.assert_allclose(h.state[-1], x, rtol=1e-9, atol=1e-6)
+    np.testing.assert_allclose(h.covariance[-1], P, rtol=1e-7, atol=1e-6)
+
+
+@pytest.mark.parametrize("association", ["gnn", "jpda"])
+@pytest.mark.parametrize("confirmation", ["sprt", "m_of_n"])
+def test_crossing_targets_keep_their_identities(association, confirmation):
+    inputs, truth = _scene(n_targets=2, scans=40, radars=2, clutter=3, seed=5, crossing=True,
+                           p_detect=0.9)
+    # about 240 false reports start tentative tracks: alpha = 1e-5 makes a false
+    # confirmation unlikely (Wald's bound: 240 alpha / (1 - beta) = 0.0024 expected)
+    s = TrackerSettings(association=association, confirmation=confirmation, alpha=1e-5,
+                        clutter_density=3 / (1e5 * 1e5 * 1.2e4))
+    h = track_reports(*inputs, settings=s)
+    labels = _labels(h, inputs, truth)
+    real = {k: v for k, v in labels.items() if np.mean(v >= 0) > 0.5}
+    owners = sorted(int(np.bincount(v[v >= 0]).argmax()) for v in real.values())
+    assert owners == [0, 1]                         # one unbroken track per target
+    for v in real.values():
+        assert np.mean(v == np.bincount(v[v >= 0]).argmax()) > 0.95
+    if confirmation == "sprt":                      # M-of-N may confirm clutter here
+        assert len(labels) == 2
+
+
+def test_false_confirmation_rate_in_pure_clutter_within_design():
+    rng = np.random.default_rng(11)
+    scans, per = 15, 400
+    t = np.repeat(np.arange(scans) * 5.0, per)
+    z = rng.uniform([-2e5, -2e5, 0], [2e5, 2e5, 1.5e4], (t.size, 3))
+    R = np.broadcast_to(np.diag(SIGMA**2), (t.size, 3, 3))
+    s = TrackerSettings(clutter_density=per / (4e5 * 4e5 * 1.5e4), alpha=0.01, beta=0.01)
+    h = track_reports(t, z, R, np.zeros(t.size, int), np.repeat(np.arange(scans), per),
+                      settings=s)
+    bound = s.alpha / (1 - s.beta)                 # Wald's bound on the false-confirmation rate
+    assert h.initiated > 4000
+    assert h.n_confirmed / h.initiated <= bound + binomial_tolerance(bound, h.initiated)
+
+
+def _clutter(scans, per=1000, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.repeat(np.arange(scans) * 5.0, per)
+    z = rng.uniform([-2e5, -2e5, 0], [2e5, 2e5, 1.5e4], (scans * per, 3))
+    R = np.broadcast_to(np.diag(SIGMA**2), (scans * per, 3, 3)).copy()
+    return t, z, R, np.zeros(t.size, int), np.repeat(np.arange(scans), per)
+
+
+def test_memory_bounded_over_many_scans_of_clutter():
+    """1 000 false reports per scan: the peak beyond the inputs' copies does not grow."""
+    s = TrackerSettings(clutter_density=1000 / (4e5 * 4e5 * 1.5e4))
+    extra = []
+    for scans in (8, 24):
+        a = _clutter(scans)
+        tracemalloc.start()
+        h = track_reports(*a, settings=s)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        inputs = sum(x.nbytes for x in a)
+        extra.append(peak - 2 * inputs)            # the sorted copy of the inputs and its order
+        assert h.initiated > 0.9 * scans * 1000
+    assert extra[1] < 30e6
+    assert extra[1] < 1.5 * extra[0] + 2e6
