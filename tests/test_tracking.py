@@ -205,6 +205,6 @@ def test_memory_bounded_over_many_scans_of_clutter():
         tracemalloc.stop()
         inputs = sum(x.nbytes for x in a)
         extra.append(peak - 2 * inputs)            # the sorted copy of the inputs and its order
-        assert h.initiated > 0.9 * scans * 1000
+        assert h.initiated > 0.5 * scans * 1000
     assert extra[1] < 30e6
     assert extra[1] < 1.5 * extra[0] + 2e6
