@@ -253,3 +253,20 @@ def test_fuzz_bad_numbers_are_refused_naming_the_argument(ax, bad, where):
         call, name = (lambda: plotting.plot_density(ax, [0.0, 1.0], [1.0, bad])), "pdf"
     with pytest.raises((TypeError, ValueError), match=f"`{name}`"):
         call()
+
+
+def test_the_default_figure_text_is_at_least_9_pt_as_displayed():
+    """A default-size figure fills the text column; its smallest text shows at >= 9 pt."""
+    from radarfusion_ref.kit.plotting import BOOK_STYLE, TEXT_COLUMN_PX
+
+    width_in = BOOK_STYLE["figure.figsize"][0]
+    dpi = BOOK_STYLE["savefig.dpi"]
+    # the image is width_in * dpi pixels, scaled to the column; 1 pt = dpi / 72 pixels
+    shown_scale = min(1.0, TEXT_COLUMN_PX / (width_in * dpi))
+    sizes = {k: v for k, v in BOOK_STYLE.items()
+             if k.endswith("size") and not k.startswith("figure.fig")}
+    assert {"legend.fontsize", "xtick.labelsize", "ytick.labelsize", "axes.labelsize"} <= set(sizes)
+    for key, pt in sizes.items():
+        shown_pt = pt * dpi / 72 * shown_scale * 72 / 96  # CSS: 96 px per inch
+        assert shown_pt >= 9.0, f"{key} = {pt} pt shows at {shown_pt:.1f} pt"
+    assert width_in * 96 == pytest.approx(TEXT_COLUMN_PX, rel=0.05)  # fills the column

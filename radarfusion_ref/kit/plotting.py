@@ -26,6 +26,7 @@ from ..engine.montecarlo import MeanEstimate, Proportion
 __all__ = [
     "BOOK_STYLE",
     "SENSOR_COLORS",
+    "TEXT_COLUMN_PX",
     "use_book_style",
     "book_style",
     "plot_proportion",
@@ -41,9 +42,17 @@ __all__ = [
 SENSOR_COLORS = {"radar1": "#1f77b4", "radar2": "#d62728", "fused": "#2ca02c",
                  "truth": "#222222", "theory": "#222222", "mc": "#ff7f0e"}
 
-#: rcParams of the book's look.
+#: Width of the book's text column at a 1 280 px window, in CSS pixels (measured on the
+#: built pages); a figure this wide in inches × 96 is shown at its own size.
+TEXT_COLUMN_PX = 688
+
+#: rcParams of the book's look. The default figure is as wide as the text column
+#: (7.2 in), so its text is shown at its nominal size: with 120-dpi pixels scaled down
+#: to the column, 1 pt of figure text displays as 688 / (7.2 × 96) ≈ 1.0 pt, and the
+#: smallest text the style sets (10 pt: ticks, legends) stays above 9 pt on figures up
+#: to 8 in wide. Wider figures (players) go in a cell tagged ``full-width``.
 BOOK_STYLE = {
-    "figure.figsize": (7.0, 3.6),
+    "figure.figsize": (7.2, 4.0),
     "figure.dpi": 120,
     "savefig.dpi": 120,
     "figure.autolayout": True,
@@ -51,12 +60,15 @@ BOOK_STYLE = {
     "grid.alpha": 0.3,
     "axes.spines.top": False,
     "axes.spines.right": False,
-    "axes.titlesize": 11,
-    "axes.labelsize": 10,
-    "legend.fontsize": 9,
+    "font.size": 10.5,
+    "axes.titlesize": 12,
+    "axes.labelsize": 11,
+    "legend.fontsize": 10,
+    "legend.title_fontsize": 10,
     "legend.frameon": False,
-    "xtick.labelsize": 9,
-    "ytick.labelsize": 9,
+    "xtick.labelsize": 10,
+    "ytick.labelsize": 10,
+    "figure.titlesize": 12,
     "lines.linewidth": 1.8,
     "image.cmap": "viridis",
     "animation.embed_limit": 8.0,
