@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from .._validation import (
+    MEMORY_LIMIT,
     _describe,
     as_bool,
     as_choice,
@@ -17,7 +18,8 @@ from .._validation import (
     as_positive,
     check_size,
 )
-from ._checks import _as_gap, _exponents
+from ._checks import _as_gap, _exponents, _limit
+from ._dense import _solve_full, dense_bytes
 from ._lagrangian import _solve_candidates
 from ._milp import MAX_SD_TUPLES, _sd_solve
 from ._results import SDAssignment, _gap_of
@@ -57,6 +59,32 @@ def _as_sd_tensor(cost, name: str = "cost") -> np.ndarray:
         raise ValueError(f"`{name}` must not contain -inf (a group cannot be infinitely "
                          f"likely); received {int(np.count_nonzero(c == -np.inf))} -inf entries")
     return c
+
+
+def _candidate_words(m: int) -> int:
+    """Words (8 bytes) the candidate-group route allocates per candidate group of m sources."""
+    return 3 * m + 12
+
+
+def _full_size(m: int, n: int, method: str) -> None:
+    """Refuse a full tensor too large for `method` before any work array is allocated.
+
+    ``"milp"``: at most :data:`MAX_SD_TUPLES` groups (binary variables of HiGHS).
+    ``"lagrangian"``: the tensor and the dense Lagrangian's work arrays within
+    :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` bytes.
+    """
+    if method == "milp":
+        _limit(n ** min(m, 64), MAX_SD_TUPLES, name="cost",
+               what=f"binary variables (groups n**m = {n}**{m} of the full tensor) for the "
+                    "integer program",
+               alternative=f"method='lagrangian' (full tensors up to {MEMORY_LIMIT} bytes with "
+                           "its work arrays), or gated candidate groups (`candidates`)")
+    else:
+        _limit(dense_bytes(m, n) if m <= 64 else 8 * n ** 64, MEMORY_LIMIT, name="cost",
+               what=f"bytes of the full tensor (n**m = {n}**{m} groups, 8 bytes each) and the "
+                    "Lagrangian's work arrays",
+               alternative="gated candidate groups (`candidates`: memory follows their count, "
+                           "not n**m)")
 
 
 def _as_candidates(candidates, cost, counts):
@@ -199,22 +227,32 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
         if counts is not None:
             raise ValueError("`counts` is for explicit `candidates`; a full tensor has n reports "
                              f"per source; received {_describe(counts)}")
+        if isinstance(cost, np.ndarray) and cost.ndim >= 2:      # refuse before converting
+            _full_size(cost.ndim, cost.shape[0], method)
         c = _as_sd_tensor(cost)
         m, n = c.ndim, c.shape[0]
-        check_size(c.size, MAX_SD_TUPLES,
-                   what=f"candidate groups n**m = {n}**{m} of a full `cost` tensor",
-                   alternative="gated candidate groups (`candidates`) and method='lagrangian'")
-        if method == "milp" and np.all(np.isfinite(c)):
+        _full_size(m, n, method)
+        finite = int(np.count_nonzero(np.isfinite(c)))
+        if finite == 0:
+            raise ValueError("`cost` has no finite group: no grouping exists")
+        if method == "milp" and finite == c.size:
             chosen, integral = _sd_solve(c.ravel(), m, n, relaxation=relaxation,
                                          time_limit=time_limit)
             T = np.array(np.unravel_index(chosen, c.shape)).T
             total = float(c.ravel()[chosen].sum())
             lb, hist = total, None
-        else:
+        elif method == "lagrangian" and (m == 2 or 2 * finite >= c.size):
+            T, total, lb, hist = _solve_full(c, gap=g, max_iter=max_iter, time_limit=time_limit,
+                                             name="cost", exact_limit=MAX_SD_TUPLES,
+                                             hint="gated candidate groups (`candidates`)")
+            chosen = np.ravel_multi_index(tuple(T.T), c.shape)
+        else:                                   # mostly forbidden: the finite groups only
+            _limit(_candidate_words(m) * 8 * finite, MEMORY_LIMIT, name="cost",
+                   what=f"bytes of the {finite} finite groups of the {n}**{m} tensor as "
+                        "candidate groups",
+                   alternative="gated candidate groups (`candidates`) built without the tensor")
             flat = np.flatnonzero(np.isfinite(c.ravel()))
             T = np.array(np.unravel_index(flat, c.shape)).T.astype(np.int64)
-            if T.shape[0] == 0:
-                raise ValueError("`cost` has no finite group: no grouping exists")
             cc = c.ravel()[flat]
             sel, total, lb, hist = _solve_candidates(
                 T, cc, [n] * m, dummy=False, method=method, gap=g, max_iter=max_iter,
