@@ -13,7 +13,13 @@ import numpy as np
 import pytest
 
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
-from radarfusion_ref.tracking import TrackerSettings, TrackHistory, track_reports
+from radarfusion_ref.tracking import (
+    TrackerSettings,
+    TrackHistory,
+    fuse_then_track,
+    track_reports,
+    track_then_fuse,
+)
 
 SIGMA = np.array([60.0, 60.0, 150.0])
 
@@ -208,3 +214,35 @@ def test_memory_bounded_over_many_scans_of_clutter():
         assert h.initiated > 0.5 * scans * 1000
     assert extra[1] < 30e6
     assert extra[1] < 1.5 * extra[0] + 2e6
+
+
+# --------------------------------------------------------------------------- architectures
+@pytest.mark.parametrize("arch", ["b", "c"])
+def test_other_architectures_track_each_target_once(arch):
+    inputs, _ = _scene(n_targets=2, scans=40, radars=3, clutter=1, seed=7, p_detect=0.9)
+    s = TrackerSettings(alpha=1e-5, clutter_density=1 / (1e5 * 1e5 * 1.2e4))
+    if arch == "b":
+        h = fuse_then_track(*inputs, window=5.0, settings=s)
+    else:
+        h = track_then_fuse(*inputs, period=5.0, settings=s)
+    assert h.n_confirmed == 2
+    for tid in np.unique(h.track[h.confirmed]):
+        sel = (h.track == tid) & h.confirmed
+        x = h.state[sel, :3]
+        # each track stays within 1 km of one target's line, never jumps to the other
+        y = x[:, 1]
+        assert np.ptp(np.round(y / 20000.0)) == 0
+
+
+def test_other_architectures_refuse_by_name():
+    inputs, _ = _scene(scans=5)
+    with pytest.raises(ValueError, match="`window`"):
+        fuse_then_track(*inputs, window=0.0)
+    with pytest.raises(ValueError, match="`period`"):
+        track_then_fuse(*inputs, period=-1.0)
+    with pytest.raises(ValueError, match="`rule`"):
+        track_then_fuse(*inputs, period=5.0, rule="bsc")
+    bad = inputs[1].copy()
+    bad[0, 0] = np.inf
+    with pytest.raises(ValueError, match="`position`"):
+        track_then_fuse(inputs[0], bad, *inputs[2:], period=5.0)
