@@ -89,6 +89,8 @@ def test_local_frame_is_the_radar_s_own_enu(traffic):
     enu_by = {}
     for k in range(traffic.t.size):
         enu_by[(int(traffic.aircraft[k]), float(traffic.t[k]))] = k
+    times, inv = np.unique(det.time, return_inverse=True)
+    pos_all, _ = cp.truth_at(traffic, times)
     checked = 0
     for row in range(len(det)):
         key = (int(det.aircraft[row]), float(det.time[row]))
@@ -100,8 +102,7 @@ def test_local_frame_is_the_radar_s_own_enu(traffic):
                             origin=(r.lat, r.lon, r.height))
         rng_ = np.linalg.norm(d)
         want = (rng_, math.atan2(d[1], d[0]), math.asin(d[2] / rng_))
-        pos, _ = cp.truth_at(traffic, [det.time[row]])
-        if not np.allclose(pos[det.aircraft[row], 0],
+        if not np.allclose(pos_all[det.aircraft[row], inv[row]],
                            geodetic_to_enu(traffic.lat[rec], traffic.lon[rec],
                                            traffic.alt[rec], origin=cp.ORIGIN), atol=1e-6):
             continue                                   # a stale record: the truth skips it
@@ -205,6 +206,51 @@ def test_bad_input_is_refused_by_name(traffic, realistic):
         cp.to_common(det, radars[:2])
     with pytest.raises(ValueError, match="`radars\\[0\\]\\.clutter_rate`"):
         cp.simulate_detections(traffic, cp.realistic_radars(clutter_rate=1e9), duration=60.0)
+
+
+# ----------------------------------------------------------------------------- registration
+def test_registration_estimates_offset_scale_and_azimuth_without_bias(traffic):
+    """Over seeds, each radar's three biases are estimated without bias, within the stated
+    bound (the bound is conservative: the aligned reports are less noisy than stated)."""
+    radars = cp.realistic_radars()
+    true = np.array([r.biases for r in radars])
+    z = []
+    for seed in range(10):
+        det = cp.simulate_detections(traffic, radars, duration=600.0, rng=100 + seed)
+        est = cp.register_detections(det, radars)
+        assert est.biases.shape == (3, 3)
+        z.append((est.biases - true) / est.crlb)
+    z = np.array(z)                                              # (10, 3, 3)
+    assert np.all(np.abs(z) < 4.0)
+    # mean standardised error over 10 seeds: standard error at most 1/sqrt(10)
+    assert np.all(np.abs(z.mean(axis=0)) < 4.0 / math.sqrt(10))
+    assert np.all(z.std(axis=0, ddof=1) < 1.6)
+
+
+def test_registration_estimate_makes_to_common_consistent(traffic):
+    radars = cp.realistic_radars()
+    det = cp.simulate_detections(traffic, radars, start=0.0, duration=900.0, rng=11)
+    est = cp.register_detections(det, radars, warmup=300.0)
+    late = det.subset((det.time >= 300.0) & (det.aircraft >= 0))
+    times, inv = np.unique(late.time, return_inverse=True)
+    pos, _ = cp.truth_at(traffic, times)
+    truth = pos[late.aircraft, inv]
+    raw = nees(cp.to_common(late, radars)[0] - truth, cp.to_common(late, radars)[1]).mean
+    x, P = cp.to_common(late, radars, est.biases)
+    fixed = nees(x - truth, P).mean
+    assert raw > 6.0                          # the biases dominate the noise
+    assert fixed < 3.6                        # corrected to about the noise alone (3)
+
+
+def test_registration_needs_enough_common_instants(traffic):
+    radars = cp.realistic_radars()
+    det = cp.simulate_detections(traffic, radars, duration=60.0, rng=0)
+    with pytest.raises(ValueError, match=r"`warmup`.*a longer `warmup`"):
+        cp.register_detections(det, radars, warmup=5.0)
+    with pytest.raises(ValueError, match="`warmup`"):
+        cp.register_detections(det, radars, warmup=-1.0)
+    with pytest.raises(TypeError, match="`detections`"):
+        cp.register_detections(None, radars)
 
 
 # ----------------------------------------------------------------------------- truth_at

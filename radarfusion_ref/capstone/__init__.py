@@ -37,7 +37,14 @@ module per concept:
    data", JOSS 4(39) 1518 (2019) — the source of the ADS-B samples.
 """
 
-from .detections import MODES, Detections, local_rotation, simulate_detections, to_common
+from .detections import (
+    MODES,
+    Detections,
+    local_rotation,
+    register_detections,
+    simulate_detections,
+    to_common,
+)
 from .evaluation import Evaluation, TrackEvaluation, evaluate, evaluate_tracks
 from .pipeline import (
     MIN_REGISTRATION_GROUPS,
@@ -104,6 +111,7 @@ __all__ = [
     "load_traffic",
     "local_rotation",
     "realistic_radars",
+    "register_detections",
     "run_pipeline",
     "simulate_detections",
     "simulate_reports",

@@ -47,7 +47,14 @@ from .radars import (
 )
 from .traffic import ORIGIN, Traffic, truth_at, truth_scans
 
-__all__ = ["MODES", "Detections", "local_rotation", "simulate_detections", "to_common"]
+__all__ = [
+    "MODES",
+    "Detections",
+    "local_rotation",
+    "register_detections",
+    "simulate_detections",
+    "to_common",
+]
 
 #: Modes of :func:`simulate_detections`.
 MODES = ("simple", "realistic")
@@ -410,3 +417,151 @@ def to_common(detections, radars, biases=None, *, debias=True):
     pol = detections.polar
     return _convert(pol[:, 0], pol[:, 1], pol[:, 2], sigma, detections.radar, radars, biases,
                     debias, detections.frame == "local")
+
+
+# ----------------------------------------------------------------------------- registration
+def _common_polar(detections, radars):
+    """Measured ground range, azimuth and cos(elevation) of every report, common frame.
+
+    The measured direction is turned from the radar's frame into the common one (its known
+    rotation); the range stays the measured one, so the biases stay the radar's own.
+    """
+    pol = detections.polar
+    ce = np.cos(pol[:, 2])
+    d = pol[:, :1] * np.stack([ce * np.cos(pol[:, 1]), ce * np.sin(pol[:, 1]),
+                               np.sin(pol[:, 2])], axis=-1)
+    if detections.frame == "local":
+        for i, rad in enumerate(radars):
+            rows = detections.radar == i
+            d[rows] = d[rows] @ _rotation(rad)                      # A^T d, row-wise
+    ground = np.hypot(d[:, 0], d[:, 1])
+    return ground, np.arctan2(d[:, 1], d[:, 0]), ground / pol[:, 0]
+
+
+#: Passes of :func:`register_detections` (each puts the previous range-offset estimate into
+#: the ground ranges: the 2-D model's offset error shrinks by 1 - cos(elevation) per pass).
+_REG_PASSES = 3
+
+
+def _aligned(detections, radars, ground, azimuth, t_ref, a_ref):
+    """Every radar's ground range and azimuth of aircraft `a_ref` at instants `t_ref`.
+
+    Linear in time (in the plane about the site) between the radar's two reports of the
+    aircraft that bracket the instant, at most 1.5 of its periods apart; NaN where there
+    are none.
+    """
+    m = len(radars)
+    out = np.full((m, t_ref.size, 2), np.nan)
+    for j, rad in enumerate(radars):
+        rows = np.flatnonzero((detections.radar == j) & (detections.aircraft >= 0))
+        key = detections.aircraft[rows] * 1e7 + detections.time[rows]
+        order = np.argsort(key, kind="stable")
+        rows, key = rows[order], key[order]
+        q = a_ref * 1e7 + t_ref
+        hi = np.clip(np.searchsorted(key, q, side="left"), 1, max(rows.size - 1, 1))
+        lo = hi - 1
+        if rows.size < 2:
+            continue
+        rl, rh = rows[lo], rows[hi]
+        tl, th = detections.time[rl], detections.time[rh]
+        same = ((detections.aircraft[rl] == a_ref) & (detections.aircraft[rh] == a_ref)
+                & (tl <= t_ref) & (t_ref <= th) & (th - tl <= 1.5 * rad.period))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = np.where(th > tl, (t_ref - tl) / np.where(th > tl, th - tl, 1.0), 0.0)
+        # straight-line motion is linear in the plane, not in range and azimuth
+        xy = ground[:, None] * np.stack([np.cos(azimuth), np.sin(azimuth)], axis=-1)
+        here = xy[rl] + w[:, None] * (xy[rh] - xy[rl])
+        out[j, same, 0] = np.hypot(here[:, 0], here[:, 1])[same]
+        out[j, same, 1] = np.arctan2(here[:, 1], here[:, 0])[same]
+    return out
+
+
+def register_detections(detections, radars, *, warmup=300.0):
+    r"""Each radar's range offset, range scale and azimuth offset from the first reports.
+
+    Parameters
+    ----------
+    detections : Detections
+        From :func:`simulate_detections` (either mode).
+    radars : sequence of Radar
+        The radars (sites, noise levels, periods).
+    warmup : float, optional
+        Seconds from the detections' start whose reports are used (default 300).
+
+    Returns
+    -------
+    radarfusion_ref.registration.BiasEstimate
+        ``biases`` (m, 3): :math:`(\Delta r` m, :math:`g`, :math:`\Delta\beta` rad) per
+        radar, the layout :func:`to_common` corrects; ``crlb`` in the same units.
+
+    Raises
+    ------
+    TypeError
+        Wrong types of `detections` or `radars`.
+    ValueError
+        Non-positive `warmup`, a radar index outside `radars`, fewer than
+        :data:`~radarfusion_ref.capstone.pipeline.MIN_REGISTRATION_GROUPS` aircraft instants
+        seen by every radar in the warm-up, or biases the geometry cannot observe (from
+        :func:`radarfusion_ref.registration.estimate_biases`, naming the combinations).
+
+    Notes
+    -----
+    Association: the reports of one aircraft are known to be one object by its address
+    (``detections.aircraft``; a Mode S secondary radar reports the aircraft's 24-bit
+    address, a false report has none). Time alignment: the instants are the scans of the
+    radar with the longest period; every other radar's measured ground range
+    :math:`\hat r\cos\hat\varepsilon` and azimuth, with the measured direction turned into
+    the common frame (:func:`local_rotation`), are interpolated between its two reports
+    that bracket the instant (at most 1.5 periods apart), linearly in the plane about its
+    site (straight-line motion; linear in range and azimuth would bias the range by up to
+    20 m at 20 km). The aligned reports of
+    every aircraft instant seen by all radars go to
+    :func:`radarfusion_ref.registration.estimate_biases` (in km, every bias free). Its 2-D
+    model would see the slant-range offset as :math:`\Delta r\cos\varepsilon`, which
+    varies with the elevation and so leaks into the scale; the ground range given to it is
+    :math:`\hat r\cos\hat\varepsilon + \widehat{\Delta r}(1 - \cos\hat\varepsilon)`
+    with the previous pass's offset (three passes from zero). The interpolation shrinks
+    the noise of the aligned reports, so the stated bound is conservative.
+
+    Examples
+    --------
+    >>> from radarfusion_ref.capstone import load_traffic, realistic_radars
+    >>> radars = realistic_radars()
+    >>> det = simulate_detections(load_traffic(), radars, duration=300.0, rng=0)
+    >>> register_detections(det, radars).biases.shape
+    (3, 3)
+    """
+    from .pipeline import MIN_REGISTRATION_GROUPS
+
+    radars, _, _ = _to_common_iv(detections, radars, None, True)
+    warmup = as_float(as_positive(warmup, "warmup"), "warmup")
+    m = len(radars)
+    sub = detections.subset((detections.time < detections.start + warmup)
+                            & (detections.aircraft >= 0))
+    ground, azimuth, cos_e = _common_polar(sub, radars)
+    ref = int(np.argmax([r.period for r in radars]))
+    mine = sub.radar == ref
+    t_ref, a_ref = sub.time[mine], sub.aircraft[mine]
+    offset = np.zeros(m)
+    for _ in range(_REG_PASSES):
+        # r cos(e) + dr (1 - cos(e)): the slant-range offset seen whole by the 2-D model
+        g_eff = ground + offset[sub.radar] * (1.0 - cos_e)
+        z = _aligned(sub, radars, g_eff, azimuth, t_ref, a_ref)
+        full = np.all(np.isfinite(z[..., 0]), axis=0)
+        if full.sum() < MIN_REGISTRATION_GROUPS:
+            raise ValueError(f"`warmup`: only {int(full.sum())} aircraft instants are seen by "
+                             f"all {m} radars in the first {warmup:g} s; the registration "
+                             f"needs at least {MIN_REGISTRATION_GROUPS} (a longer `warmup`)")
+        z = z[:, full] * [1e-3, 1.0]
+        sites = np.stack([r.enu[:2] for r in radars]) * 1e-3
+        est = registration.estimate_biases(
+            sites, z, np.array([r.sigma_r for r in radars]) * 1e-3,
+            np.array([r.sigma_beta for r in radars]))
+        offset = est.biases[:, 0] * 1e3
+    unit = np.array([1e3, 1.0, 1.0])
+    scale = np.repeat(unit[None, :], m, axis=0).ravel()
+    return registration.BiasEstimate(
+        biases=est.biases * unit, targets=est.targets * 1e3,
+        covariance=est.covariance * np.outer(scale, scale), crlb=est.crlb * unit,
+        information=est.information / np.outer(scale, scale), chi2=est.chi2, dof=est.dof,
+        iterations=est.iterations)
