@@ -31,6 +31,8 @@ them):
   style's smallest font (``kit.plotting.BOOK_STYLE``) times the smallest displayed scale
   of the page's images (displayed width / pixel width × the PNG's dpi / 96). It assumes
   the figure uses the style's sizes; a figure that sets a smaller size is not seen.
+* **small fonts** — font sizes below 9 pt set in the page's source (``fontsize=7``,
+  ``size="small"``, ``prop={"size": 8}``): what the estimate above cannot see.
 * **first ex** — the number of the page's first exercise; **closing** — whether the
   page ends with "Verified on this page: N checks".
 """
@@ -84,6 +86,11 @@ BARE_REPR = re.compile(
     r"""|<matplotlib\..*|Text\(.*|<Figure size.*|np\.\w+\(.*)\s*$""",
     re.S,
 )
+#: A font size set in a page's code (``fontsize=7``, ``size="small"``, ``prop={"size": 8}``).
+FONT_SIZE = re.compile(
+    r"""\b(?:font)?size["']?\s*[=:]\s*(?:(\d+(?:\.\d+)?)|["']((?:xx?-)?small)["'])""")
+#: matplotlib's relative sizes in pt, at the style's 10 pt base.
+RELATIVE_PT = {"small": 8.33, "x-small": 6.94, "xx-small": 5.79}
 #: A label name leaked into visible text.
 LABEL = re.compile(r"\b(?:eq|ex|fig)-[a-z0-9]+(?:-[a-z0-9]+)*\b")
 
@@ -241,6 +248,7 @@ class PageLayout:
     need: int | None = None
     player_px: int | None = None
     text_pt: float | None = None
+    small_fonts: int = 0
     first_ex: str | None = None
     closing: bool = False
     notebook: bool = False
@@ -278,6 +286,16 @@ def _image_dpi(src: str, page_url: str, html_dir: Path) -> float | None:
             return png_dpi(fh.read(4096))
     except OSError:
         return None
+
+
+def small_fonts(source: str) -> list[str]:
+    """Font sizes below 9 pt that a page's source sets (numbers or relative names)."""
+    found = []
+    for m in FONT_SIZE.finditer(source):
+        pt = float(m.group(1)) if m.group(1) else RELATIVE_PT[m.group(2)]
+        if pt < MIN_TEXT_PT:
+            found.append(m.group(0))
+    return found
 
 
 def verdict_texts(outputs: list[dict]) -> list[str]:
@@ -344,6 +362,8 @@ def measure_page(browser, base_url: str, docname: str, html_dir: Path) -> PageLa
     row.text_pt = round(font * min(scales), 1) if scales else None
     source = ROOT / f"{docname}.md"
     row.notebook = is_notebook(source)
+    small = small_fonts(source.read_text(encoding="utf-8")) if source.exists() else []
+    row.small_fonts = len(small)
     if row.notebook:
         row.minutes = source_metrics(source).reading_minutes
         row.need = max(1, math.ceil(row.minutes / MINUTES_PER_FIGURE))
@@ -352,7 +372,7 @@ def measure_page(browser, base_url: str, docname: str, html_dir: Path) -> PageLa
         row.first_ex = html_metrics(html_file.read_text(encoding="utf-8"))["first_exercise"]
     row.details = {"equations": eqs, "equations_390": cut, "code": wide["code"],
                    "verdicts": verdicts, "labels": labels, "stderr": wide["stderr"],
-                   "wide_outputs": wide["wideOutputs"]}
+                   "wide_outputs": wide["wideOutputs"], "small_fonts": small}
     return row
 
 
@@ -398,6 +418,11 @@ def problems(row: PageLayout) -> dict[str, str]:
                           f"{row.need}: one per {MINUTES_PER_FIGURE:g} minutes)")
     if row.player_px is not None and row.player_px < MIN_PLAYER_PX:
         out["player"] = f"a player {row.player_px} px wide (at least {MIN_PLAYER_PX})"
+    if (row.text_pt is not None and row.text_pt < MIN_TEXT_PT) or row.small_fonts:
+        out["figure_text"] = (f"figure text below {MIN_TEXT_PT:g} pt at displayed size: "
+                              f"estimate {row.text_pt} pt for the style's sizes; "
+                              f"{row.small_fonts} smaller sizes set in the source "
+                              f"{d.get('small_fonts', [])[:4]}")
     want = expected_first_exercise(row.page)
     if want is not None and row.first_ex is not None and row.first_ex != want:
         out["exercises"] = f"the first exercise is numbered {row.first_ex}, not {want}"

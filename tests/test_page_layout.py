@@ -30,6 +30,8 @@ from page_layout import (
     measure_page,
     png_dpi,
     problems,
+    small_fonts,
+    smallest_style_font,
 )
 
 PAGES = default_pages()
@@ -114,6 +116,13 @@ def test_no_stderr_output_on_the_page(layout, docname):
 @pytest.mark.parametrize("docname", PAGES)
 def test_reading_time_and_figures(layout, docname):
     failure = _fails(layout(docname), "minutes", "figures")
+    assert failure is None, failure
+
+
+@pytest.mark.book
+@pytest.mark.parametrize("docname", PAGES)
+def test_figure_text_is_at_least_9_pt(layout, docname):
+    failure = _fails(layout(docname), "figure_text")
     assert failure is None, failure
 
 
@@ -269,8 +278,9 @@ def test_the_layout_check_passes_a_clean_page(browser, synthetic):
         row = measure_page(browser, url, "good", synthetic)
     assert problems(row) == {}, problems(row)
     assert row.closing and row.figs == 2 and row.player_px == 820 and row.first_ex == "1"
-    # a 100-dpi PNG shown at its pixel size: 9 pt text displays at 9 × 100/96 pt
-    assert row.text_pt == pytest.approx(9 * 100 / 96, abs=0.05)
+    # a 100-dpi PNG shown at its pixel size: the style's smallest text (F pt) displays at
+    # F × 100/96 pt
+    assert row.text_pt == pytest.approx(smallest_style_font() * 100 / 96, abs=0.05)
 
 
 def test_page_limits_on_measured_rows():
@@ -301,3 +311,40 @@ def test_png_dpi_reads_the_resolution(tmp_path):
     plt.close(fig)
     assert png_dpi(b"not a png") is None
     shutil.rmtree(tmp_path)
+
+
+def test_unnumbered_pages_count_their_own_exercises():
+    """_ext/radarfusion_pages.py: intro 1, 2 and montecarlo 1, 2, not 1, 2 and 3, 4."""
+    import importlib
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_ext"))
+    try:
+        pages = importlib.import_module("radarfusion_pages")
+    finally:
+        sys.path.pop(0)
+    fignumbers = {
+        "book/intro": {"exercise": {"ex-a": (1,), "ex-b": (2,)}, "figure": {"f": (1,)}},
+        "book/montecarlo": {"exercise": {"ex-c": (3,), "ex-d": (4,)}},
+        "book/01_fusion": {"exercise": {"ex-e": (1, 1), "ex-f": (1, 2)}},
+        "book/01_fusion_vector": {"exercise": {"ex-g": (1, 3)}},
+    }
+    secnumbers = {"book/intro": {}, "book/montecarlo": {"": ()},
+                  "book/01_fusion": {"": (1,)}, "book/01_fusion_vector": {"": (1, 1)}}
+    changed = pages.number_per_page(fignumbers, secnumbers)
+    assert changed == ["book/montecarlo"]
+    assert fignumbers["book/montecarlo"]["exercise"] == {"ex-c": (1,), "ex-d": (2,)}
+    assert fignumbers["book/intro"]["exercise"] == {"ex-a": (1,), "ex-b": (2,)}
+    assert fignumbers["book/01_fusion"]["exercise"] == {"ex-e": (1, 1), "ex-f": (1, 2)}
+    assert fignumbers["book/01_fusion_vector"]["exercise"] == {"ex-g": (1, 3)}
+    assert fignumbers["book/intro"]["figure"] == {"f": (1,)}  # other types untouched
+
+
+def test_small_fonts_in_the_source_are_found():
+    src = """ax.legend(fontsize=7)\nax.text(0, 0, "a", size="small")\nax.legend(prop={"size": 8})
+ax.set_title("t", fontsize=12)\nax.plot(x, y, markersize=3)\nax.legend(fontsize="large")"""
+    assert small_fonts(src) == ["fontsize=7", 'size="small"', 'size": 8']
+    row = PageLayout(page="book/01_fusion", text_pt=10.0, small_fonts=0)
+    assert "figure_text" not in problems(row)
+    row.text_pt = 7.5
+    assert "figure_text" in problems(row)
