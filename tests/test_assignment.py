@@ -253,6 +253,138 @@ def test_sd_huge_costs_keep_the_optimum():
         assert asg.solve_sd(c).cost == pytest.approx(brute_sd_tensor(c), rel=1e-9)
 
 
+# ---------------------------------------------------------------- S-D: the dense Lagrangian
+def lp_bound(c):
+    """The LP relaxation's optimum of a full S-D tensor (HiGHS), constraints written out here.
+
+    Every Lagrangian dual value of the S-D problem with an integral 2-D sub-problem is at
+    most this value (Geoffrion 1974), and every grouping costs at least this much.
+    """
+    m, n = c.ndim, c.shape[0]
+    idx = np.indices(c.shape).reshape(m, -1)
+    rows = (np.arange(m)[:, None] * n + idx).ravel()
+    cols = np.tile(np.arange(c.size), m)
+    A = sparse.csc_array((np.ones(rows.size), (rows, cols)), shape=(m * n, c.size))
+    lp = linprog(c.ravel(), A_eq=A, b_eq=np.ones(m * n), bounds=(0, 1), method="highs")
+    assert lp.status == 0
+    return lp.fun
+
+
+def scene_tensor(n, seed, m=3, noise=0.25):
+    """ML group costs of a 2-D scene of n targets seen by m sources with rotated ellipses."""
+    from radarfusion_ref.engine import scenes
+
+    rng = np.random.default_rng(seed)
+    th = np.arange(m) * np.pi / m
+    rot = np.moveaxis(np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]]), -1, 0)
+    cov = rot @ np.diag([(2 * noise) ** 2, (noise / 2) ** 2]) @ np.swapaxes(rot, -1, -2)
+    s = scenes.grouping_scene(n, m, cov=cov[:, None], layout="uniform", rng=rng)
+    return grouping.group_costs(s.reports[0], s.cov)
+
+
+def assert_grouping(groups, m, n):
+    assert groups.shape == (n, m)
+    np.testing.assert_array_equal(np.sort(groups, axis=0), np.tile(np.arange(n)[:, None], (1, m)))
+
+
+def test_dense_lagrangian_is_within_half_a_percent_at_n50():
+    # a seeded 50**3 scene tensor whose LP relaxation is fractional (a true duality gap)
+    c = scene_tensor(50, seed=5050)
+    lp = lp_bound(c)
+    r = asg.solve_sd(c, method="lagrangian", gap=0.005)
+    assert_grouping(r.groups, 3, 50)
+    assert r.cost == pytest.approx(sum(c[tuple(g)] for g in r.groups), rel=1e-12)
+    scale = max(abs(r.cost), 1.0)
+    assert r.gap <= 0.005                                 # proved by our own bound ...
+    assert (r.cost - lp) / scale <= 0.005                 # ... and by the LP's, independently
+    assert r.lower_bound <= lp + 1e-9 * scale             # a dual value cannot pass the LP
+    assert r.lower_bound <= r.cost
+    assert r.history.shape[1] == 2 and np.all(r.history[:, 0] <= r.history[:, 1])
+
+
+@pytest.mark.parametrize(("m", "n"), [(3, 4), (3, 5), (4, 3), (4, 4), (5, 3)])
+@pytest.mark.parametrize("kind", ["uniform", "inf"])
+def test_dense_lagrangian_against_enumeration(m, n, kind):
+    rng = np.random.default_rng(100 * m + n)
+    c = rng.uniform(-3.0, 10.0, size=(n,) * m)
+    if kind == "inf":                                     # a third forbidden: still dense
+        c[rng.random(c.shape) < 1 / 3] = np.inf
+        c[tuple(np.tile(np.arange(n), (m, 1)))] = 20.0    # one grouping always exists
+    opt = brute_sd_tensor(c)
+    tol = 1e-9 * max(1.0, abs(opt))
+    for gap in (0.3, 0.05):
+        r = asg.solve_sd(c, method="lagrangian", gap=gap)
+        assert_grouping(r.groups, m, n)
+        assert r.lower_bound <= opt + tol <= r.cost + 2 * tol
+        assert r.gap <= gap
+        assert r.cost == pytest.approx(sum(c[tuple(g)] for g in r.groups), rel=1e-12)
+    assert asg.solve_sd(c, method="lagrangian", gap=1e-9).cost == pytest.approx(opt, rel=1e-9)
+
+
+def test_dense_relaxed_minimum_is_exact_with_the_shortlist():
+    from radarfusion_ref.engine.assignment._dense import _Dense
+
+    rng = np.random.default_rng(3)
+    for m, n in [(3, 30), (4, 9)]:
+        c = rng.uniform(0, 1, size=(n,) * m)
+        c[rng.random(c.shape) < 0.2] = np.inf
+        s = _Dense(c)
+        assert s.top is not None                        # the shortlist is in use
+        for spread in (0.0, 1e-3, 0.05, 3.0):            # from all-listed to the full pass
+            s.u = rng.uniform(-spread, spread, size=s.u.shape)
+            U = sum(s.u[i][idx] for i, idx in enumerate(np.indices((n,) * (m - 2))))
+            ref = np.min(c - U[(...,) + (None,) * 2], axis=tuple(range(m - 2)))
+            np.testing.assert_array_equal(s._relaxed_matrix(s._offsets()), ref)
+
+
+def test_dense_lagrangian_huge_costs_are_scaled_exactly():
+    rng = np.random.default_rng(4)
+    c = rng.uniform(1.0, 2.0, size=(4, 4, 4))
+    opt = brute_sd_tensor(c)
+    r = asg.solve_sd(c * 2.0**1000, method="lagrangian", gap=1e-9)
+    assert r.cost == pytest.approx(opt * 2.0**1000, rel=1e-12)
+    assert r.lower_bound <= r.cost and np.all(np.isfinite(r.history))
+
+
+def test_dense_lagrangian_stall_warns_with_the_proved_gap():
+    from radarfusion_ref.engine.assignment._dense import _solve_full
+    from radarfusion_ref.engine.errors import RadarFusionWarning
+
+    c = np.random.default_rng(5).uniform(size=(5, 5, 5))     # a true duality gap
+    opt = brute_sd_tensor(c)
+    with pytest.warns(RadarFusionWarning, match=r"`gap`.*stalled at a proved gap"):
+        groups, total, lb, hist = _solve_full(c, gap=1e-9, max_iter=20, exact_limit=0)
+    assert hist.shape[1] == 2 and np.all(hist[:, 0] <= hist[:, 1])
+    assert_grouping(groups, 3, 5)
+    assert lb <= opt + 1e-12 <= total + 2e-12
+    assert (total - lb) / max(abs(total), 1.0) > 1e-9
+
+
+def test_dense_lagrangian_no_grouping_names_the_argument():
+    c = np.full((3, 3, 3), 1.0)
+    c[:, 0, :] = np.inf                                   # source 1's report 0 never grouped
+    with pytest.raises(ValueError, match=r"`cost`.*no grouping"):
+        asg.solve_sd(c, method="lagrangian")
+
+
+def test_full_tensor_limits_are_bytes_for_the_lagrangian():
+    from radarfusion_ref.engine._validation import MEMORY_LIMIT
+    from radarfusion_ref.engine.assignment._dense import dense_bytes
+
+    assert dense_bytes(3, 200) < MEMORY_LIMIT < dense_bytes(3, 500)
+    big = np.broadcast_to(0.0, (500, 500, 500))           # a view: nothing allocated
+    with pytest.raises(ValueError, match="refused") as info:
+        asg.solve_sd(big, method="lagrangian")
+    text = str(info.value)
+    for w in ("`cost`", "bytes", str(dense_bytes(3, 500)), f"limit of {MEMORY_LIMIT}",
+              "`candidates`"):
+        assert w in text
+    with pytest.raises(ValueError, match="refused") as info:
+        asg.solve_sd(np.broadcast_to(0.0, (101, 101, 101)))          # the integer program
+    for w in ("`cost`", "binary variables", "limit of 1000000", "method='lagrangian'"):
+        assert w in str(info.value)
+
+
 # ---------------------------------------------------------------- one vocabulary
 def test_every_result_speaks_the_same_vocabulary():
     c = np.array([[1.0, 2.0], [2.0, 5.0]])

@@ -296,17 +296,14 @@ class _NoGrouping(Exception):
 
 
 def _run(s, gap, max_iter):
-    """Iterate: ``max_iter`` aiming at half the gap, then up to ``2 max_iter`` more at the gap."""
+    """Iterate until the proved gap is at most `gap`, a stall, or ``3 max_iter`` iterations."""
 
-    def reached(tol):
-        return math.isfinite(s.ub) and s.ub - s.lb <= tol * max(abs(s.ub), 1.0)
+    def reached():
+        return math.isfinite(s.ub) and s.ub - s.lb <= gap * max(abs(s.ub), 1.0)
 
-    while not (s.optimal or s.stalled or reached(0.5 * gap)) and s.it < max_iter:
+    while not (s.optimal or s.stalled or reached()) and s.it < 3 * max_iter:
         s.step()
-    s.stalled, s.last_progress = False, s.it
-    while not (s.optimal or s.stalled or reached(0.999 * gap)) and s.it < 3 * max_iter:
-        s.step()
-    return reached(gap) or s.optimal
+    return reached() or s.optimal
 
 
 def _solve_full(c, *, gap, max_iter, time_limit=None, name="cost", exact_limit=10**6,
@@ -352,7 +349,8 @@ def _solve_full(c, *, gap, max_iter, time_limit=None, name="cost", exact_limit=1
         flat = _exact(c, m, n, time_limit, name, upper=s.ub * 2.0**e)
         groups = np.array(np.unravel_index(flat, c.shape)).T.astype(np.int64)
         total = float(np.sum(c.ravel()[flat]))
-        return groups, total, total, np.array(s.history) * 2.0**e
+        hist = np.vstack([np.ldexp(np.array(s.history).reshape(-1, 2), e), [[total, total]]])
+        return groups, total, total, hist
     if s.best is None:
         raise RuntimeError(f"`{name}`: no grouping of finite cost was found in {s.it} "
                            f"iterations (the tensor has {int(np.count_nonzero(~finite))} +inf "
