@@ -24,6 +24,7 @@ from scipy.optimize import linear_sum_assignment
 
 from radarfusion_ref import grouping
 from radarfusion_ref.engine import scenes
+from radarfusion_ref.engine._validation import MEMORY_LIMIT
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
 from radarfusion_ref.grouping._solve import _scene_candidates
 
@@ -708,7 +709,11 @@ def test_is_correct_rejects_wrong_shapes():
     (lambda: grouping.group_bruteforce(np.zeros((3, 8, 1)), np.ones((1, 1, 1, 1)),
                                        max_groupings=10**12), ["groupings", "group_sd"]),
     (lambda: grouping.group_sd(np.zeros((5, 40, 1)), np.ones((1, 1, 1, 1))),
-     ["candidate groups", "Lagrangian relaxation"]),
+     ["candidate groups", "`x`", "limit of 1000000", "method='lagrangian'", "p_false_reject"]),
+    # the full-tensor Lagrangian is sized by bytes: m = 3, n = 500 needs ~3.3 GB
+    (lambda: grouping.group_sd(np.zeros((3, 500, 2)), np.eye(2)[None, None],
+                               method="lagrangian"),
+     ["bytes", "`x`", "m = 3, n = 500", f"limit of {MEMORY_LIMIT}", "gate", "p_false_reject"]),
     (lambda: grouping.group_costs(np.zeros((2000, 3, 40, 2)), GOOD_COV),
      ["bytes of group costs", "fewer scenes"]),
     (lambda: scenes.grouping_scene(1000, 10, cov=GOOD_COV, trials=10**6),
@@ -846,6 +851,20 @@ def test_lagrangian_bound_closes_in_a_geometric_scene():
     assert r.gap <= 0.005
     assert r.lower_bound <= exact.cost + 1e-9 * abs(exact.cost) <= r.cost + 2e-9 * abs(exact.cost)
     assert r.history.shape[0] >= 1
+
+
+def test_full_tensor_lagrangian_runs_at_m3_n200_without_a_gate():
+    # 200**3 = 8e6 candidate groups (64 MB): sized by bytes, not refused by a count
+    x, cov = geometric_scene(3, 200, seed=7)
+    r = grouping.group_sd(x, cov, method="lagrangian", gap=0.005)
+    assert_valid_grouping(r.groups, 3, 200)
+    assert r.method == "lagrangian" and r.relaxation_integral is None
+    assert 0.0 <= r.gap <= 0.005
+    assert r.gap == pytest.approx((r.cost - r.lower_bound) / max(abs(r.cost), 1.0), abs=1e-12)
+    fused = grouping.ml_group_cost([x[i][r.groups[:, i]] for i in range(3)],
+                                   [cov[i][r.groups[:, i]] for i in range(3)])
+    assert r.cost == pytest.approx(float(np.sum(fused)), rel=1e-9)
+    assert np.all(r.history[:, 0] <= r.history[:, 1])
 
 
 def test_lagrangian_batch_and_result_defaults():

@@ -21,13 +21,23 @@ from ..engine._validation import (
     as_probability,
     check_size,
 )
+from ..engine.assignment._dense import _solve_full, dense_work_bytes
 from ..engine.assignment._lagrangian import _solve_candidates
 from ..engine.assignment._milp import _sd_solve
 from ..engine.assignment._results import _gap_of
 from ..engine.assignment._sd import _sd_enumerate
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..gating import gate_threshold
-from ._costs import _COSTS, _finite_costs, _information, _reports_iv, _rescale, _tensor, n_groupings
+from ._costs import (
+    _COSTS,
+    _cost_bytes,
+    _finite_costs,
+    _information,
+    _reports_iv,
+    _rescale,
+    _tensor,
+    n_groupings,
+)
 
 #: Largest number of groupings :math:`(n!)^{m-1}` that :func:`group_bruteforce`
 #: enumerates, whatever its `max_groupings` (about a minute of work); beyond it,
@@ -36,7 +46,9 @@ MAX_GROUPINGS = 10**8
 
 #: Largest number of candidate groups :math:`n^m` (binary variables) of one
 #: scene that :func:`group_sd` hands to HiGHS (e.g. ``n = 100`` targets of
-#: ``m = 3`` sources, or ``n = 31`` of ``m = 4``).
+#: ``m = 3`` sources, or ``n = 31`` of ``m = 4``). ``method="lagrangian"``
+#: without a gate is sized by memory instead: the cost tensor and its work
+#: arrays within ``MEMORY_LIMIT`` bytes (``m = 3`` up to about ``n = 300`` in 2-D).
 MAX_CANDIDATE_GROUPS = 10**6
 
 #: The paper's four hypotheses for two sources and two fused tracks, as
@@ -505,8 +517,11 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     ValueError
         For bad input (see :func:`group_costs`; `gap` outside (0, 1); a partial
         detection model), more than :data:`MAX_CANDIDATE_GROUPS` candidate
-        groups without a gate, or a gated problem without any grouping (the
-        message names the source whose reports cannot be grouped).
+        groups for ``"milp"`` without a gate, a full cost tensor whose bytes
+        (with the Lagrangian's work arrays) exceed ``MEMORY_LIMIT`` for
+        ``"lagrangian"`` without a gate (the message names the bytes, the limit
+        and the gate), or a gated problem without any grouping (the message
+        names the source whose reports cannot be grouped).
     TypeError
         If `relaxation` is not a boolean.
     RuntimeError
@@ -569,6 +584,18 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     subgradient with a Polyak step toward the best cost found. A relaxed
     solution that is itself feasible is optimal (gap 0).
 
+    *Full tensor (no gate), ``"lagrangian"``.* Sources :math:`1..m-2` are
+    relaxed and the cheapest completion of every pair of the last two
+    sources is a minimum over the tensor's other axes, taken exactly (over a
+    short list of each pair's smallest costs whenever the list provably holds
+    the minimum); the 2-D assignment is
+    :func:`scipy.optimize.linear_sum_assignment`, the multipliers move along
+    a deflected subgradient toward a variable target level, and each
+    recovered grouping is improved by exact reassignment of one source at a
+    time. A run that stalls above `gap` is closed by branch and bound up to
+    :data:`MAX_CANDIDATE_GROUPS` groups, and beyond that returned with its
+    proved gap and a :class:`~radarfusion_ref.engine.errors.RadarFusionWarning`.
+
     References
     ----------
     Sonar paper (2013), eqs. (24)–(26); Deb et al. (1997).
@@ -621,11 +648,7 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     xb, cb, batch = _reports_iv(x, cov)
     B, m, n, d = xb.shape
     if p_lo is None:
-        check_size(n**m, MAX_CANDIDATE_GROUPS,
-                   what=f"candidate groups n**m = {n}**{m} of one scene (`x` with m = {m}, n = {n})",
-                   alternative="a gate on the candidate groups (`p_false_reject`) and Lagrangian "
-                               "relaxation (`method`='lagrangian', Deb et al. 1997), or "
-                               "splitting the scene into clusters")
+        _full_tensor_size(m, n, d, method)
     groups = np.empty((B, n, m), dtype=np.int64)
     totals, lbs = np.empty(B), np.empty(B)
     integral = np.zeros(B, dtype=bool)
@@ -637,8 +660,16 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
             chosen, integral[b] = _scene_milp(c, m, n, relaxation, time_limit, b)
             groups[b] = _normalise(np.array(np.unravel_index(chosen, (n,) * m)).T)
             totals[b] = lbs[b] = c[chosen].sum()
-        else:                                            # candidate groups, cluster by cluster
-            T, c = _scene_tuples(x_b, cov_b, cost, p_lo, median_logdet)
+        elif p_lo is None:                               # the full tensor: dense Lagrangian
+            c = _tensor(x_b, cov_b, cost)[0]
+            T, totals[b], lbs[b], hist = _solve_full(
+                c, gap=gap, max_iter=max_iter, time_limit=time_limit, name="x",
+                exact_limit=MAX_CANDIDATE_GROUPS, hint="a gate (`p_false_reject`)")
+            groups[b] = _normalise(T)
+        else:                                            # gated candidate groups, by cluster
+            T, c = _scene_candidates(list(x_b[0]), list(cov_b[0]), cost=cost,
+                                     gamma=float(gate_threshold(p_lo, d)), det=None,
+                                     median_logdet=median_logdet)
             chosen, totals[b], lbs[b], hist = _scene_candidates_solve(
                 T, c, [n] * m, method, gap, max_iter, time_limit, why, b, batch)
             groups[b] = _normalise(T[chosen])
@@ -654,22 +685,35 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
                           lbs.reshape(batch), gaps.reshape(batch), None, bool(np.all(gaps == 0)))
 
 
+def _full_tensor_size(m, n, d, method):
+    """Refuse an ungated scene too large for `method` before its cost tensor is built.
+
+    ``"milp"``: at most :data:`MAX_CANDIDATE_GROUPS` groups (binary variables of
+    HiGHS). ``"lagrangian"``: the cost tensor's working memory and the dense
+    Lagrangian's work arrays within ``MEMORY_LIMIT`` bytes.
+    """
+    if method == "milp":
+        check_size(n**m, MAX_CANDIDATE_GROUPS,
+                   what=f"candidate groups n**m = {n}**{m} of one scene (`x` with m = {m}, n = {n}) "
+                        "as binary variables of the integer program",
+                   alternative="method='lagrangian' (the full tensor, sized by memory), a gate "
+                               "on the candidate groups (`p_false_reject`), or splitting the "
+                               "scene into clusters")
+        return
+    need = _cost_bytes(1, m, n, d) + dense_work_bytes(m, n)
+    check_size(need, MEMORY_LIMIT,
+               what=f"bytes of the full cost tensor of one scene (`x` with m = {m}, n = {n}: "
+                    f"n**m = {n}**{m} groups) and the Lagrangian's work arrays",
+               alternative="a gate on the candidate groups (`p_false_reject`: memory follows "
+                           "the gated groups, not n**m), or splitting the scene into clusters")
+
+
 def _scene_milp(c, m, n, relaxation, time_limit, b):
     """Exact S-D of one scene's full cost tensor (flat); the scene named in errors."""
     try:
         return _sd_solve(c, m, n, relaxation=relaxation, time_limit=time_limit)
     except RuntimeError as exc:
         raise RuntimeError(f"scene {b}: {exc}") from None
-
-
-def _scene_tuples(x, cov, cost, p_lo, median_logdet):
-    """Candidate groups of one scene (all n**m, or the gated ones) and their costs."""
-    _, m, n, d = x.shape
-    if p_lo is None:
-        return np.indices((n,) * m).reshape(m, -1).T, _tensor(x, cov, cost).ravel()
-    return _scene_candidates(list(x[0]), list(cov[0]), cost=cost,
-                             gamma=float(gate_threshold(p_lo, d)), det=None,
-                             median_logdet=median_logdet)
 
 
 def _scene_candidates_solve(T, c, counts, method, gap, max_iter, time_limit, why, b, batch):
