@@ -18,6 +18,14 @@ Two things Jupyter Book 1 puts on every page that the book does not use:
   on its pages (``launch_buttons: thebe: false``), so these are removed from
   every page.
 
+And one thing it numbers differently:
+
+* **Exercises on unnumbered pages.** Sphinx numbers enumerable nodes per chapter on
+  the numbered parts of ``_toc.yml`` (Exercise 1.1, 1.2, ...), but every page
+  outside them shares one counter keyed by the empty section number, so the
+  introduction's exercises were 1-2 and the Monte-Carlo page's 3-4. Here each
+  unnumbered page counts its own exercises from 1, in the order Sphinx met them.
+
 Registered in ``_config.yml`` under ``sphinx: local_extensions:``.
 """
 
@@ -92,8 +100,42 @@ def drop_thebe(app, pagename, templatename, context, doctree) -> None:
             context[key] = [a for a in context[key] if not _is_thebe(a)]
 
 
+#: Enumerable node types numbered per page on unnumbered pages.
+PER_PAGE_FIGTYPES = ("exercise",)
+
+
+def number_per_page(fignumbers: dict, secnumbers: dict,
+                    figtypes=PER_PAGE_FIGTYPES) -> list[str]:
+    """Renumber `figtypes` from 1 on each page that has no section number.
+
+    `fignumbers` is Sphinx's ``env.toc_fignumbers`` (docname -> figtype -> id ->
+    number tuple), changed in place; `secnumbers` is ``env.toc_secnumbers``.
+    Returns the pages whose numbers changed.
+    """
+    changed = []
+    for docname, by_type in fignumbers.items():
+        if any(secnumbers.get(docname, {}).values()):
+            continue  # a page of a numbered part: per chapter, as Sphinx does
+        for figtype in figtypes:
+            ids = by_type.get(figtype)
+            if not ids:
+                continue
+            renumbered = {fid: (i,) for i, fid in enumerate(ids, start=1)}
+            if renumbered != ids:
+                by_type[figtype] = renumbered
+                changed.append(docname)
+    return changed
+
+
+def renumber_unnumbered_pages(app, env) -> list[str]:
+    """``env-get-updated``: after Sphinx numbers the figures, number exercises per page."""
+    return number_per_page(env.toc_fignumbers, env.toc_secnumbers)
+
+
 def setup(app):
     app.connect("doctree-read", prune_widget_state)
+    # after Sphinx's toctree collector has assigned the numbers (default priority 500)
+    app.connect("env-get-updated", renumber_unnumbered_pages, priority=900)
     # after sphinx-thebe and myst-nb have added their assets (default priority 500)
     app.connect("html-page-context", drop_thebe, priority=900)
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
