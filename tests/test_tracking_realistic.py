@@ -329,3 +329,182 @@ def test_truth_at_bad_input(traffic, kw, exc, match):
         cp.truth_at(traffic, **kw)
     with pytest.raises(TypeError, match="`traffic`"):
         cp.truth_at("traffic", [0.0])
+
+
+# ----------------------------------------------------------------------------- evaluation
+from radarfusion_ref import tracking as tk  # noqa: E402
+
+
+def _brute_gospa_p(x, y, c, p):
+    """min over partial matchings of sum d^p over pairs + c^p/2 per point left out."""
+    import itertools
+    n, k = len(x), len(y)
+    best = math.inf
+    for r in range(min(n, k) + 1):
+        for rows in itertools.combinations(range(n), r):
+            for cols in itertools.permutations(range(k), r):
+                d = sum(min(np.linalg.norm(np.subtract(x[i], y[j])), c) ** p
+                        for i, j in zip(rows, cols, strict=True))
+                best = min(best, d + (n - r + k - r) * c**p / 2)
+    return best
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_gospa_pairs_is_an_optimal_assignment(seed):
+    gen = np.random.default_rng(seed)
+    x = gen.uniform(0, 10, (gen.integers(0, 5), 2))
+    y = gen.uniform(0, 10, (gen.integers(0, 5), 2))
+    c, p = 3.0, float(gen.choice([1.0, 2.0]))
+    pair = tk.gospa_pairs(x, y, c=c, p=p)
+    hit = pair >= 0
+    assert np.unique(pair[hit]).size == hit.sum()           # one estimate per truth
+    d = np.linalg.norm(x[hit] - y[pair[hit]], axis=1) if hit.any() else np.zeros(0)
+    assert np.all(d < c)
+    cost = np.sum(d**p) + (len(x) - hit.sum() + len(y) - hit.sum()) * c**p / 2
+    assert cost == pytest.approx(_brute_gospa_p(x, y, c, p), rel=1e-9, abs=1e-12)
+
+
+def _two_aircraft(tmp_path):
+    """Aircraft A flies east from 0 s, B north from 20 s, records every 10 s for 100 s."""
+    head = ",".join(cp.COLUMNS)
+    rows = []
+    for k in range(11):
+        rows.append(f"{10 * k},aaaaaa,A,4680000,{820000 + 3035 * k},35000,450,90")
+    for k in range(2, 11):
+        rows.append(f"{10 * k},bbbbbb,B,{4690000 + 2083 * (k - 2)},830000,35000,450,0")
+    path = tmp_path / "two.csv.gz"
+    path.write_bytes(gzip.compress(("\n".join([head, *rows]) + "\n").encode()))
+    return cp.load_traffic(path)
+
+
+def _history(rows):
+    """TrackHistory from (track, time, position (3,), velocity (3,), variance) rows."""
+    rows = sorted(rows, key=lambda r: (r[1], r[0]))
+    return tk.TrackHistory(
+        track=np.array([r[0] for r in rows]), time=np.array([float(r[1]) for r in rows]),
+        state=np.array([np.concatenate([r[2], r[3]]) for r in rows]),
+        covariance=np.array([np.diag([r[4]] * 3 + [1.0] * 3) for r in rows]),
+        confirmed=np.ones(len(rows), dtype=bool), seconds=2.0)
+
+
+def test_evaluation_on_a_hand_made_scene(tmp_path):
+    """Track 0 follows A to 50 s, track 1 takes A over from 60 s (one switch), track 2
+    follows B from 40 s, track 3 is 50 km from everything (false). Rows sit 10 m east of
+    the truth with variance 100 m^2 per axis: each row's NEES is exactly 1."""
+    traffic = _two_aircraft(tmp_path)
+    times = np.arange(0.0, 101.0, 10.0)
+    pos, ok, vel = cp.truth_at(traffic, times, return_velocity=True)
+    off = np.array([10.0, 0.0, 0.0])
+    rows = []
+    for j, t in enumerate(times):
+        rows.append((0 if t <= 50 else 1, t, pos[0, j] + off, vel[0, j], 100.0))
+        if t >= 40:
+            rows.append((2, t, pos[1, j] + off, vel[1, j], 100.0))
+        if t >= 30:
+            rows.append((3, t, np.array([50e3, 50e3, 10e3]), np.zeros(3), 100.0))
+    h = _history(rows)
+    m = tk.evaluate_tracks_over_time(h, traffic, times=times, c=2000.0, scans=20, max_age=5.0)
+    assert m.switches == 1
+    assert m.tracks_per_aircraft == pytest.approx((2 + 1) / 2)
+    assert m.n_tracks == 4 and m.false_tracks == 1
+    assert m.false_tracks_per_hour == pytest.approx(1 / (100 / 3600))
+    assert m.latency.tolist() == [0.0, 20.0]                 # B seen from 20 s, tracked at 40
+    assert m.nees.mean == pytest.approx(1.0) and m.nees.count == len(h) - 8
+    assert m.seconds_per_scan == pytest.approx(0.1)
+    # GOSPA at every instant by brute force over the present estimates
+    for j, t in enumerate(times):
+        x = pos[ok[:, j], j]
+        y = [r[2] for r in rows if r[1] == t]
+        want = _brute_gospa_p(x, y, 2000.0, 2.0) ** 0.5
+        assert m.gospa[j] == pytest.approx(want, rel=1e-9)
+    assert m.track_of[0].tolist() == [0] * 6 + [1] * 5
+
+
+def test_tracks_are_moved_on_and_forgotten_after_max_age(tmp_path):
+    traffic = _two_aircraft(tmp_path)
+    times = np.arange(0.0, 101.0, 10.0)
+    pos, _, vel = cp.truth_at(traffic, times, return_velocity=True)
+    # one row at 0 s: moved on at its velocity it stays on A for max_age, then is gone
+    h = _history([(0, 0.0, pos[0, 0], vel[0, 0], 100.0)])
+    m = tk.evaluate_tracks_over_time(h, traffic, times=times, max_age=25.0)
+    assert m.track_of[0].tolist() == [0, 0, 0] + [-1] * 8
+    assert m.localisation[:3] == pytest.approx([0.0, 0.0, 0.0], abs=25.0)     # m^2
+
+
+def test_summarise_runs_is_the_student_t_interval(tmp_path):
+    traffic = _two_aircraft(tmp_path)
+    times = np.arange(0.0, 101.0, 10.0)
+    pos, _, vel = cp.truth_at(traffic, times, return_velocity=True)
+    runs = []
+    for shift in (5.0, 20.0, 40.0):
+        h = _history([(0, t, pos[0, j] + [shift, 0, 0], vel[0, j], 100.0)
+                      for j, t in enumerate(times)])
+        runs.append(tk.evaluate_tracks_over_time(h, traffic, times=times, scans=10))
+    s = tk.summarise_runs(runs)
+    g = [r.mean_gospa for r in runs]
+    lo, hi = stats.t.interval(0.95, df=2, loc=np.mean(g), scale=stats.sem(g))
+    assert (s["mean_gospa"].low, s["mean_gospa"].high) == pytest.approx((lo, hi))
+    assert s["nees"].estimate == pytest.approx(np.mean([(d / 10.0) ** 2
+                                                         for d in (5.0, 20.0, 40.0)]))
+    with pytest.raises(ValueError, match="`runs`"):
+        tk.summarise_runs(runs[:1])
+
+
+def test_evaluation_bad_input(tmp_path):
+    traffic = _two_aircraft(tmp_path)
+    h = _history([(0, 0.0, np.zeros(3), np.zeros(3), 1.0)])
+    for kw, exc, match in [
+        (dict(times=[0.0]), ValueError, "`times`"),
+        (dict(times=[10.0, 0.0]), ValueError, "`times`"),
+        (dict(times=[0.0, 10.0], c=0.0), ValueError, "`c`"),
+        (dict(times=[0.0, 10.0], p=0.5), ValueError, "`p`"),
+        (dict(times=[0.0, 10.0], max_age=-1.0), ValueError, "`max_age`"),
+        (dict(times=[0.0, 10.0], scans=0), ValueError, "`scans`"),
+        (dict(times=[0.0, 10.0], radars="radars"), TypeError, "`radars`"),
+    ]:
+        with pytest.raises(exc, match=match):
+            tk.evaluate_tracks_over_time(h, traffic, **kw)
+    with pytest.raises(TypeError, match="`history`"):
+        tk.evaluate_tracks_over_time(None, traffic, times=[0.0, 1.0])
+    with pytest.raises(TypeError, match="`traffic`"):
+        tk.evaluate_tracks_over_time(h, None, times=[0.0, 1.0])
+
+
+# ----------------------------------------------------------------------------- Stone Soup
+def test_stonesoup_bad_input_and_missing_package(monkeypatch):
+    t = np.array([0.0, 1.0])
+    x = np.zeros((2, 3))
+    P = np.broadcast_to(np.eye(3), (2, 3, 3))
+    r = np.array([0, 1])
+    with pytest.raises(ValueError, match=r"`time` must be in time order.*time\[0\] = 1\.0 >"):
+        tk.stonesoup_track(t[::-1], x, P, r, r)
+    with pytest.raises(ValueError, match="`tracker`"):
+        tk.stonesoup_track(t, x, P, r, r, tracker="mht")
+    with pytest.raises(TypeError, match="`settings`"):
+        tk.stonesoup_track(t, x, P, r, r, settings={"q": 1.0})
+    with pytest.raises(ValueError, match="`position`"):
+        tk.stonesoup_track(t, x[:1], P, r, r)
+    with pytest.raises(ValueError, match="`position`"):
+        tk.stonesoup_track(t, np.full((2, 3), np.nan), P, r, r)
+    with pytest.raises(ValueError, match="`scan`"):
+        tk.stonesoup_track(t, x, P, r, [0.5, 1.5])
+    monkeypatch.setitem(__import__("sys").modules, "stonesoup", None)
+    with pytest.raises(ImportError, match=r"needs Stone Soup.*pip install stonesoup"):
+        tk.stonesoup_track(t, x, P, r, r)
+
+
+def test_stonesoup_state_order_and_a_lone_target():
+    """One noise-free target at constant velocity seen every second: Stone Soup's GNN
+    track, mapped to [x y z vx vy vz], converges on the true state."""
+    v = np.array([200.0, -100.0, 5.0])
+    t = np.arange(0.0, 30.0)
+    x = np.array([1e4, 2e4, 9e3]) + t[:, None] * v
+    P = np.broadcast_to(np.diag([50.0**2] * 3), (t.size, 3, 3))
+    h = tk.stonesoup_track(t, x, P, np.zeros(t.size, dtype=np.int64),
+                           np.arange(t.size), settings=tk.TrackerSettings(m=3))
+    assert np.unique(h.track).size == 1 and h.n_confirmed == 1
+    assert not h.confirmed[:2].any() and h.confirmed[2:].all()      # released at m = 3
+    assert np.allclose(h.time, t)
+    assert np.allclose(h.state[-1, :3], x[-1], atol=20.0)
+    assert np.allclose(h.state[-1, 3:], v, atol=5.0)
+    assert h.initiated == 1 and h.seconds > 0

@@ -7,7 +7,12 @@ r"""From reports to tracks: one tracker over the radars' reports, and three arch
 * :func:`fuse_then_track` — architecture (b): the radars' scans grouped and fused per time
   window, then tracked;
 * :func:`track_then_fuse` — architecture (c): a tracker per radar, then track-to-track
-  fusion (covariance intersection).
+  fusion (covariance intersection);
+* :func:`~radarfusion_ref.tracking.stonesoup.stonesoup_track` — Stone Soup's GNN and JPDA
+  trackers on the same reports, for comparison (Stone Soup imported when called);
+* :func:`evaluate_tracks_over_time` — GOSPA over time, track switches against the ADS-B
+  identities, tracks per aircraft, false tracks per hour, confirmation latency and NEES;
+  :func:`summarise_runs` their means over seeds with intervals.
 
 The formulas (Kalman filter, track score, JPDA probabilities) live in
 :mod:`radarfusion_ref.engine.tracking`.
@@ -22,16 +27,24 @@ The formulas (Kalman filter, track score, JPDA probabilities) live in
 
 from ._architectures import T2T_RULES, fuse_then_track, track_then_fuse
 from ._centralised import MAX_REPORTS, track_reports
+from ._evaluation import TrackingMetrics, evaluate_tracks_over_time, gospa_pairs, summarise_runs
 from ._settings import ASSOCIATIONS, CONFIRMATIONS, TrackerSettings, TrackHistory
+from .stonesoup import STONESOUP_TRACKERS, stonesoup_track
 
 __all__ = [
     "ASSOCIATIONS",
     "CONFIRMATIONS",
     "MAX_REPORTS",
+    "STONESOUP_TRACKERS",
     "T2T_RULES",
     "TrackHistory",
     "TrackerSettings",
+    "TrackingMetrics",
+    "evaluate_tracks_over_time",
     "fuse_then_track",
+    "gospa_pairs",
+    "stonesoup_track",
+    "summarise_runs",
     "track_reports",
     "track_then_fuse",
 ]

@@ -1,0 +1,246 @@
+r"""Stone Soup's trackers on the same reports: the anchor the book's tracker is compared with.
+
+:func:`stonesoup_track` runs Stone Soup's ``MultiTargetTracker`` (global nearest neighbour)
+or ``MultiTargetMixtureTracker`` (JPDA, by ``JPDAwithEHM2`` or plain enumeration) on
+reports already in the common frame, configured as Stone Soup's own tutorials configure
+them, and returns a :class:`~radarfusion_ref.tracking.TrackHistory` like
+:func:`~radarfusion_ref.tracking.track_reports`. Stone Soup is imported only when called.
+
+.. rubric:: References
+
+.. [1] D. Barr et al., "Stone Soup: announcement of beta release of an open-source
+   framework for tracking and state estimation", Proc. SPIE 11018 (2019); the tutorials
+   "Multi-target tracking: data association" and "Joint probabilistic data association"
+   of its documentation.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import itertools
+import math
+import time as _time
+
+import numpy as np
+
+from ..engine._validation import _describe, as_choice, as_float_array
+from ._settings import TrackerSettings, TrackHistory
+
+__all__ = ["STONESOUP_TRACKERS", "stonesoup_track"]
+
+#: Trackers of :func:`stonesoup_track`.
+STONESOUP_TRACKERS = ("gnn", "jpda", "jpda_enumerate")
+
+#: Stone Soup state order [x, vx, y, vy, z, vz] -> ours [x, y, z, vx, vy, vz].
+_TO_OURS = np.array([0, 2, 4, 1, 3, 5])
+#: An arbitrary epoch: Stone Soup's clock needs dates; seconds are added to it.
+_EPOCH = dt.datetime(2018, 8, 1, 11, 0, 0)
+
+
+def _import():
+    try:
+        import stonesoup  # noqa: F401
+    except ImportError:
+        raise ImportError("stonesoup_track needs Stone Soup (`pip install stonesoup`, a test "
+                          "dependency of this package); track_reports needs nothing "
+                          "extra") from None
+
+
+def _inputs_iv(time, position, covariance, radar, scan):
+    t = as_float_array(time, "time")
+    x = as_float_array(position, "position", ndim_min=2, last_dims=(3,))
+    P = as_float_array(covariance, "covariance", ndim_min=3, last_dims=(3, 3))
+    n = t.size
+    if t.ndim != 1 or x.shape != (n, 3) or P.shape != (n, 3, 3):
+        raise ValueError(f"`time` (N,), `position` (N, 3) and `covariance` (N, 3, 3) must "
+                         f"describe the same N reports; received shapes {t.shape}, {x.shape}, "
+                         f"{P.shape}")
+    ints = []
+    for name, v in (("radar", radar), ("scan", scan)):
+        a = np.asarray(v)
+        if a.dtype.kind not in "iu" or a.shape != (n,):
+            raise ValueError(f"`{name}` must be N = {n} integers; received {_describe(v)}")
+        ints.append(a.astype(np.int64))
+    if n and np.any(np.diff(t) < 0):
+        k = int(np.flatnonzero(np.diff(t) < 0)[0])
+        raise ValueError(f"`time` must be in time order (non-decreasing), as the reports "
+                         f"arrive; received time[{k}] = {float(t[k])!r} > time[{k + 1}] = "
+                         f"{float(t[k + 1])!r} (sort by (time, radar) first)")
+    return t, x, P, ints[0], ints[1]
+
+
+def _steps(t, x, P, radar, scan, Detection, LinearGaussian):
+    """One step per radar scan, in time order: (datetime, set of Detection)."""
+    key = np.stack([t, radar, scan], axis=1)
+    change = np.flatnonzero(np.any(np.diff(key, axis=0) != 0, axis=1)) + 1
+    bounds = np.concatenate([[0], change, [t.size]])
+    for lo, hi in itertools.pairwise(bounds):
+        when = _EPOCH + dt.timedelta(seconds=float(t[lo]))
+        yield when, {Detection(x[k].reshape(3, 1), timestamp=when,
+                               measurement_model=LinearGaussian(ndim_state=6, mapping=(0, 2, 4),
+                                                                noise_covar=P[k]))
+                     for k in range(lo, hi)}
+
+
+def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
+                    settings=None) -> TrackHistory:
+    r"""Stone Soup's GNN or JPDA tracker on reports in the common frame.
+
+    Parameters
+    ----------
+    time : array_like, shape (N,)
+        Report instants (s), non-decreasing (as :func:`radarfusion_ref.capstone.
+        simulate_detections` sorts them).
+    position, covariance : array_like, shape (N, 3) and (N, 3, 3)
+        Reports in the common frame and their covariances
+        (:func:`radarfusion_ref.capstone.to_common`).
+    radar, scan : array_like of int, shape (N,)
+        Each report's radar and that radar's scan number: the reports of one radar scan
+        are fed to Stone Soup as one step.
+    tracker : {"gnn", "jpda", "jpda_enumerate"}, optional
+        ``"gnn"`` (default): ``MultiTargetTracker`` with ``GNNWith2DAssignment`` over a
+        ``DistanceHypothesiser``; ``"jpda"``: ``MultiTargetMixtureTracker`` with
+        ``JPDAwithEHM2`` (efficient hypothesis management: the same probabilities as the
+        enumeration without listing the joint events) over a gated ``PDAHypothesiser``;
+        ``"jpda_enumerate"``: the same with Stone Soup's plain ``JPDA``.
+    settings : TrackerSettings, optional
+        The settings of the book's tracker, matched: :math:`P_D`, clutter density, gate,
+        process noise, new-track velocity spread, coasting time, and `m` as the
+        initiator's points.
+
+    Returns
+    -------
+    TrackHistory
+        One row per (track, update), sorted by (time, track); `confirmed` from the update
+        at which Stone Soup's initiator released the track; `seconds` the wall time of the
+        run; `initiated` the tracks started (held ones included).
+
+    Raises
+    ------
+    ImportError
+        If Stone Soup is not installed (the message says how to get it).
+    TypeError
+        `settings` not a :class:`~radarfusion_ref.tracking.TrackerSettings`, non-numeric
+        arrays.
+    ValueError
+        Arrays that do not describe the same reports, non-finite values, reports out of
+        time order (refused: sort them), an unknown `tracker`.
+
+    Notes
+    -----
+    The configuration follows Stone Soup's tutorials: a constant-velocity model per axis
+    (``ConstantVelocity(q)``, continuous white-noise acceleration of intensity
+    :math:`q`), a Kalman predictor and updater, each report with its own
+    ``LinearGaussian`` measurement model (its covariance), Mahalanobis gating at
+    :math:`\sqrt{\gamma}` with :math:`\gamma` the :math:`\chi^2_3` quantile of
+    ``1 - p_false_reject`` (GNN: the hypothesiser's missed distance; JPDA: a
+    ``DistanceGater`` around a ``PDAHypothesiser`` with the clutter density and
+    :math:`P_D`), the ``MultiMeasurementInitiator`` (new tracks from single reports with
+    velocity spread `speed_max`, released after `m` updates, held ones forgotten after
+    1.5 of the longest radar revisit), and the ``UpdateTimeDeleter`` at `max_coast`
+    seconds without an update — the closest of Stone Soup's initiators and deleters to
+    the book's M-of-N start and coasting limit.
+    """
+    _import()
+    from scipy import stats
+    from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
+    from stonesoup.dataassociator.probability import JPDA, JPDAwithEHM2
+    from stonesoup.deleter.time import UpdateTimeDeleter
+    from stonesoup.gater.distance import DistanceGater
+    from stonesoup.hypothesiser.distance import DistanceHypothesiser
+    from stonesoup.hypothesiser.probability import PDAHypothesiser
+    from stonesoup.initiator.simple import MultiMeasurementInitiator, SimpleMeasurementInitiator
+    from stonesoup.measures import Mahalanobis
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.transition.linear import (
+        CombinedLinearGaussianTransitionModel,
+        ConstantVelocity,
+    )
+    from stonesoup.predictor.kalman import KalmanPredictor
+    from stonesoup.tracker.simple import MultiTargetMixtureTracker, MultiTargetTracker
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.state import GaussianState
+    from stonesoup.types.update import Update
+    from stonesoup.updater.kalman import KalmanUpdater
+
+    t, x, P, radar, scan = _inputs_iv(time, position, covariance, radar, scan)
+    tracker = as_choice(tracker, "tracker", STONESOUP_TRACKERS)
+    if settings is None:
+        settings = TrackerSettings()
+    if not isinstance(settings, TrackerSettings):
+        raise TypeError(f"`settings` must be a TrackerSettings or None; received "
+                        f"{_describe(settings)}")
+    t0 = _time.perf_counter()
+    cv = ConstantVelocity(settings.q)
+    transition = CombinedLinearGaussianTransitionModel([cv, cv, cv])
+    predictor = KalmanPredictor(transition)
+    updater = KalmanUpdater(measurement_model=None)
+    gate = math.sqrt(float(stats.chi2.isf(settings.p_false_reject, 3)))
+    gnn = GNNWith2DAssignment(DistanceHypothesiser(predictor, updater, measure=Mahalanobis(),
+                                                   missed_distance=gate))
+    v0 = settings.speed_max ** 2
+    prior = GaussianState(np.zeros((6, 1)), np.diag([0.0, v0, 0.0, v0, 0.0, v0]))
+    started = [0]
+
+    class _Counting(SimpleMeasurementInitiator):
+        def initiate(self, detections, timestamp, **kwargs):
+            out = super().initiate(detections, timestamp, **kwargs)
+            started[0] += len(out)
+            return out
+
+    # revisit of the slowest radar: the spacing of one radar's scans, at most max_coast
+    revisit = 0.0
+    for i in np.unique(radar):
+        ti = np.unique(t[radar == i])
+        if ti.size > 1:
+            revisit = max(revisit, float(np.median(np.diff(ti))))
+    hold = min(1.5 * revisit if revisit else settings.max_coast, settings.max_coast)
+    initiator = MultiMeasurementInitiator(
+        prior_state=prior, deleter=UpdateTimeDeleter(dt.timedelta(seconds=hold)),
+        data_associator=gnn, updater=updater, min_points=settings.m,
+        initiator=_Counting(prior_state=prior, measurement_model=None))
+    deleter = UpdateTimeDeleter(dt.timedelta(seconds=settings.max_coast))
+    steps = _steps(t, x, P, radar, scan, Detection, LinearGaussian)
+    if tracker == "gnn":
+        run = MultiTargetTracker(initiator=initiator, deleter=deleter, detector=steps,
+                                 data_associator=gnn, updater=updater)
+    else:
+        pda = PDAHypothesiser(predictor=predictor, updater=updater,
+                              clutter_spatial_density=settings.clutter_density,
+                              prob_detect=settings.p_detection,
+                              prob_gate=1.0 - settings.p_false_reject)
+        hyp = DistanceGater(pda, measure=Mahalanobis(), gate_threshold=gate)
+        assoc = JPDAwithEHM2(hyp) if tracker == "jpda" else JPDA(hyp)
+        run = MultiTargetMixtureTracker(initiator=initiator, deleter=deleter, detector=steps,
+                                        data_associator=assoc, updater=updater)
+    every = set()
+    for _, tracks in run:
+        every |= tracks
+    seconds = _time.perf_counter() - t0
+    return _history(every, settings.m, seconds, started[0], Update)
+
+
+def _history(tracks, min_points, seconds, initiated, Update):
+    rows = []
+    for ident, track in enumerate(sorted(tracks, key=lambda tr: (tr.states[0].timestamp,
+                                                                 tr.id))):
+        n_up = 0
+        for s in track.states:
+            if not isinstance(s, Update):
+                continue
+            n_up += 1
+            sec = (s.timestamp - _EPOCH).total_seconds()
+            sv = np.asarray(s.state_vector, dtype=float).ravel()[_TO_OURS]
+            cv = np.asarray(s.covar, dtype=float)[np.ix_(_TO_OURS, _TO_OURS)]
+            rows.append((sec, ident, sv, cv, n_up >= min_points))
+    if not rows:
+        return TrackHistory(track=np.zeros(0, dtype=np.int64), time=np.zeros(0),
+                            state=np.zeros((0, 6)), covariance=np.zeros((0, 6, 6)),
+                            confirmed=np.zeros(0, dtype=bool), seconds=seconds,
+                            initiated=initiated)
+    rows.sort(key=lambda r: (r[0], r[1]))
+    sec, ident, sv, cv, conf = zip(*rows, strict=True)
+    return TrackHistory(track=np.array(ident, dtype=np.int64), time=np.array(sec),
+                        state=np.stack(sv), covariance=np.stack(cv),
+                        confirmed=np.array(conf, dtype=bool), seconds=seconds,
+                        initiated=initiated)
