@@ -34,10 +34,13 @@ _TOP = 8
 _BLOCK_BYTES = 1 << 21
 
 #: Iterations without a better dual value before the target level drops.
-_STALL = 5
+_STALL = 10
 
 #: Growth of the target distance when the target level is reached.
 _GROW = 1.5
+
+#: Shrink of the target distance after a stall of the dual value.
+_SHRINK = 0.5
 
 #: First target distance, as a share of (best cost - first bound).
 _DELTA0 = 1.0
@@ -49,7 +52,7 @@ _DEFLECT = 1.5
 _SCALE_ABOVE = 2.0**400
 
 #: Iterations without progress of either bound before the run counts as stalled.
-_PATIENCE = 30
+_PATIENCE = 50
 
 
 def dense_work_bytes(m: int, n: int) -> int:
@@ -245,10 +248,8 @@ class _Dense:
         self.lb = max(self.lb, lower)
         groups = self.recover(j, cols)
         if groups is not None:
+            groups = self.improve(groups)
             tot = self.total(groups)
-            if tot < self.ub or self.it % 5 == 0:
-                groups = self.improve(groups)
-                tot = self.total(groups)
             if tot < self.ub:
                 self.ub, self.best = tot, groups
         self.lb = min(self.lb, self.ub)
@@ -269,7 +270,8 @@ class _Dense:
         else:
             self.stall += 1
             if self.stall >= _STALL:                 # back to the best multipliers, aim lower
-                self.delta *= 0.5
+                room = self.ub - self.best_q if math.isfinite(self.ub) else self.delta
+                self.delta = _SHRINK * min(self.delta, room)   # the level moves at once
                 self.stall = 0
                 self.u, self.direction = self.best_u.copy(), np.zeros_like(self.u)
                 g, base = self.best_g, self.best_q
