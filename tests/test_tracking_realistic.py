@@ -32,6 +32,23 @@ def realistic(traffic):
     return radars, cp.simulate_detections(traffic, radars, start=600.0, duration=240.0, rng=3)
 
 
+# ----------------------------------------------------------------------------- the tuning hour
+def test_tuning_hour_is_committed_and_distinct():
+    import hashlib
+    raw = cp.TUNING_FILE.read_bytes()
+    assert hashlib.sha256(raw).hexdigest() == (
+        "3f0708558ee935a9d64ed7a6e95f6a2a1a9cbc1a56e0d27b52644176bbd79f01")
+    tune, scored = cp.load_traffic(hour="tuning"), cp.load_traffic()
+    assert len(tune.icao24) == 128 and tune.t.size == 11_491
+    assert len(tune.icao24) < len(scored.icao24)             # the second busiest hour
+    total = sum(f.stat().st_size for f in
+                __import__("pathlib").Path(str(cp.DATA_FILE)).parent.iterdir()
+                if f.is_file())
+    assert total < 1_000_000                                  # all the data under 1 MB
+    with pytest.raises(ValueError, match="`hour`"):
+        cp.load_traffic(hour="noon")
+
+
 # ----------------------------------------------------------------------------- simple mode
 def test_simple_mode_is_the_capstone_simulation(traffic):
     """Same seed, same draws: the rows of simulate_reports on truth_scans, in its order."""
@@ -508,3 +525,35 @@ def test_stonesoup_state_order_and_a_lone_target():
     assert np.allclose(h.state[-1, :3], x[-1], atol=20.0)
     assert np.allclose(h.state[-1, 3:], v, atol=5.0)
     assert h.initiated == 1 and h.seconds > 0
+
+
+@pytest.fixture(scope="module")
+def side_by_side(traffic):
+    """40 s of the realistic radars (registered on the first 300 s), tracked by ours and by
+    Stone Soup's GNN and JPDA on the same converted reports; scored every 2 s from 15 s."""
+    radars = cp.realistic_radars()
+    det = cp.simulate_detections(traffic, radars, start=600.0, duration=300.0, rng=1)
+    est = cp.register_detections(det, radars, warmup=300.0)
+    det = det.subset(det.time < 640.0)
+    x, P = cp.to_common(det, radars, est.biases)
+    times = np.arange(615.0, 640.0, 2.0)
+    out = {"ours": tk.track_reports(det.time, x, P, det.radar, det.scan,
+                                    settings=tk.TrackerSettings())}
+    for name in ("gnn", "jpda"):
+        out[name] = tk.stonesoup_track(det.time, x, P, det.radar, det.scan, tracker=name)
+    return {k: tk.evaluate_tracks_over_time(h, traffic, times=times, radars=radars)
+            for k, h in out.items()}
+
+
+def test_side_by_side_with_stone_soup_on_a_short_window(side_by_side):
+    for name, m in side_by_side.items():
+        assert m.tracks_per_aircraft <= 1.1, name
+        assert m.false_tracks <= 1, name
+        assert m.switches <= 1, name
+        assert 2.0 < m.nees.mean < 4.5, name                 # position NEES, 3 dof
+        paired = np.sum(m.track_of >= 0, axis=0)
+        missed = m.missed / (m.c**m.p / 2)                   # c^p/2 per missed aircraft
+        assert np.all(paired / (paired + missed) > 0.8), name
+    best = min(side_by_side["gnn"].mean_gospa, side_by_side["jpda"].mean_gospa)
+    assert side_by_side["ours"].mean_gospa <= 1.05 * best
+    assert abs(side_by_side["ours"].n_tracks - side_by_side["gnn"].n_tracks) <= 3

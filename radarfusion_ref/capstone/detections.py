@@ -38,6 +38,7 @@ from ..engine.geodesy import _enu_rotation
 from .radars import (
     _CLUTTER_ALT,
     _FEATURE_SPAN,
+    MIN_REGISTRATION_GROUPS,
     Radar,
     _limit_false_reports,
     _polar,
@@ -500,7 +501,7 @@ def register_detections(detections, radars, *, warmup=300.0):
         Wrong types of `detections` or `radars`.
     ValueError
         Non-positive `warmup`, a radar index outside `radars`, fewer than
-        :data:`~radarfusion_ref.capstone.pipeline.MIN_REGISTRATION_GROUPS` aircraft instants
+        :data:`~radarfusion_ref.capstone.MIN_REGISTRATION_GROUPS` aircraft instants
         seen by every radar in the warm-up, or biases the geometry cannot observe (from
         :func:`radarfusion_ref.registration.estimate_biases`, naming the combinations).
 
@@ -531,8 +532,6 @@ def register_detections(detections, radars, *, warmup=300.0):
     >>> register_detections(det, radars).biases.shape
     (3, 3)
     """
-    from .pipeline import MIN_REGISTRATION_GROUPS
-
     radars, _, _ = _to_common_iv(detections, radars, None, True)
     warmup = as_float(as_positive(warmup, "warmup"), "warmup")
     m = len(radars)

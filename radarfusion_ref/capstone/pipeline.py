@@ -31,7 +31,13 @@ from ..engine._validation import (
     as_probability,
 )
 from .detections import _convert as _convert_polar
-from .radars import _FEATURE_SPAN, Reports, _coverage_count, _radars_iv
+from .radars import (
+    _FEATURE_SPAN,
+    MIN_REGISTRATION_GROUPS,
+    Reports,
+    _coverage_count,
+    _radars_iv,
+)
 
 __all__ = [
     "MIN_REGISTRATION_GROUPS",
@@ -56,8 +62,6 @@ SPEED_TYPE_VARS = (39.0**2, 7.0**2, 10.7**2)
 #: can always stay alone (never an infeasible scan).
 _MIN_PD, _MAX_PD, _MIN_FALSE = 1e-3, 0.999, 1e-3
 
-#: Fewest groups holding a report of every radar that the registration accepts.
-MIN_REGISTRATION_GROUPS = 10
 #: Registration passes over the warm-up: group, estimate, regroup with the estimate,
 #: estimate again. One pass is biased towards small offsets (the uncorrected gate keeps
 #: the triples whose offsets happen to cancel); the second removes most of that.

@@ -172,6 +172,11 @@ def default_radars(**overrides) -> tuple[Radar, ...]:
     return _radars_iv(out)
 
 
+#: Fewest groups holding a report of every radar that the registration accepts
+#: (:func:`~radarfusion_ref.capstone.pipeline.run_pipeline` and
+#: :func:`~radarfusion_ref.capstone.detections.register_detections`).
+MIN_REGISTRATION_GROUPS = 10
+
 #: Scan period (s), phase (s) and range scale error of each radar in
 #: :func:`realistic_radars`.
 REALISTIC_TIMING = {"La Dole": (12.0, 5.0, 2e-4), "Albis": (8.0, 2.5, -1.5e-4),

@@ -25,6 +25,7 @@ import numpy as np
 from ..engine._validation import (
     MEMORY_LIMIT,
     _describe,
+    as_choice,
     as_float,
     as_float_array,
     as_positive,
@@ -36,9 +37,11 @@ __all__ = [
     "COLUMNS",
     "DATA_FILE",
     "FRESH_BAND",
+    "HOURS",
     "ORIGIN",
     "SPEED_BOUNDS",
     "SPEED_CLASSES",
+    "TUNING_FILE",
     "Traffic",
     "TruthScans",
     "load_traffic",
@@ -50,6 +53,11 @@ __all__ = [
 #: :class:`importlib.resources.abc.Traversable`: ``DATA_FILE.read_bytes()`` works in any
 #: install, also from a zip.
 DATA_FILE = resources.files(__package__).joinpath("data", "switzerland_busiest_hour.csv.gz")
+#: The second busiest hour of the same day (09:00–10:00 UTC, 128 aircraft), extracted the
+#: same way: trackers are tuned on it, never on the scored hour ``load_traffic(hour="tuning")``.
+TUNING_FILE = resources.files(__package__).joinpath("data", "switzerland_tuning_hour.csv.gz")
+#: The committed hours of :func:`load_traffic`.
+HOURS = {"scored": DATA_FILE, "tuning": TUNING_FILE}
 
 #: Header of a traffic file (integers, except the two names).
 COLUMNS = ("t_s", "icao24", "callsign", "lat_e5", "lon_e5", "alt_ft", "gs_kt", "track_deg")
@@ -108,10 +116,11 @@ def _bad_file(path, what):
     return ValueError(f"`path` {str(path)!r}: {what}")
 
 
-def _read_iv(path):
-    """The raw bytes of `path` (default: the committed hour)."""
+def _read_iv(path, hour="scored"):
+    """The raw bytes of `path` (default: the committed hour named by `hour`)."""
+    hour = as_choice(hour, "hour", tuple(HOURS))
     if path is None:
-        return DATA_FILE, DATA_FILE.read_bytes()
+        return HOURS[hour], HOURS[hour].read_bytes()
     if isinstance(path, bool) or not isinstance(path, (str, Path)):
         raise TypeError(f"`path` must be a file path (str or pathlib.Path); received "
                         f"{_describe(path)}")
@@ -162,15 +171,18 @@ def _parse(p, raw):
     return np.array(cols[1]), np.array(cols[2]), num
 
 
-def load_traffic(path=None) -> Traffic:
+def load_traffic(path=None, *, hour="scored") -> Traffic:
     """Load the committed ADS-B hour (or a file of the same format).
 
     Parameters
     ----------
     path : str or pathlib.Path, optional
         A gzip CSV with header ``t_s,icao24,callsign,lat_e5,lon_e5,alt_ft,gs_kt,track_deg``
-        (:data:`COLUMNS`; integers, except the two names). Default: :data:`DATA_FILE`, the
-        hour shipped with the package; no network access, no extra package.
+        (:data:`COLUMNS`; integers, except the two names). Default: the committed hour
+        named by `hour`; no network access, no extra package.
+    hour : {"scored", "tuning"}, optional
+        Without `path`: :data:`DATA_FILE` (default, 11:00–12:00 UTC, the hour every result
+        is scored on) or :data:`TUNING_FILE` (09:00–10:00 UTC, the hour to tune on).
 
     Returns
     -------
@@ -192,7 +204,7 @@ def load_traffic(path=None) -> Traffic:
     >>> len(tr.icao24), tr.t.size
     (142, 12902)
     """
-    p, raw = _read_iv(path)
+    p, raw = _read_iv(path, hour)
     icao, calls, num = _parse(p, raw)
     names, aircraft = np.unique(icao, return_inverse=True)
     order = np.lexsort((num["t_s"], aircraft))

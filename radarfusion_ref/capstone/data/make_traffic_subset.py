@@ -13,7 +13,9 @@ list of ADS-B records (timestamp in ms, latitude, longitude, altitude in ft,
 callsign, icao24, ground speed in kt, track in degrees, vertical rate).
 
 The window is chosen by a rule: the whole UTC clock hour holding the most distinct
-aircraft (``icao24``), ties going to the earliest. The output is a gzip CSV
+aircraft (``icao24``), ties going to the earliest; the second busiest hour by the same
+rule is written beside it (``switzerland_tuning_hour.csv.gz``) for tuning trackers
+without touching the scored hour. The output is a gzip CSV
 (deterministic: gzip mtime 0) with integer columns
 
     t_s, icao24, callsign, lat_e5, lon_e5, alt_ft, gs_kt, track_deg
@@ -40,6 +42,9 @@ from pathlib import Path
 MEMBER = "traffic/data/samples/collections/switzerland.json.gz"
 VERSION = "2.13"
 OUT = Path(__file__).resolve().parent / "switzerland_busiest_hour.csv.gz"
+#: The second busiest hour of the same day, extracted the same way: the hour on which
+#: trackers are tuned (the busiest one is scored).
+OUT_TUNING = Path(__file__).resolve().parent / "switzerland_tuning_hour.csv.gz"
 HEADER = "t_s,icao24,callsign,lat_e5,lon_e5,alt_ft,gs_kt,track_deg"
 
 
@@ -58,8 +63,19 @@ def main(argv: list[str]) -> None:
     hours = collections.defaultdict(set)
     for r in records:
         hours[r["timestamp"] // 3_600_000].add(r["icao24"])
-    best = max(sorted(hours), key=lambda h: len(hours[h]))     # max keeps the earliest tie
-    start_ms = best * 3_600_000
+    ranked = sorted(sorted(hours), key=lambda h: -len(hours[h]))  # stable: earliest tie first
+    for hour, out in zip(ranked[:2], (OUT, OUT_TUNING), strict=True):
+        _write_hour(records, hour, out)
+        start = dt.datetime.fromtimestamp(hour * 3600, dt.timezone.utc)
+        print(f"window: {start:%Y-%m-%d %H:%M} to {start + dt.timedelta(hours=1):%H:%M} UTC "
+              f"({len(hours[hour])} aircraft)")
+        print(f"wrote {out.name}: {out.stat().st_size} bytes, "
+              f"SHA-256 {hashlib.sha256(out.read_bytes()).hexdigest()}")
+
+
+def _write_hour(records, hour: int, out: Path) -> None:
+    """Write the records of one UTC clock hour to `out` (the format of the module doc)."""
+    start_ms = hour * 3_600_000
     rows = []
     for r in records:
         t_ms = r["timestamp"] - start_ms
@@ -76,13 +92,7 @@ def main(argv: list[str]) -> None:
     buf = io.BytesIO()
     with gzip.GzipFile(filename="", mode="wb", fileobj=buf, mtime=0, compresslevel=9) as gz:
         gz.write(text.getvalue().encode("ascii"))
-    OUT.write_bytes(buf.getvalue())
-    start = dt.datetime.fromtimestamp(start_ms / 1000, dt.timezone.utc)
-    print(f"window: {start:%Y-%m-%d %H:%M} to {start + dt.timedelta(hours=1):%H:%M} UTC "
-          f"({len(hours[best])} aircraft, {len(rows)} records)")
-    print(f"wrote {OUT.name}: {OUT.stat().st_size} bytes, "
-          f"SHA-256 {hashlib.sha256(OUT.read_bytes()).hexdigest()}")
-
+    out.write_bytes(buf.getvalue())
 
 if __name__ == "__main__":
     main(sys.argv[1:])
