@@ -484,3 +484,23 @@ def test_initial_biases_outside_the_model_are_refused_as_initial():
     with pytest.raises(ValueError, match=r"^`initial`"):
         rg.register_and_associate(s, [[60.0, 0.1], [61, 0.2]], [[58.0, 0.5], [59, 0.6]], 0.02,
                                   2e-4, initial=[[100.0, 0, 0], [0, 0, 0]])
+
+
+@given(exponent=EXPONENTS, p_lo=st.sampled_from([None, 1e-3]))
+def test_joint_registration_decisions_do_not_depend_on_the_length_unit(exponent, p_lo):
+    """The pairs chosen, the passes made and the convergence are the same in any length unit;
+    the range offsets scale with it and nothing else does."""
+    k = 10.0 ** exponent
+    z = rg.draw_biased_reports(SITES, SPREAD, BIAS, SR, SB, rng=11)
+    gen = np.random.default_rng(3)
+    z1, z2 = z[0], z[1][gen.permutation(len(SPREAD))]
+    kw = dict(p_false_reject=p_lo)
+    ref = rg.register_and_associate(SITES, z1, z2, SR, SB, **kw)
+    s1, s2 = np.array(z1), np.array(z2)
+    s1[:, 0] *= k
+    s2[:, 0] *= k
+    got = rg.register_and_associate(SITES * k, s1, s2, SR * k, SB, **kw)
+    np.testing.assert_array_equal(got.association.row_to_col, ref.association.row_to_col)
+    assert got.iterations == ref.iterations and got.converged == ref.converged
+    units = np.array([k, 1.0, 1.0])
+    np.testing.assert_allclose(got.biases / units, ref.biases, rtol=1e-6, atol=1e-12)
