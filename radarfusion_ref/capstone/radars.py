@@ -7,8 +7,12 @@ of the aircraft's common-frame position relative to its own common-frame positio
 real radar measures in its own local frame, which is rotated against the common one
 (by the meridian convergence, about 0.7° per degree of longitude here); a fusion
 centre undoes that known rotation before fusing, and the simulation leaves it out.
-The radars scan at the same instants (every `period` seconds of the truth), so the
-reports of one scan describe the aircraft at one time, as S-D grouping assumes.
+In :func:`simulate_reports` (the simple mode) the radars scan at the same instants
+(every `period` seconds of the truth), so the reports of one scan describe the aircraft at
+one time, as S-D grouping assumes. The realistic mode,
+:func:`radarfusion_ref.capstone.detections.simulate_detections` with
+:func:`realistic_radars`, drops both simplifications: each radar scans at its own period
+and phase and measures in its own east-north-up frame.
 """
 
 from __future__ import annotations
