@@ -88,7 +88,9 @@ BARE_REPR = re.compile(
 )
 #: A font size set in a page's code (``fontsize=7``, ``size="small"``, ``prop={"size": 8}``).
 FONT_SIZE = re.compile(
-    r"""\b(?:font)?size["']?\s*[=:]\s*(?:(\d+(?:\.\d+)?)|["']((?:xx?-)?small)["'])""")
+    r"""\b(?:font|label|title)size\s*=\s*(?:(\d+(?:\.\d+)?)|["']((?:xx?-)?small)["'])"""
+    r"""|["'](?:font|label|title)?size["']\s*:\s*(?:(\d+(?:\.\d+)?)|["']((?:xx?-)?small)["'])"""
+    r"""|\bsize\s*=\s*()["']((?:xx?-)?small)["']""")
 #: matplotlib's relative sizes in pt, at the style's 10 pt base.
 RELATIVE_PT = {"small": 8.33, "x-small": 6.94, "xx-small": 5.79}
 #: A label name leaked into visible text.
@@ -292,7 +294,9 @@ def small_fonts(source: str) -> list[str]:
     """Font sizes below 9 pt that a page's source sets (numbers or relative names)."""
     found = []
     for m in FONT_SIZE.finditer(source):
-        pt = float(m.group(1)) if m.group(1) else RELATIVE_PT[m.group(2)]
+        number = m.group(1) or m.group(3)
+        name = m.group(2) or m.group(4) or m.group(6)
+        pt = float(number) if number else RELATIVE_PT[name]
         if pt < MIN_TEXT_PT:
             found.append(m.group(0))
     return found

@@ -342,8 +342,9 @@ def test_unnumbered_pages_count_their_own_exercises():
 
 def test_small_fonts_in_the_source_are_found():
     src = """ax.legend(fontsize=7)\nax.text(0, 0, "a", size="small")\nax.legend(prop={"size": 8})
-ax.set_title("t", fontsize=12)\nax.plot(x, y, markersize=3)\nax.legend(fontsize="large")"""
-    assert small_fonts(src) == ["fontsize=7", 'size="small"', 'size": 8']
+ax.set_title("t", fontsize=12)\nax.plot(x, y, markersize=3)\nax.legend(fontsize="large")
+u = rng.uniform(0, 1, size=3)\nax.tick_params(labelsize=6)"""
+    assert small_fonts(src) == ["fontsize=7", 'size="small"', '"size": 8', "labelsize=6"]
     row = PageLayout(page="book/01_fusion", text_pt=10.0, small_fonts=0)
     assert "figure_text" not in problems(row)
     row.text_pt = 7.5
