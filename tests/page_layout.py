@@ -26,7 +26,8 @@ them):
   ``lesson-stderr``.
 * **minutes** — reading minutes of the source (``tests/book_metrics.py``); **figs** —
   visible images (players included) outside folds; **need** — ``ceil(minutes / 5)``.
-* **player px** — the narrowest player's displayed width (at least 800).
+* **player px** — the narrowest player's visible width (at least 800): its displayed width,
+  clipped by any box around it that scrolls (a wide player in a text-column output scrolls).
 * **text pt** — an estimate of the smallest figure text at displayed size: the book
   style's smallest font (``kit.plotting.BOOK_STYLE``) times the smallest displayed scale
   of the page's images (displayed width / pixel width × the PNG's dpi / 96). It assumes
@@ -125,6 +126,18 @@ async (opts) => {
     return true;
   };
   const inside = (el, sel) => !!el.closest(sel);
+  // the width of `el` the reader can see: clipped by every ancestor that scrolls or hides
+  const visibleWidth = el => {
+    const r = el.getBoundingClientRect();
+    let left = r.left, right = r.right;
+    for (let a = el.parentElement; a && a !== document.documentElement; a = a.parentElement) {
+      if (getComputedStyle(a).overflowX === "visible") continue;
+      const ar = a.getBoundingClientRect();
+      left = Math.max(left, ar.left + a.clientLeft);
+      right = Math.min(right, ar.left + a.clientLeft + a.clientWidth);
+    }
+    return Math.max(0, right - left);
+  };
   const short = (t, n) => t.replace(/\s+/g, " ").trim().slice(0, n || 90);
   const out = {code: [], outputs: [], labels: [], stderr: [], images: [], players: [],
                wideOutputs: 0, closing: false};
@@ -181,7 +194,7 @@ async (opts) => {
       const src = img.getAttribute("src") || "";
       out.images.push({src: src.startsWith("data:") ? src.slice(0, 200000) : src,
                        natural: img.naturalWidth, shown: r.width, player: player});
-      if (player) out.players.push(Math.round(r.width));
+      if (player) out.players.push(Math.round(visibleWidth(img)));
     }
   }
 
@@ -376,7 +389,8 @@ def measure_page(browser, base_url: str, docname: str, html_dir: Path) -> PageLa
         row.first_ex = html_metrics(html_file.read_text(encoding="utf-8"))["first_exercise"]
     row.details = {"equations": eqs, "equations_390": cut, "code": wide["code"],
                    "verdicts": verdicts, "labels": labels, "stderr": wide["stderr"],
-                   "wide_outputs": wide["wideOutputs"], "small_fonts": small}
+                   "wide_outputs": wide["wideOutputs"], "small_fonts": small,
+                   "players": wide["players"]}
     return row
 
 

@@ -203,6 +203,9 @@ BAD_BODY = f"""
 </details>
 <img src="figure.png" alt="figure">
 <div class="animation"><img id="_anim_img1" src="figure.png" style="width: 460px"></div>
+<div class="cell_output"><div class="output text_html" style="overflow-x: auto">
+<div class="animation" style="width: 900px"><img id="_anim_img3" src="figure.png"
+ style="width: 900px"></div></div></div>
 {_exercise("2")}
 """
 
@@ -266,11 +269,17 @@ def test_the_layout_check_catches_each_defect(browser, synthetic):
         "the weights sum to one: holds"], row.details["verdicts"]
     assert row.details["labels"] == ["eq-hidden-label"]
     assert row.stderr == 1 and "Ignoring fixed y limits" in row.details["stderr"][0]
-    assert row.player_px == 460 and row.figs == 2
+    # the 900 px player scrolls inside its 700 px output: 700 px are seen; the narrowest is 460
+    assert row.player_px == 460 and row.figs == 3
+    assert sorted(measured_players(row)) == [460, 700]
     assert row.first_ex == "2"
     assert set(found) == {"equations", "equations_390", "code", "verdicts", "stderr", "player",
                           "exercises"}, found
     assert "(1.1)" in found["equations"]
+
+
+def measured_players(row: PageLayout) -> list[int]:
+    return row.details["players"]
 
 
 def test_the_layout_check_passes_a_clean_page(browser, synthetic):
