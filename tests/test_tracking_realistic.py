@@ -525,6 +525,7 @@ def test_stonesoup_state_order_and_a_lone_target():
     assert np.allclose(h.state[-1, :3], x[-1], atol=20.0)
     assert np.allclose(h.state[-1, 3:], v, atol=5.0)
     assert h.initiated == 1 and h.seconds > 0
+    np.testing.assert_array_equal(h.covariance, np.swapaxes(h.covariance, 1, 2))
 
 
 @pytest.fixture(scope="module")

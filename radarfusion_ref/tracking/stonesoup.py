@@ -152,8 +152,8 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     Returns
     -------
     TrackHistory
-        One row per (track, update), sorted by (time, track); `confirmed` from the update
-        at which Stone Soup's initiator released the track; `seconds` the wall time of the
+        One row per (track, update), sorted by (time, track), covariances symmetrised;
+        `confirmed` from the update at which Stone Soup's initiator released the track; `seconds` the wall time of the
         run; `initiated` the tracks started (held ones included).
 
     Raises
@@ -284,6 +284,7 @@ def _history(tracks, min_points, seconds, initiated, Update):
             sec = (s.timestamp - _EPOCH).total_seconds()
             sv = np.asarray(s.state_vector, dtype=float).ravel()[_TO_OURS]
             cv = np.asarray(s.covar, dtype=float)[np.ix_(_TO_OURS, _TO_OURS)]
+            cv = 0.5 * (cv + cv.T)          # Stone Soup's update leaves rounding asymmetry
             rows.append((sec, ident, sv, cv, n_up >= min_points))
     if not rows:
         return TrackHistory(track=np.zeros(0, dtype=np.int64), time=np.zeros(0),
