@@ -48,7 +48,7 @@ MAX_GROUPINGS = 10**8
 #: scene that :func:`group_sd` hands to HiGHS (e.g. ``n = 100`` targets of
 #: ``m = 3`` sources, or ``n = 31`` of ``m = 4``). ``method="lagrangian"``
 #: without a gate is sized by memory instead: the cost tensor and its work
-#: arrays within ``MEMORY_LIMIT`` bytes (``m = 3`` up to about ``n = 300`` in 2-D).
+#: arrays within ``MEMORY_LIMIT`` bytes (``m = 3`` up to about ``n = 340`` in 2-D).
 MAX_CANDIDATE_GROUPS = 10**6
 
 #: The paper's four hypotheses for two sources and two fused tracks, as

@@ -16,7 +16,8 @@ costs from reports and call the functions here.
   per group) over a full cost tensor or over explicit candidate groups
   (gated, with ``-1`` for a source without a report in a group): exact
   (``method="milp"``, HiGHS) or to a proved relative duality gap
-  (``method="lagrangian"``); :func:`solve_sd_bruteforce` — the exact optimum
+  (``method="lagrangian"``: dense on a full tensor, sized by bytes, cluster
+  by cluster on candidates); :func:`solve_sd_bruteforce` — the exact optimum
   of a full tensor by enumerating the :math:`(n!)^{m-1}` groupings;
   :func:`sd_constraint_matrix` — the constraints of the S-D integer program.
 
@@ -39,7 +40,8 @@ and ``groups`` (S-D).
 One private module per concept, their public names gathered here: ``_two_d``
 (dense, sparse and enumerated 2-D assignment), ``_murty`` (the k best),
 ``_sd`` (the public S-D solvers and the enumeration) with ``_milp`` (HiGHS:
-the full tensor and explicit candidates) and ``_lagrangian`` (Deb et al.),
+the full tensor and explicit candidates), ``_lagrangian`` (Deb et al., on
+candidates) and ``_dense`` (the Lagrangian on a full tensor),
 ``_results`` (the result classes) and ``_checks`` (the shared input checks).
 
 .. rubric:: Conventions
@@ -60,6 +62,11 @@ is a stored ``+inf``, NaN or ``-inf`` in a sparse matrix.
 .. [4] S. Deb, M. Yeddanapudi, K. Pattipati, Y. Bar-Shalom, "A generalized S-D
    assignment algorithm for multisensor-multitarget state estimation", IEEE
    Trans. AES 33 (1997) 523–538.
+.. [5] P. M. Camerini, L. Fratta, F. Maffioli, "On improving relaxation methods
+   by modified gradient techniques", Mathematical Programming Study 3 (1975)
+   26–34.
+.. [6] J.-L. Goffin, K. C. Kiwiel, "Convergence of a simple subgradient level
+   method", Mathematical Programming 85 (1999) 207–211.
 """
 
 from __future__ import annotations

@@ -57,8 +57,10 @@ def _condition_costs(c_raw, m, n, bound=None):
     return c
 
 
-#: Largest full cost tensor (:math:`n^m` candidate groups) :func:`solve_sd`
-#: accepts; beyond it, pass the gated candidate groups instead.
+#: Largest full cost tensor (:math:`n^m` candidate groups, the binary variables
+#: of HiGHS) :func:`solve_sd` accepts with ``method="milp"``; beyond it, use
+#: ``method="lagrangian"`` (full tensors sized by bytes against ``MEMORY_LIMIT``)
+#: or pass the gated candidate groups.
 MAX_SD_TUPLES = 10**6
 
 

@@ -159,12 +159,17 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
         every report must be covered by exactly one chosen group.
     method : {"milp", "lagrangian"}, optional
         ``"milp"``: the exact integer program (HiGHS branch and bound, after
-        the LP relaxation when it is integral). ``"lagrangian"``: Lagrangian
-        relaxation of sources :math:`3..m`, stopped at a proved gap.
+        the LP relaxation when it is integral), at most :data:`MAX_SD_TUPLES`
+        groups. ``"lagrangian"``: Lagrangian relaxation, stopped at a proved
+        gap; on a full tensor the dense route (sized by bytes: the tensor and
+        its work arrays within ``MEMORY_LIMIT``, e.g. ``m = 3`` up to
+        ``n = 480``), on candidate groups cluster by cluster.
     gap : float, optional
         Relative gap in (0, 1) at which ``"lagrangian"`` stops (default
         0.01); clusters that stall above it are closed by branch and bound,
-        so the returned gap never exceeds it.
+        so the returned gap never exceeds it -- except for a full tensor of
+        more than :data:`MAX_SD_TUPLES` groups, which is returned with the
+        gap it proved and a :class:`~radarfusion_ref.engine.errors.RadarFusionWarning`.
     max_iter : int, optional
         Subgradient iterations per cluster before the gap target is tightened.
     time_limit : float, optional
@@ -181,7 +186,10 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
     ------
     ValueError
         For NaN or ``-inf`` costs, a non-finite candidate cost, a tensor that
-        is not ``(n,) * m`` or larger than :data:`MAX_SD_TUPLES`, candidate
+        is not ``(n,) * m``, one of more than :data:`MAX_SD_TUPLES` groups
+        for ``"milp"`` or whose bytes with the work arrays exceed
+        ``MEMORY_LIMIT`` for ``"lagrangian"`` (refused before any work array
+        is allocated, naming the bytes, the limit and `candidates`), candidate
         rows outside ``[-1, counts)`` or all ``-1``, a `gap` outside (0, 1),
         or a problem without any grouping (the message names the source
         whose reports cannot be grouped; never a partial answer).
@@ -201,7 +209,17 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
     clusters, relaxes sources :math:`3..m` with multipliers :math:`y`,
     solves the remaining 2-D assignment exactly (a valid lower bound
     :math:`q(y)`), recovers a feasible grouping each iteration and moves
-    :math:`y` along the subgradient; see
+    :math:`y` along the subgradient. On a full tensor (at least half of it
+    finite) it relaxes sources :math:`1..m-2` instead and keeps the last
+    two: the cheapest completion of each of their :math:`n^2` pairs is an
+    exact minimum over the other axes (over a short list of each pair's
+    smallest costs wherever the list provably holds it, over the whole
+    tensor otherwise), the 2-D assignment is
+    :func:`scipy.optimize.linear_sum_assignment`, every recovered grouping
+    is improved by exact reassignment of one source at a time, and
+    :math:`y` moves along a deflected subgradient (Camerini, Fratta and
+    Maffioli 1975) toward a variable target level (Goffin and Kiwiel 1999);
+    see
     :func:`radarfusion_ref.grouping.group_sd`, which builds the costs from
     reports and calls this solver.
 
