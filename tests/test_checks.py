@@ -128,7 +128,7 @@ def test_passing_checks_are_counted_and_failing_ones_are_not():
     with pytest.raises(CheckError):
         check_close(1.0, 2.0, what="t")
     assert sum(checks.passed().values()) == before + 1
-    assert checks.summary().startswith("Verification: all")
+    assert checks.page_summary().total >= 1
 
 
 def test_the_ledger_file_gets_one_line_per_passing_check(tmp_path, monkeypatch):

@@ -36,8 +36,8 @@ import numpy as np
 from ..engine._validation import _describe
 from ..engine.montecarlo import MeanEstimate, Proportion
 
-__all__ = ["CheckError", "check_close", "check_equal", "check_true", "passed", "summary",
-           "page_summary", "PageSummary", "require", "MonteCarloCheckError", "LOG_ENV"]
+__all__ = ["CheckError", "check_close", "check_equal", "check_true", "passed", "page_summary",
+           "PageSummary", "require", "MonteCarloCheckError", "LOG_ENV"]
 
 #: Environment variable naming the ledger file of passing checks.
 LOG_ENV = "RADARFUSION_CHECK_LOG"
@@ -73,21 +73,6 @@ def passed() -> dict[str, int]:
     1
     """
     return dict(_PASSED)
-
-
-def summary() -> str:
-    """One line for the end of a page: how many checks ran, all passed.
-
-    Examples
-    --------
-    >>> summary().startswith("Verification:")
-    True
-    """
-    total = sum(_PASSED.values())
-    if total == 0:
-        return "Verification: no checks have run in this kernel."
-    parts = ", ".join(f"{n} {kind}" for kind, n in sorted(_PASSED.items()))
-    return f"Verification: all {total} checks executed on this page passed ({parts})."
 
 
 class PageSummary:
