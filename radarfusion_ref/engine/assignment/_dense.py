@@ -99,13 +99,16 @@ class _Dense:
         self.stride = np.array([n ** (m - 1 - i) for i in range(m)], dtype=np.int64)
         self.u = np.zeros((m - 2, n))
         self.block = max(1, _BLOCK_BYTES // (8 * n * n))
-        self.top = None
+        self.top: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         if L > 2 * _TOP:
             self._shortlist()
-        self.lb, self.ub, self.best = -np.inf, np.inf, None
+        self.lb, self.ub = -math.inf, math.inf
+        self.best: np.ndarray | None = None
         self.history: list[tuple[float, float]] = []
         self.stall, self.best_q, self.it = 0, -np.inf, 0
-        self.delta, self.level, self.best_u, self.best_g = None, np.inf, self.u.copy(), None
+        self.delta = math.nan                      # set from the first bound and cost
+        self.level, self.best_u = math.inf, self.u.copy()
+        self.best_g: np.ndarray = np.zeros_like(self.u)
         self.direction = np.zeros_like(self.u)
         self.optimal, self.stalled, self.last_progress = False, False, 0
         self.full_passes = 0
@@ -259,7 +262,7 @@ class _Dense:
         self.stalled = self.it - self.last_progress >= _PATIENCE
         self.history.append((self.lb, self.ub))
         # variable target level (Goffin-Kiwiel): aim at the best q + delta, delta adapted
-        if self.delta is None:
+        if math.isnan(self.delta):
             self.delta = (_DELTA0 * (self.ub - q) if math.isfinite(self.ub)
                           else 0.05 * max(1.0, abs(q)))
         base = q
