@@ -177,3 +177,21 @@ def test_page_summary_counts_this_kernels_checks_and_folds_their_list(monkeypatc
     assert summary._repr_markdown_() == "**Verified on this page: 5 checks**"
     monkeypatch.setattr(checks, "_LEDGER", [("numeric", "one")])
     assert str(checks.page_summary()) == "Verified on this page: 1 check"
+
+
+def test_page_summary_shows_the_fold_in_html_and_the_line_alone_in_print(monkeypatch):
+    """What Jupyter stores and which of it the book's builders pick (myst-nb's priorities)."""
+    from IPython.core.interactiveshell import InteractiveShell
+    from myst_nb.core.render import get_mime_priority
+
+    monkeypatch.setattr(checks, "_LEDGER", [("numeric", "two routes"), ("property", "p")])
+    data, _ = InteractiveShell.instance().display_formatter.format(checks.page_summary())
+    assert set(data) == {"text/plain", "text/html", "text/markdown"}
+
+    def shown(builder):
+        return next(m for m in get_mime_priority(builder, []) if m in data)
+
+    assert shown("html") == "text/html" and "<details" in data["text/html"]
+    assert shown("latex") == "text/markdown"
+    assert data["text/markdown"] == "**Verified on this page: 2 checks**"
+    assert data["text/plain"] == "Verified on this page: 2 checks"
