@@ -337,8 +337,13 @@ def smallest_style_font() -> float:
     return float(min(sizes)) if sizes else 10.0
 
 
-def measure_page(browser, base_url: str, docname: str, html_dir: Path) -> PageLayout:
-    """Load one built page at 1 280 px and at 390 px and measure it."""
+def measure_page(browser, base_url: str, docname: str, html_dir: Path,
+                 screenshot: Path | None = None) -> PageLayout:
+    """Load one built page at 1 280 px and at 390 px and measure it.
+
+    With `screenshot`, the first screen at 1 280 × 800 px (as a reader opens the page)
+    is saved there as PNG, before anything is measured or unfolded.
+    """
     url = f"{base_url}/{docname}.html"
     row = PageLayout(page=docname)
     host = urlparse(base_url).netloc
@@ -351,6 +356,12 @@ def measure_page(browser, base_url: str, docname: str, html_dir: Path) -> PageLa
         page = context.new_page()
         try:
             page.goto(url, wait_until="load")
+            if screenshot is not None and width == WIDE:
+                page.set_viewport_size({"width": WIDE, "height": 800})
+                page.evaluate("async () => { if (window.MathJax && MathJax.startup) "
+                              "await MathJax.startup.promise; }")
+                screenshot.parent.mkdir(parents=True, exist_ok=True)
+                page.screenshot(path=str(screenshot))
             results[width] = page.evaluate(MEASURE_JS, {
                 "equationsOnly": width != WIDE, "lessonTag": LESSON_STDERR_TAG,
                 "label": LABEL.pattern})
@@ -465,8 +476,9 @@ def html_dir_of(build: str | Path | None) -> Path:
     raise SystemExit(f"no built book (index.html) under {build}")
 
 
-def measure(pages: list[str], html_dir: Path) -> list[PageLayout]:
-    """Measure `pages` of the book built in `html_dir`."""
+def measure(pages: list[str], html_dir: Path,
+            screenshots: Path | None = None) -> list[PageLayout]:
+    """Measure `pages` of the book built in `html_dir` (first screens into `screenshots`)."""
     from playwright.sync_api import sync_playwright
 
     path = chromium_path()
@@ -477,7 +489,9 @@ def measure(pages: list[str], html_dir: Path) -> list[PageLayout]:
         browser = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
         try:
             for d in pages:
-                rows.append(measure_page(browser, url, d, html_dir))
+                shot = (Path(screenshots) / f"{d.replace('/', '_')}.png"
+                        if screenshots is not None else None)
+                rows.append(measure_page(browser, url, d, html_dir, screenshot=shot))
         finally:
             browser.close()
     return rows
@@ -515,11 +529,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--build", help="a jupyter-book --path-output dir, or its html dir")
     parser.add_argument("--details", action="store_true",
                         help="print each failing page's problems in full")
+    parser.add_argument("--screenshots", metavar="DIR",
+                        help="save each page's first screen at 1280 x 800 px as DIR/<page>.png")
     parser.add_argument("pages", nargs="*")
     args = parser.parse_args(argv)
     html_dir = html_dir_of(args.build)
     pages = [page_docname(p) for p in args.pages] or default_pages()
-    rows = measure(pages, html_dir)
+    rows = measure(pages, html_dir, args.screenshots)
     print(f"built book: {html_dir}")
     print(table(rows))
     if args.details:
