@@ -456,25 +456,21 @@ def truth_at(traffic, times, *, max_gap=30.0, return_velocity=False, fresh_only=
             t, p = t[keep], p[keep]
         k = np.searchsorted(t, tt, side="right") - 1                  # record at or before
         exact = (k >= 0) & (t[np.maximum(k, 0)] == tt)
-        inside = (k >= 0) & (k < t.size - 1)
-        kk = np.clip(k, 0, max(t.size - 2, 0))
-        if t.size >= 2:
-            inside &= (t[kk + 1] - t[kk]) <= max_gap
-            seg = np.where(inside | (k < t.size - 1), kk, t.size - 2)  # segment of the slope
-            slope = (p[seg + 1] - p[seg]) / (t[seg + 1] - t[seg])[:, None]
-            near = (exact & ~inside) & ((t[seg + 1] - t[seg]) > max_gap)
-            slope[near] = np.nan                      # a lone record: no segment to read
-        else:
-            inside[:] = False
+        if t.size < 2:                                # one record: known at its time only
+            ok = exact
+            here = np.repeat(p[:1], T, axis=0)
             slope = np.full((T, 3), np.nan)
-        ok = inside | exact
-        w = np.where(inside, (tt - t[kk]) / np.where(t.size >= 2, t[kk + 1] - t[kk], 1.0)
-                     if t.size >= 2 else 0.0, 0.0)
-        if t.size >= 2:
+        else:
+            kk = np.clip(k, 0, t.size - 2)
+            span = t[kk + 1] - t[kk]
+            inside = (k >= 0) & (k < t.size - 1) & (span <= max_gap)
+            ok = inside | exact
+            w = np.where(inside, (tt - t[kk]) / span, 0.0)
             here = p[kk] + w[:, None] * (p[kk + 1] - p[kk])
             here[exact] = p[k[exact]]
-        else:
-            here = np.repeat(p[:1], T, axis=0)
+            # the segment the instant lies on; at the last record the one before it
+            slope = (p[kk + 1] - p[kk]) / span[:, None]
+            slope[exact & (span > max_gap)] = np.nan     # a lone record: no segment to read
         pos[a, ok] = here[ok]
         vel[a, ok] = slope[ok]
         valid[a] = ok
