@@ -179,7 +179,9 @@ class _Dense:
         lstar = np.argmin(cols - U[:, None], axis=0)
         w = M[a, j]
         q = float(np.sum(w)) + float(np.sum(self.u))
-        mag = float(np.sum(np.abs(w))) + 2.0 * float(np.sum(np.abs(self.u))) * self.m
+        # rounding allowance of the sums behind q (never claim an unproved bound)
+        mag = float(np.sum(np.abs(w))) + float(np.sum(np.abs(cols[lstar, a]))) + \
+            2.0 * float(np.sum(np.abs(self.u))) * self.m
         slack = 8.0 * _EPS * (self.m * self.n + 8) * mag
         return q - slack, q, j, lstar, cols
 
