@@ -13,7 +13,9 @@ to end (gate, costs and solve) with its proved gap, on the targets m = 3, n = 20
 (< 1.5 s at a gap <= 0.5 %), m = 4, n = 50 (< 5 s) and m = 5, n = 20 (< 5 s);
 its ratio against the full-tensor MILP on the same scenes up to the largest n the
 MILP solves; and, if the ``nrl-tracker`` package (``pytcl``) is installed, its
-``assign3d_lagrangian`` on the same ML cost tensors (skipped when absent).
+``assign3d_lagrangian`` on the same ML cost tensors (skipped when absent). Ours
+and the peer on the very same full tensors (ours ungated, the dense Lagrangian)
+are compared by ``benchmarks/bench_sd_peer.py``.
 """
 
 from __future__ import annotations
