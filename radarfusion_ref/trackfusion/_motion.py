@@ -15,7 +15,7 @@ from ..engine._validation import (
     as_rng,
     check_size,
 )
-from ..engine.tracking._kalman import check_prediction, cv_matrices, predict_kernel
+from ..engine.tracker._kalman import check_prediction, cv_matrices, predict_kernel
 from ._common import (
     MAX_BATCH,
     MAX_DIM,

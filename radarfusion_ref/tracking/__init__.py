@@ -15,7 +15,7 @@ r"""From reports to tracks: one tracker over the radars' reports, and three arch
   :func:`summarise_runs` their means over seeds with intervals.
 
 The formulas (Kalman filter, track score, JPDA probabilities) live in
-:mod:`radarfusion_ref.engine.tracking`.
+:mod:`radarfusion_ref.engine.tracker`.
 
 .. rubric:: References
 

@@ -15,9 +15,9 @@ from .. import gating
 from ..engine import assignment
 from ..engine._validation import _describe, as_covariance, as_float_array
 from ..engine.linalg import mahalanobis_sq
-from ..engine.tracking._jpda import event_bound, exact_kernel, kbest_kernel
-from ..engine.tracking._kalman import predict_kernel, update_kernel
-from ..engine.tracking._score import increments_kernel
+from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
+from ..engine.tracker._kalman import predict_kernel, update_kernel
+from ..engine.tracker._score import increments_kernel
 from ._settings import TrackerSettings, TrackHistory
 
 #: Largest number of reports of one call (memory of the inputs and their sort).
@@ -160,7 +160,7 @@ def track_reports(time, position, covariance, radar, scan, *,
     Notes
     -----
     Per scan (one radar at one instant): every live track is predicted to the instant
-    (:func:`radarfusion_ref.engine.tracking.kalman_predict`'s kernel); a report enters a
+    (:func:`radarfusion_ref.engine.tracker.kalman_predict`'s kernel); a report enters a
     track's gate when :math:`d^2 = \boldsymbol\nu^\mathsf T S^{-1}\boldsymbol\nu` is below
     :func:`radarfusion_ref.gating.gate_threshold` (3 degrees of freedom). Clusters of
     tracks and reports linked by gates are solved apart:
@@ -170,7 +170,7 @@ def track_reports(time, position, covariance, radar, scan, *,
       :math:`\ln(1 - P_D)` (miss), by :func:`radarfusion_ref.engine.assignment.solve_2d`
       on :math:`[\,-\Delta L_{ij} \mid \operatorname{diag}(-\ln(1 - P_D))\,]`;
     * ``"jpda"`` — each track is updated with the mixture of its gated reports weighted by
-      :func:`radarfusion_ref.engine.tracking.jpda_probabilities` (exact up to
+      :func:`radarfusion_ref.engine.tracker.jpda_probabilities` (exact up to
       `settings.max_events` joint events, else the `settings.k` best); a track whose
       probability of a report exceeds 1/2 counts a hit, and its score grows by the
       probability-weighted hit increment, otherwise by a miss.

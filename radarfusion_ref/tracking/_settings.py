@@ -29,7 +29,7 @@ class TrackerSettings:
     alpha, beta : float
         Design rates of the sequential test: false confirmation :math:`\alpha`
         (default 1e-3) and false deletion :math:`\beta` (default 0.01),
-        :math:`\alpha + \beta < 1` (:func:`radarfusion_ref.engine.tracking.sprt_thresholds`).
+        :math:`\alpha + \beta < 1` (:func:`radarfusion_ref.engine.tracker.sprt_thresholds`).
     confirmation : {"sprt", "m_of_n"}
         Confirm by the score's sequential test (default) or by M-of-N logic.
     m, n : int

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
-from radarfusion_ref.engine.tracking import (
+from radarfusion_ref.engine.tracker import (
     jpda_probabilities,
     kalman_predict,
     kalman_update,
