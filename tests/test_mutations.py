@@ -413,6 +413,37 @@ MUTATIONS = {
                     n_missed=r.n_missed - far, n_false=r.n_false - far)
             return g
         """),
+    # chapter 12: the piecewise-constant (discrete) process noise where the continuous
+    # white-noise acceleration is derived
+    "book/12_tracking": ("radarfusion_ref.engine.tracker", "kalman_predict", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(x, P, dt, q, *, noise="continuous"):
+                return f(x, P, dt, q, noise="discrete")
+            return g
+        """),
+    # a plausible bug: Wald's thresholds with alpha and beta swapped
+    "book/12_tracking:sprt-swapped": ("radarfusion_ref.engine.tracker", "sprt_thresholds", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(alpha, beta):
+                return f(beta, alpha)
+            return g
+        """),
+    # a plausible bug: each track's probabilities normalised alone (PDA), the joint
+    # events' one-report-per-track exclusion forgotten
+    "book/12_tracking:jpda-no-exclusion": ("radarfusion_ref.engine.tracker",
+                                           "jpda_probabilities", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(ratio, miss, *, k=None):
+                r = f(ratio, miss, k=k)
+                ratio, miss = np.asarray(ratio, float), np.asarray(miss, float)
+                total = miss + ratio.sum(axis=1)
+                return dataclasses.replace(r, probabilities=ratio / total[:, None],
+                                           miss=miss / total)
+            return g
+        """),
 }
 
 PREAMBLE = """\
