@@ -483,6 +483,12 @@ def test_evaluation_bad_input(tmp_path):
             tk.evaluate_tracks_over_time(h, traffic, **kw)
     with pytest.raises(TypeError, match="`history`"):
         tk.evaluate_tracks_over_time(None, traffic, times=[0.0, 1.0])
+    times = np.arange(0.0, 101.0, 10.0)
+    pos, _, vel = cp.truth_at(traffic, times, return_velocity=True)
+    bad = _history([(0, t, pos[0, j], vel[0, j], 100.0 if j else -1.0)
+                    for j, t in enumerate(times)])
+    with pytest.raises(ValueError, match=r"^`history`: the position covariances.*positive"):
+        tk.evaluate_tracks_over_time(bad, traffic, times=times)
     with pytest.raises(TypeError, match="`traffic`"):
         tk.evaluate_tracks_over_time(h, None, times=[0.0, 1.0])
 

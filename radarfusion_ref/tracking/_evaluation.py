@@ -234,8 +234,9 @@ def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radar
     TypeError
         Wrong types of `history`, `traffic` or `radars`.
     ValueError
-        Bad `c`, `p`, `times`, `min_radars`, `max_age` or `scans`, or tracks x truth x times
-        beyond the memory limit.
+        Bad `c`, `p`, `times`, `min_radars`, `max_age` or `scans`, tracks x truth x times
+        beyond the memory limit, or confirmed rows whose position covariance is not
+        symmetric positive definite (named `history`).
 
     Notes
     -----
@@ -321,7 +322,11 @@ def _nees(history, traffic, track_of):
     if not ok.any():
         return None
     err = history.state[rows[ok], :3] - truth[aircraft[ok], inv[ok]]
-    return nees(err, history.covariance[rows[ok], :3, :3])
+    try:
+        return nees(err, history.covariance[rows[ok], :3, :3])
+    except ValueError as exc:           # the engine names its own argument; name ours
+        raise ValueError(f"`history`: the position covariances of its confirmed rows: "
+                         f"{str(exc).replace('`cov` ', '', 1)}") from None
 
 
 def summarise_runs(runs) -> dict[str, MeanEstimate]:
