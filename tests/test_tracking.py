@@ -246,3 +246,23 @@ def test_other_architectures_refuse_by_name():
     bad[0, 0] = np.inf
     with pytest.raises(ValueError, match="`position`"):
         track_then_fuse(inputs[0], bad, *inputs[2:], period=5.0)
+
+
+def test_relinking_keeps_the_identity_through_a_hard_turn():
+    """A sudden 45-degree turn leaves the gate: a new track starts, and takes the old id."""
+    rng = np.random.default_rng(21)
+    t = np.arange(60) * 2.5
+    v = np.where(t[:, None] < 75.0, [220.0, 0.0, 0.0], [155.6, 155.6, 0.0])
+    p = np.cumsum(np.r_[[[0.0, 0.0, 9000.0]], v[:-1] * 2.5], axis=0)
+    z = p + SIGMA * rng.standard_normal((t.size, 3))
+    R = np.broadcast_to(np.diag(SIGMA**2), (t.size, 3, 3))
+    args = (t, z, R, np.arange(t.size) % 2, np.arange(t.size) // 2)
+    kept = track_reports(*args, settings=TrackerSettings(q=5.0))
+    broken = track_reports(*args, settings=TrackerSettings(q=5.0, relink=False))
+    assert np.unique(broken.track[broken.confirmed]).size == 2
+    assert np.unique(kept.track[kept.confirmed]).size == 1
+    assert kept.time[kept.confirmed].max() == t.max()
+    with pytest.raises(ValueError, match="`p_relink`"):
+        TrackerSettings(p_relink=0.0)
+    with pytest.raises(TypeError, match="`relink`"):
+        TrackerSettings(relink="yes")

@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 from .. import gating
 from ..engine import assignment
 from ..engine._validation import _describe, as_covariance, as_float_array
-from ..engine.linalg import mahalanobis_sq
+from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
 from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
 from ..engine.tracker._kalman import predict_kernel, update_kernel
 from ..engine.tracker._score import increments_kernel
@@ -28,7 +28,7 @@ class _Live:
     """The live tracks, as parallel arrays (one row per track)."""
 
     FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "bits", "scored",
-              "last_seen")
+              "last_seen", "born")
 
     def __init__(self, n_radars):
         self.x = np.zeros((0, 6))
@@ -42,6 +42,7 @@ class _Live:
         self.bits = np.zeros(0, dtype=np.int64)
         self.scored = np.zeros(0, dtype=np.int64)
         self.last_seen = np.zeros((0, n_radars), dtype=np.int64)
+        self.born = np.zeros(0)
 
     def keep(self, mask):
         for f in self.FIELDS:
@@ -83,11 +84,18 @@ class _Rows:
         rest = ~(up | gone)
         self.pending = [tuple(c[rest] for c in cols)] if rest.any() else []
 
-    def history(self, seconds, initiated):
+    def history(self, seconds, initiated, alias=None):
         if not self.out:
             return TrackHistory(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
                                 np.zeros((0, 6, 6)), np.zeros(0, bool), seconds, initiated)
         ids, t, x, P, c = (np.concatenate(v) for v in zip(*self.out, strict=True))
+        if alias:                                        # a relinked track takes its old id
+            u, inv = np.unique(ids, return_inverse=True)
+            for n, i in enumerate(u):
+                while int(i) in alias:
+                    i = alias[int(i)]
+                u[n] = i
+            ids = u[inv]
         o = np.lexsort((ids, t))
         return TrackHistory(ids[o], t[o], x[o], P[o], c[o], seconds, initiated)
 
@@ -211,7 +219,7 @@ def track_reports(time, position, covariance, radar, scan, *,
     state = _Tracker(settings, int(radar.max()) + 1)
     for a, b in zip(starts, ends, strict=True):
         state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
-    return state.rows.history(_time.perf_counter() - t0, state.next_id)
+    return state.rows.history(_time.perf_counter() - t0, state.next_id, state.alias)
 
 
 class _Tracker:
@@ -226,6 +234,8 @@ class _Tracker:
         self.p_gate = 1.0 - s.p_false_reject
         self.miss_inc = math.log(1.0 - s.p_detection)
         self.mask = (1 << s.n) - 1
+        self.alias: dict[int, int] = {}
+        self.gamma_relink = float(gating.gate_threshold(s.p_relink, 3))
 
     # ------------------------------------------------------------------ gate
     def _gate(self, z, R):
@@ -356,7 +366,28 @@ class _Tracker:
         rec = hit & ~drop
         self.rows.add(lv.ids[rec], t, lv.x[rec], lv.P[rec], lv.confirmed[rec])
         self.rows.settle(lv.ids[promote], lv.ids[drop & ~lv.confirmed])
+        if self.s.relink and promote.any():
+            self._relink(promote, drop)
         lv.keep(~drop)
+
+    def _relink(self, promote, drop):
+        """A newly confirmed track continues a confirmed one that lost its reports before it
+        began, if their positions pass the gate: it takes that track's identity."""
+        lv = self.live
+        new = np.flatnonzero(promote)
+        old = np.flatnonzero(lv.confirmed & ~promote)
+        if not old.size:
+            return
+        kappa = mahalanobis_sq_pairwise(lv.x[new, :3], lv.x[old, :3], lv.P[new, :3, :3],
+                                        lv.P[old, :3, :3])
+        before = lv.t_hit[old][None, :] < lv.born[new][:, None]
+        link = assignment.solve_2d(np.where(before, np.atleast_2d(kappa), np.inf),
+                                   threshold=self.gamma_relink).row_to_col
+        for i, j in zip(new, link, strict=True):
+            if j >= 0:
+                self.alias[int(lv.ids[i])] = int(lv.ids[old[j]])
+                lv.ids[i] = lv.ids[old[j]]
+                drop[old[j]] = True
 
     def _start(self, t, r, s, z, R):
         n = z.shape[0]
@@ -373,7 +404,8 @@ class _Tracker:
         self.next_id += n
         self.live.extend(x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
-                         bits=np.ones(n, np.int64), scored=np.ones(n, np.int64), last_seen=seen)
+                         bits=np.ones(n, np.int64), scored=np.ones(n, np.int64), last_seen=seen,
+                         born=np.full(n, t))
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
 
 

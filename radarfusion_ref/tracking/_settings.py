@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import as_choice, as_float, as_int, as_positive, as_probability
+from ..engine._validation import as_bool, as_choice, as_float, as_int, as_positive, as_probability
 
 #: Association rules of the tracker.
 ASSOCIATIONS = ("gnn", "jpda")
@@ -56,6 +56,15 @@ class TrackerSettings:
         A radar's missed detection lowers a track's score only while that radar has
         reported the track within its last `miss_scans` scans (default 3, ≥ 1): a radar
         that stops seeing an aircraft (coverage, terrain) stops scoring it.
+    relink : bool
+        A newly confirmed track whose position passes the relinking gate of a confirmed
+        track that lost its reports before the new one began continues that track's
+        identity (default True): a manoeuvre that breaks the track does not break the
+        identity.
+    p_relink : float
+        The relinking gate: :math:`P_{lo}` of the :math:`\chi^2_3` gate on the two tracks'
+        positions (default 1e-20, :math:`d^2 < 96`: wider than the report gate, because a
+        manoeuvre that broke the track moved the aircraft off the old track's line).
 
     Raises
     ------
@@ -82,6 +91,8 @@ class TrackerSettings:
     speed_max: float = 250.0
     max_coast: float = 40.0
     miss_scans: int = 3
+    relink: bool = True
+    p_relink: float = 1e-20
     lower: float = field(init=False, repr=False)
     upper: float = field(init=False, repr=False)
 
@@ -89,7 +100,7 @@ class TrackerSettings:
         def put(name, value):
             object.__setattr__(self, name, value)
 
-        for name in ("p_detection", "alpha", "beta", "p_false_reject"):
+        for name in ("p_detection", "alpha", "beta", "p_false_reject", "p_relink"):
             put(name, as_float(as_probability(getattr(self, name), name), name))
         for name in ("clutter_density", "q", "speed_max", "max_coast"):
             put(name, as_float(as_positive(getattr(self, name), name), name))
@@ -108,6 +119,7 @@ class TrackerSettings:
         put("k", as_int(self.k, "k", minimum=1))
         put("max_events", as_int(self.max_events, "max_events", minimum=1))
         put("miss_scans", as_int(self.miss_scans, "miss_scans", minimum=1))
+        put("relink", as_bool(self.relink, "relink"))
         put("lower", math.log(self.beta / (1 - self.alpha)))
         put("upper", math.log((1 - self.beta) / self.alpha))
 
