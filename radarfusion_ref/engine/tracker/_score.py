@@ -65,9 +65,12 @@ def sprt_thresholds(alpha, beta) -> SprtThresholds:
     a = as_float(as_probability(alpha, "alpha"), "alpha")
     b = as_float(as_probability(beta, "beta"), "beta")
     if a + b >= 1:
-        raise ValueError(f"`alpha` + `beta` must be < 1 (else the deletion threshold is not "
-                         f"below the confirmation threshold); received alpha={a!r}, beta={b!r}")
-    return SprtThresholds(math.log(b / (1 - a)), math.log((1 - b) / a))
+        raise ValueError(f"`alpha` + `beta` must be < 1 (else the deletion "
+                         f"threshold is not below the confirmation "
+                         f"threshold); received alpha={a!r}, beta={b!r}")
+    lower = math.log(b / (1 - a))                  # T1 = ln(beta / (1 - alpha))
+    upper = math.log((1 - b) / a)                  # T2 = ln((1 - beta) / alpha)
+    return SprtThresholds(lower, upper)
 
 
 def score_increments(statistic, log_det, *, p_detection, clutter_density, dim=3):
