@@ -27,14 +27,14 @@ class SprtThresholds:
 
 
 def sprt_thresholds(alpha, beta) -> SprtThresholds:
-    r"""Wald's confirmation and deletion thresholds from the design error rates.
+    r"""Wald's confirmation and deletion thresholds from the design rates.
 
     Parameters
     ----------
     alpha : float
-        Design probability of confirming a false track (false confirmation), in (0, 1).
+        Design probability of confirming a false track, in (0, 1).
     beta : float
-        Design probability of deleting a true track (false deletion), in (0, 1);
+        Design probability of deleting a true track, in (0, 1);
         :math:`\alpha + \beta < 1`.
 
     Returns
@@ -44,17 +44,17 @@ def sprt_thresholds(alpha, beta) -> SprtThresholds:
     Raises
     ------
     ValueError
-        If a probability is outside (0, 1) or :math:`\alpha + \beta \ge 1` (then
-        the thresholds would be in the wrong order).
+        If a probability is outside (0, 1) or :math:`\alpha + \beta \ge 1`
+        (the thresholds would be in the wrong order).
     TypeError
         If an argument is not a number.
 
     Notes
     -----
     Wald (1945): the test that stops when the log-likelihood ratio leaves
-    :math:`(T_1, T_2)` has error rates :math:`\alpha' \le \alpha/(1-\beta)` and
-    :math:`\beta' \le \beta/(1-\alpha)`, with equality when the score does not
-    overshoot the thresholds. Blackman & Popoli (1999), sec. 6.2.
+    :math:`(T_1, T_2)` has error rates :math:`\alpha' \le \alpha/(1-\beta)`
+    and :math:`\beta' \le \beta/(1-\alpha)`, with equality when the score
+    does not overshoot. Blackman & Popoli (1999), sec. 6.2.
 
     Examples
     --------
@@ -68,8 +68,8 @@ def sprt_thresholds(alpha, beta) -> SprtThresholds:
         raise ValueError(f"`alpha` + `beta` must be < 1 (else the deletion "
                          f"threshold is not below the confirmation "
                          f"threshold); received alpha={a!r}, beta={b!r}")
-    lower = math.log(b / (1 - a))                  # T1 = ln(beta / (1 - alpha))
-    upper = math.log((1 - b) / a)                  # T2 = ln((1 - beta) / alpha)
+    lower = math.log(b / (1 - a))          # T1 = ln(beta / (1 - alpha))
+    upper = math.log((1 - b) / a)          # T2 = ln((1 - beta) / alpha)
     return SprtThresholds(lower, upper)
 
 
