@@ -326,7 +326,8 @@ def fuse(x, var) -> FusedEstimate:
     info = 1.0 / var                                 # sigma_i^-2
     total = info.sum(axis=-1)                        # I = sum_i sigma_i^-2
     weights = info / total[..., None]                # w_i = sigma_i^-2 / I
-    estimate = np.sum(weights * x, axis=-1)          # x~ = sum_i w_i x_i, the root of (3)
+    # x~ = sum_i w_i x_i, the root of (3)
+    estimate = np.sum(weights * x, axis=-1)
     variance = 1.0 / total                           # sigma~^2 = 1 / I
     return FusedEstimate(_scalar(estimate), _scalar(variance), weights)
 
@@ -445,12 +446,15 @@ def misweighted(var_true, var_assumed) -> Misweighting:
     1.0
     """
     var_true, var_assumed = _misweighted_iv(var_true, var_assumed)
-    info_a = 1.0 / var_assumed                              # a_i^-1
-    weights = info_a / info_a.sum(axis=-1)[..., None]       # w_i = a_i^-1 / sum_j a_j^-1
-    reported = 1.0 / info_a.sum(axis=-1)                    # (sum_i a_i^-1)^-1
-    bound = 1.0 / np.sum(1.0 / var_true, axis=-1)           # (sum_i sigma_i^-2)^-1
-    actual = np.sum(weights**2 * var_true, axis=-1)         # Var sum_i w_i x_i = sum_i w_i^2 sigma_i^2
-    return Misweighting(weights, _scalar(actual), _scalar(reported), _scalar(bound))
+    info_a = 1.0 / var_assumed                      # a_i^-1
+    # w_i = a_i^-1 / sum_j a_j^-1
+    weights = info_a / info_a.sum(axis=-1)[..., None]
+    reported = 1.0 / info_a.sum(axis=-1)            # (sum_i a_i^-1)^-1
+    bound = 1.0 / np.sum(1.0 / var_true, axis=-1)   # (sum_i sigma_i^-2)^-1
+    # Var sum_i w_i x_i = sum_i w_i^2 sigma_i^2
+    actual = np.sum(weights**2 * var_true, axis=-1)
+    return Misweighting(weights, _scalar(actual), _scalar(reported),
+                        _scalar(bound))
 
 
 # ----------------------------------------------------------------------------- vector
@@ -528,12 +532,16 @@ def fuse_gaussian(x, cov) -> GaussianFusion:
            [0. , 0.8]])
     """
     x, cov = _gaussian_iv(x, cov)
-    info_i, c = _scaled_informations(cov)                 # c Sigma_i^-1, c an exact power of two
-    x_s, e = _unit_reports(x)                             # x_i / 2^e, exact
-    information = info_i.sum(axis=-3)                     # c Sigma~^-1 = c sum_i Sigma_i^-1
-    y = np.sum(info_i @ x_s[..., None], axis=-3)          # c sum_i Sigma_i^-1 x_i / 2^e
-    covariance = _spd_inverse(information)                # Sigma~ / c
-    estimate = np.ldexp((covariance @ y)[..., 0], e[..., None])  # x~ = Sigma~ sum_i Sigma_i^-1 x_i
+    # c Sigma_i^-1, c an exact power of two
+    info_i, c = _scaled_informations(cov)
+    x_s, e = _unit_reports(x)                       # x_i / 2^e, exact
+    # c Sigma~^-1 = c sum_i Sigma_i^-1
+    information = info_i.sum(axis=-3)
+    # c sum_i Sigma_i^-1 x_i / 2^e
+    y = np.sum(info_i @ x_s[..., None], axis=-3)
+    covariance = _spd_inverse(information)          # Sigma~ / c
+    # x~ = Sigma~ sum_i Sigma_i^-1 x_i
+    estimate = np.ldexp((covariance @ y)[..., 0], e[..., None])
     return _gaussian_result(estimate, covariance, information, c)
 
 
