@@ -284,9 +284,13 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
     """
     kind = as_choice(kind, "kind", _KINDS)
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
-    kappa = _kappa((a - b)[..., None], (v1 + v2)[..., None, None], "`x1`, `x2`")  # eq. (7)
-    if kind == "profile":                            # -kappa/2 - ln(2 pi sigma_1 sigma_2)
-        return unwrap(-0.5 * kappa - _LOG_2PI - 0.5 * (np.log(v1) + np.log(v2)))
+    # eq. (7)
+    kappa = _kappa((a - b)[..., None], (v1 + v2)[..., None, None],
+                   "`x1`, `x2`")
+    if kind == "profile":
+        # -kappa/2 - ln(2 pi sigma_1 sigma_2)
+        return unwrap(-0.5 * kappa - _LOG_2PI
+                      - 0.5 * (np.log(v1) + np.log(v2)))
     return unwrap(-0.5 * kappa - 0.5 * (_LOG_2PI + np.log(v1 + v2)))
 
 
