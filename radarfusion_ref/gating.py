@@ -434,7 +434,8 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
         hi = max(1.0, th)
         while f(hi) > 0:
             hi *= 2.0
-        out[idx] = optimize.brentq(f, 0.0, hi, xtol=tol, rtol=4 * np.finfo(float).eps)
+        out[idx] = optimize.brentq(f, 0.0, hi, xtol=tol,
+                                   rtol=4 * np.finfo(float).eps)
     return unwrap(out)
 
 
