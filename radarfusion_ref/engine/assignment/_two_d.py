@@ -211,12 +211,13 @@ def _associate_sparse(cost, threshold, miss_cost) -> Association:
 
 
 def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
-    r"""The joint ML association :math:`\hat\pi = \arg\min_\pi \sum_i c_{i\pi(i)}`.
+    r"""The joint ML association :math:`\hat\pi`.
 
-    The solver behind :func:`radarfusion_ref.association.associate_joint`, which
-    documents the arguments (`cost` dense ``(..., n1, n2)`` or ``scipy.sparse``,
-    the gate `threshold`, the non-assignment cost `miss_cost`), the result and
-    the errors: they are the same here.
+    :math:`\hat\pi = \arg\min_\pi \sum_i c_{i\pi(i)}`. The solver behind
+    :func:`radarfusion_ref.association.associate_joint`, which documents the
+    arguments (`cost` dense ``(..., n1, n2)`` or ``scipy.sparse``, the gate
+    `threshold`, the non-assignment cost `miss_cost`), the result and the
+    errors: they are the same here.
 
     Examples
     --------
@@ -224,14 +225,19 @@ def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
     array([1, 0])
     """
     if sparse.issparse(cost):
-        return _associate_sparse(cost, threshold, miss_cost)        # gated, scipy.sparse
-    c, gate, c0 = _as_cost(cost), _as_threshold(threshold), _as_miss_cost(miss_cost)
-    allowed = (c < gate) & np.isfinite(c)                 # the gate: kappa < gamma
-    work, useful = _work_costs(c, allowed, c0)            # one plain assignment per matrix
+        # gated, scipy.sparse
+        return _associate_sparse(cost, threshold, miss_cost)
+    c, gate, c0 = (_as_cost(cost), _as_threshold(threshold),
+                   _as_miss_cost(miss_cost))
+    allowed = (c < gate) & np.isfinite(c)       # the gate: kappa < gamma
+    # one plain assignment per matrix
+    work, useful = _work_costs(c, allowed, c0)
     row_to_col = np.full(c.shape[:-1], -1)
-    for b in np.ndindex(c.shape[:-2]):                    # every matrix of a batch
-        rows, cols = linear_sum_assignment(work[b])       # argmin over pairings pi
-        keep = useful[b][rows, cols]                      # drop pairs not allowed / not worth it
+    for b in np.ndindex(c.shape[:-2]):          # every matrix of a batch
+        # argmin over pairings pi
+        rows, cols = linear_sum_assignment(work[b])
+        # drop pairs not allowed / not worth it
+        keep = useful[b][rows, cols]
         row_to_col[b][rows[keep]] = cols[keep]
     return _make_result(c, row_to_col, c0)
 
