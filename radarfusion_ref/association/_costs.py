@@ -155,18 +155,21 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     """
     with_logdet = as_bool(logdet, "logdet")
     p1, p2, lam1, lam2, beta, ln_det_2pi_s = _non_assignment_iv(
-        p_detect1, p_detect2, false_density1, false_density2, object_density, innovation_cov,
-        with_logdet)
-    # Log domain throughout: ln u_r = ln(rho_F,r + rho_T P_r (1 - P_other)) by logaddexp,
-    # so neither tiny nor huge densities overflow or underflow.
+        p_detect1, p_detect2, false_density1, false_density2,
+        object_density, innovation_cov, with_logdet)
+    # Log domain throughout: ln u_r = ln(rho_F,r + rho_T P_r (1 - P_other))
+    # by logaddexp, so neither tiny nor huge densities overflow or
+    # underflow.
     with np.errstate(divide="ignore"):
         lb = np.log(beta)
         log_u1 = np.logaddexp(np.log(lam1), lb + np.log(p1) + np.log1p(-p2))
         log_u2 = np.logaddexp(np.log(lam2), lb + np.log(p2) + np.log1p(-p1))
     m = lb + np.log(p1) + np.log(p2) - log_u1 - log_u2
-    # with logdet=True a given `innovation_cov` only shapes the result (0 * its log det)
+    # with logdet=True a given `innovation_cov` only shapes the result
+    # (0 * its log det)
     m = m + (0.0 if with_logdet else -0.5) * ln_det_2pi_s
-    # (full costs kappa + ln det 2 pi S may be negative, so c_0 <= 0 is no alarm there)
+    # (full costs kappa + ln det 2 pi S may be negative, so c_0 <= 0 is no
+    # alarm there)
     if not with_logdet and np.any(m <= 0):
         warnings.warn(
             "non-assignment cost <= 0: no pair with proximity >= 0 beats leaving both "
@@ -266,18 +269,21 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
         v1, v2 = float(sd1) ** 2, float(sd2) ** 2
         out = mahalanobis_sq_pairwise(r1, r2, v1 * eye, v2 * eye)
     else:
-        v1, v2 = np.square(np.atleast_1d(sd1)), np.square(np.atleast_1d(sd2))
-        if not (np.all(np.isfinite(v1)) and np.all(v1 > 0) and np.all(np.isfinite(v2))
-                and np.all(v2 > 0)):
-            raise ValueError("`sigma1` and `sigma2` must have squares within the float range "
-                             f"(1e-154 < sigma < 1e154); received {_describe(sd1)} and "
-                             f"{_describe(sd2)}")
-        c1 = v1[..., :, None, None] * eye                     # (..., n1, d, d)
-        c2 = v2[..., :, None, None] * eye                     # (..., n2, d, d)
+        v1 = np.square(np.atleast_1d(sd1))
+        v2 = np.square(np.atleast_1d(sd2))
+        if not (np.all(np.isfinite(v1)) and np.all(v1 > 0)
+                and np.all(np.isfinite(v2)) and np.all(v2 > 0)):
+            raise ValueError(
+                "`sigma1` and `sigma2` must have squares within the float "
+                "range (1e-154 < sigma < 1e154); received "
+                f"{_describe(sd1)} and {_describe(sd2)}")
+        c1 = v1[..., :, None, None] * eye               # (..., n1, d, d)
+        c2 = v2[..., :, None, None] * eye               # (..., n2, d, d)
         out = mahalanobis_sq_pairwise(r1, r2, c1, c2)
     out = np.asarray(out, dtype=float)
     if with_logdet:
-        # ln det(2 pi S) = d (ln 2 pi + ln(s1^2 + s2^2)), ln(s1^2 + s2^2) by logaddexp
+        # ln det(2 pi S) = d (ln 2 pi + ln(s1^2 + s2^2)),
+        # ln(s1^2 + s2^2) by logaddexp
         l1 = 2 * np.log(np.atleast_1d(sd1))[..., :, None]
         l2 = 2 * np.log(np.atleast_1d(sd2))[..., None, :]
         out = out + d * (math.log(2 * math.pi) + np.logaddexp(l1, l2))

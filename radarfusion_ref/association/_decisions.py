@@ -187,12 +187,14 @@ def _as_gate(gate, name: str = "gate") -> float:
 
 
 def outcome_by_gate(kappa, truth, rule: str):
-    r"""A rule's outcome as a function of its gate: ``gate -> DecisionOutcome`` per trial.
+    r"""A rule's outcome as a function of its gate.
 
-    `kappa`, `truth` and `rule` as in :func:`decision_outcome` (which calls the returned
-    function once); a trial is correct when every pair is right and accepted, a false
-    accept when a wrong pair is accepted, rejected otherwise. The joint pairing does not
-    depend on the gate, so it is computed once, here.
+    The result maps ``gate -> DecisionOutcome`` per trial. `kappa`, `truth`
+    and `rule` as in :func:`decision_outcome` (which calls the returned
+    function once); a trial is correct when every pair is right and
+    accepted, a false accept when a wrong pair is accepted, rejected
+    otherwise. The joint pairing does not depend on the gate, so it is
+    computed once, here.
 
     >>> o = outcome_by_gate([[0.1, 4.0], [5.0, 0.2]], [0, 1], "joint")
     >>> bool(o(1.0).correct), bool(o(0.2).rejected)
@@ -206,14 +208,17 @@ def outcome_by_gate(kappa, truth, rule: str):
         total = np.asarray(res.cost)
 
         def joint(gate):
-            passed = total < _as_gate(gate)             # the joint test, kappa*_n < gamma_n
+            # the joint test, kappa*_n < gamma_n
+            passed = total < _as_gate(gate)
             return DecisionOutcome(right & passed, wrong & passed)
         return joint
     order = "scan" if rule == "scan" else "best_first"
 
     def pointwise(gate):
-        decided = _named(associate_pointwise, c, _as_gate(gate), order=order).row_to_col
-        return DecisionOutcome(all_correct(decided, t), _wrong_pair(decided, t))
+        decided = _named(associate_pointwise, c, _as_gate(gate),
+                         order=order).row_to_col
+        return DecisionOutcome(all_correct(decided, t),
+                               _wrong_pair(decided, t))
     return pointwise
 
 
@@ -359,16 +364,20 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
 
     if gates is not None:
         cand = as_float_array(gates, "gates")
-        if cand.ndim != 1 or cand.size == 0 or np.any(cand <= 0) or np.any(np.diff(cand) <= 0):
-            raise ValueError(f"`gates` must be a non-empty increasing 1-D array of numbers > 0; "
-                             f"received {_describe(gates)}")
+        if (cand.ndim != 1 or cand.size == 0 or np.any(cand <= 0)
+                or np.any(np.diff(cand) <= 0)):
+            raise ValueError(
+                "`gates` must be a non-empty increasing 1-D array of "
+                f"numbers > 0; received {_describe(gates)}")
         rates = np.array([rate(float(g)) for g in cand])
         ok = np.flatnonzero(rates <= a)
         if ok.size == 0:
-            raise ValueError(f"`alpha` = {a:g} is not reached by any of the `gates`: the lowest "
-                             f"{error.replace('_', '-')} rate is {rates.min():.4g} (at gate "
-                             f"{cand[int(np.argmin(rates))]:.4g}); pass "
-                             f"{'narrower' if wide else 'wider'} gates")
+            raise ValueError(
+                f"`alpha` = {a:g} is not reached by any of the `gates`: "
+                f"the lowest {error.replace('_', '-')} rate is "
+                f"{rates.min():.4g} (at gate "
+                f"{cand[int(np.argmin(rates))]:.4g}); pass "
+                f"{'narrower' if wide else 'wider'} gates")
         return float(cand[ok.max()] if wide else cand[ok.min()])
     if rule == "scan":
         raise ValueError("`gates` must be given for `rule` = 'scan': its error rates need not be "
