@@ -112,11 +112,16 @@ def type_agreement(feature1, feature_var1, feature2, feature_var2, type_means, t
     f1, v1, f2, v2 = _feature_pair_iv(feature1, feature_var1, feature2, feature_var2)
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
     _check_memory(f1.shape, means.size, "type agreement")
-    log_p1 = _log_posterior([f1], means, [_log_var_sum(tvars, v1[..., None])], log_priors)
-    log_p2 = _log_posterior([f2], means, [_log_var_sum(tvars, v2[..., None])], log_priors)
-    with np.errstate(invalid="ignore"):              # a type of prior 0 contributes nothing
-        terms = np.where(np.isneginf(log_priors), -np.inf, log_p1 + log_p2 - log_priors)
-    return unwrap(-2.0 * logsumexp(terms, axis=-1))  # -2 ln sum_k P1_k P2_k / p_k
+    log_p1 = _log_posterior([f1], means,
+                            [_log_var_sum(tvars, v1[..., None])], log_priors)
+    log_p2 = _log_posterior([f2], means,
+                            [_log_var_sum(tvars, v2[..., None])], log_priors)
+    # a type of prior 0 contributes nothing
+    with np.errstate(invalid="ignore"):
+        terms = np.where(np.isneginf(log_priors), -np.inf,
+                         log_p1 + log_p2 - log_priors)
+    # -2 ln sum_k P1_k P2_k / p_k
+    return unwrap(-2.0 * logsumexp(terms, axis=-1))
 
 
 def _feature_pair_iv(feature1, feature_var1, feature2, feature_var2):

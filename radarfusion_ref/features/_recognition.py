@@ -262,8 +262,11 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
     means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
     log = _as_flag(log, "log")
     _check_memory(f.shape, means.size, "type posterior")
-    # log of the widened variances σ_Πk² + v, then exact differences against the best type
-    log_post = _log_posterior([f], means, [_log_var_sum(tvars, v[..., None])], log_priors)
+    # log of the widened variances σ_Πk² + v, then exact differences
+    # against the best type
+    log_post = _log_posterior([f], means,
+                              [_log_var_sum(tvars, v[..., None])],
+                              log_priors)
     return log_post if log else np.exp(log_post)
 
 
