@@ -159,15 +159,19 @@ def conversion_gain(sigma_beta, *, method: str = "linearized"):
     method = as_choice(method, "method", ALL_METHODS)
     if method == "linearized":        # eq. (1): no correction
         return np.ones_like(t)
-    if method == "additive":          # r̂u − r̂u(e^{−s} − e^{−t}) = r̂u (1 + e^{−t}(1 − e^{−t}))
+    if method == "additive":
+        # r̂u − r̂u(e^{−s} − e^{−t}) = r̂u (1 + e^{−t}(1 − e^{−t}))
         return 1.0 - np.exp(-t) * np.expm1(-t)
-    if method in ("multiplicative", "decorrelated"):    # e^{t} r̂u: exactly unbiased
+    if method in ("multiplicative", "decorrelated"):
+        # e^{t} r̂u: exactly unbiased
         return np.exp(t)
     if method == "first_order":       # eq. (3) with the derived sign
         return 1.0 + t
-    if method == "measurement_conditioned":    # Duan et al.: E[x | r̂, β̂] = e^{−t} r̂u
+    if method == "measurement_conditioned":
+        # Duan et al.: E[x | r̂, β̂] = e^{−t} r̂u
         return np.exp(-t)
-    return 1.0 - t                    # "first_order_printed": eq. (3) as printed
+    # "first_order_printed": eq. (3) as printed
+    return 1.0 - t
 
 
 def _bias_factor(method: str, s: np.ndarray) -> np.ndarray:
@@ -196,7 +200,8 @@ _MEASURED_METHODS = (*METHODS, "measurement_conditioned")
 _SQUARE_MAX = 1e150
 
 
-def principal_variances(r, sigma_r, sigma_beta, *, method: str = "linearized"):
+def principal_variances(r, sigma_r, sigma_beta, *,
+                        method: str = "linearized"):
     r"""Variances of a method's covariance along the line of sight and across it.
 
     Every covariance of :func:`polar_to_cartesian` (but the decorrelated one) is
@@ -236,21 +241,28 @@ def principal_variances(r, sigma_r, sigma_beta, *, method: str = "linearized"):
     """
     r, sr2, s, method = _variances_iv(r, sigma_r, sigma_beta, method)
     em = -np.expm1(-s)                                 # 1 − e^{−s}
-    if method == "linearized":                         # eq. (2a–c): J diag(σr², σβ²) Jᵀ
+    if method == "linearized":
+        # eq. (2a–c): J diag(σr², σβ²) Jᵀ
         return sr2, r**2 * s
-    if method == "measurement_conditioned":            # Duan et al.: Cov[x | r̂, β̂]
+    if method == "measurement_conditioned":
+        # Duan et al.: Cov[x | r̂, β̂]
         return (0.5 * r**2 * em**2 + 0.5 * sr2 * (1 + np.exp(-2 * s)),
                 -0.5 * (r**2 + sr2) * np.expm1(-2 * s))
-    if method == "multiplicative":                     # Mo et al.: MSE given the measurement
+    if method == "multiplicative":
+        # Mo et al.: MSE given the measurement;
+        # big = e^{s} − 3/2 + e^{−2s}/2
         big = np.where(s < 1e-4, 1.5 * s**2 - 0.5 * s**3 + 0.375 * s**4,
-                       np.expm1(s) + 0.5 * np.expm1(-2 * s))   # e^{s} − 3/2 + e^{−2s}/2
+                       np.expm1(s) + 0.5 * np.expm1(-2 * s))
         along = r**2 * big + 0.5 * sr2 * (1 + np.exp(-2 * s))
         return along, -0.5 * (r**2 + sr2) * np.expm1(-2 * s)
-    # additive / first_order / first_order_printed: eq. (4a–c), Lerro & Bar-Shalom's R^a
+    # additive / first_order / first_order_printed: eq. (4a–c),
+    # Lerro & Bar-Shalom's R^a
     along = (-0.5 * r**2 * em * np.expm1(-3 * s)
-             + sr2 * (1 - 0.5 * np.exp(-s) + np.exp(-4 * s) - 0.5 * np.exp(-3 * s)))
+             + sr2 * (1 - 0.5 * np.exp(-s) + np.exp(-4 * s)
+                      - 0.5 * np.exp(-3 * s)))
     cross = (0.5 * r**2 * em * (1 + np.exp(-3 * s))
-             + sr2 * (-np.expm1(-4 * s) + 0.5 * np.exp(-s) * np.expm1(-2 * s)))
+             + sr2 * (-np.expm1(-4 * s)
+                      + 0.5 * np.exp(-s) * np.expm1(-2 * s)))
     return along, cross
 
 
@@ -368,7 +380,8 @@ def _prior_polar(xp, pc):
     return r_p, b_p, var_r, var_b
 
 
-def decorrelated_variances(mean_sq_range, sigma_r, sigma_beta, prior_azimuth_var):
+def decorrelated_variances(mean_sq_range, sigma_r, sigma_beta,
+                           prior_azimuth_var):
     r"""Principal variances of the decorrelated covariance, along :math:`u(\beta_p)` and across.
 
     Bordonaro et al.'s :math:`R^D = E[\operatorname{Cov}(\hat x_{\text{mult}} \mid r, \beta)
@@ -409,11 +422,13 @@ def decorrelated_variances(mean_sq_range, sigma_r, sigma_beta, prior_azimuth_var
     >>> round(float(along), 6), round(float(cross), 4)
     (0.010113, 2.25)
     """
-    r_p2, sr2, s, sp = _decorrelated_iv(mean_sq_range, sigma_r, sigma_beta, prior_azimuth_var)
+    r_p2, sr2, s, sp = _decorrelated_iv(mean_sq_range, sigma_r, sigma_beta,
+                                        prior_azimuth_var)
     with np.errstate(under="ignore"):
         d = np.exp(-2 * sp)
         along = 0.5 * (sr2 * (np.exp(s) + d * np.exp(-s))
-                       + r_p2 * (4 * np.sinh(s / 2) ** 2 + np.expm1(-2 * sp) * np.expm1(-s)))
+                       + r_p2 * (4 * np.sinh(s / 2) ** 2
+                                 + np.expm1(-2 * sp) * np.expm1(-s)))
         cross = 0.5 * (sr2 * (-np.exp(s) * np.expm1(-2 * s - 2 * sp))
                        + r_p2 * (np.expm1(s) - d * np.expm1(-s)))
     return along, cross

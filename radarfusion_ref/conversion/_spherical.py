@@ -115,8 +115,8 @@ def _outer(u, v):
     return u[..., :, None] * v[..., None, :]
 
 
-def spherical_covariance(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, *,
-                         method: str = "linearized"):
+def spherical_covariance(r, beta, epsilon, sigma_r, sigma_beta,
+                         sigma_epsilon, *, method: str = "linearized"):
     r"""A 3-D method's covariance at the measurement :math:`(\hat r, \hat\beta, \hat\varepsilon)`.
 
     With :math:`a = a(\hat\beta, \hat\varepsilon)` the line of sight and :math:`Z` the
@@ -163,23 +163,30 @@ def spherical_covariance(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, *
     r2 = (r**2)[..., None, None]
     if method == "linearized":              # J diag(σr², σβ², σε²) Jᵀ
         ce, se = np.cos(eps), np.sin(eps)
-        jb = np.stack([-ce * np.sin(beta), ce * np.cos(beta), np.zeros_like(ce)], -1)
+        jb = np.stack([-ce * np.sin(beta), ce * np.cos(beta),
+                       np.zeros_like(ce)], -1)
         je = np.stack([-se * np.cos(beta), -se * np.sin(beta), ce], -1)
-        return (sr2[..., None, None] * _outer(a, a) + r2 * sb2[..., None, None] * _outer(jb, jb)
+        return (sr2[..., None, None] * _outer(a, a)
+                + r2 * sb2[..., None, None] * _outer(jb, jb)
                 + r2 * se2[..., None, None] * _outer(je, je))
-    # Cov[x | measurement] = (r̂² + σr²) E[aaᵀ] − r̂² Zaaᵀ Z  (truth ~ N(measurement, σ²))
+    # Cov[x | measurement] = (r̂² + σr²) E[aaᵀ] − r̂² Zaaᵀ Z
+    # (truth ~ N(measurement, σ²))
     la = lam * a
-    cond = (r2 + sr2[..., None, None]) * _second3(beta, eps, sb2, se2) - r2 * _outer(la, la)
+    cond = ((r2 + sr2[..., None, None]) * _second3(beta, eps, sb2, se2)
+            - r2 * _outer(la, la))
     if method == "measurement_conditioned":
         return cond
-    if method == "multiplicative":          # MSE given the measurement: + (x̂ − E[x|z])(…)ᵀ
+    if method == "multiplicative":
+        # MSE given the measurement: + (x̂ − E[x|z])(…)ᵀ
         d = (1.0 / lam - lam) * a
         return cond + r2 * _outer(d, d)
-    # "additive": Lerro & Bar-Shalom's E[Cov(r̂a(β̂, ε̂) | truth) | measurement] — the errors
-    # damp the harmonics twice, and E[r² + σr² | z] = r̂² + 2σr²
-    return ((r2 + 2 * sr2[..., None, None]) * _second3(beta, eps, 2 * sb2, 2 * se2)
-            - (r2 + sr2[..., None, None]) * lam[..., :, None] * _second3(beta, eps, sb2, se2)
-            * lam[..., None, :])
+    # "additive": Lerro & Bar-Shalom's
+    # E[Cov(r̂a(β̂, ε̂) | truth) | measurement] — the errors damp the
+    # harmonics twice, and E[r² + σr² | z] = r̂² + 2σr²
+    return ((r2 + 2 * sr2[..., None, None])
+            * _second3(beta, eps, 2 * sb2, 2 * se2)
+            - (r2 + sr2[..., None, None]) * lam[..., :, None]
+            * _second3(beta, eps, sb2, se2) * lam[..., None, :])
 
 
 
