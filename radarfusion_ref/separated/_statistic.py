@@ -204,10 +204,13 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False,
     >>> pair_statistic([[0.0, 0.0]], eye, [[2.0, 0.0]], eye, logdet=True).round(4)
     array([[7.062]])
     """
-    a1, c1, a2, c2, with_logdet = _pair_statistic_iv(xy1, cov1, xy2, cov2, logdet)
-    # kappa_ij = (x1_i - x2_j)^T (Sigma_1i + Sigma_2j)^-1 (x1_i - x2_j) for every pair i, j
+    a1, c1, a2, c2, with_logdet = _pair_statistic_iv(xy1, cov1, xy2, cov2,
+                                                     logdet)
+    # kappa_ij = (x1_i - x2_j)^T (Sigma_1i + Sigma_2j)^-1 (x1_i - x2_j)
+    # for every pair i, j
     kappa, logdet_s = _pairwise_kappa(a1, c1, a2, c2)
-    cost = kappa + (2 * math.log(2 * math.pi) + logdet_s) if with_logdet else kappa
+    cost = (kappa + (2 * math.log(2 * math.pi) + logdet_s)
+            if with_logdet else kappa)
     return (cost, logdet_s) if return_logdet else cost
 
 
