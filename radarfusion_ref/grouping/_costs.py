@@ -113,25 +113,37 @@ def _quad(r, info):
 
 
 def ml_group_cost(x, cov):
-    r"""ML cost of groups of one report per source, eq. (eq-group-cost) of the chapter.
+    r"""ML cost of groups of one report per source.
 
-    `x` holds the ``m`` reports :math:`a_i` of a group (``m`` arrays of shape
-    ``(..., d)``, or one array ``(m, ..., d)``), `cov` their covariances
-    :math:`C_i` (``(..., d, d)`` each); leading axes broadcast, one cost each:
-    :math:`\sum_i (a_i-\hat x)^T C_i^{-1}(a_i-\hat x) + \ln\det W + \sum_i \ln\det C_i`
-    with :math:`W = \sum_i C_i^{-1}`, :math:`\hat x = W^{-1}\sum_i C_i^{-1}a_i`
-    (see :func:`group_costs`, which evaluates it for every candidate group).
+    Eq. (eq-group-cost) of the chapter. `x` holds the ``m`` reports
+    :math:`a_i` of a group (``m`` arrays of shape ``(..., d)``, or one
+    array ``(m, ..., d)``), `cov` their covariances :math:`C_i`
+    (``(..., d, d)`` each); leading axes broadcast, one cost each:
 
-    >>> float(ml_group_cost([[0.0], [2.0]], [[[1.0]], [[1.0]]]).round(4))   # 2 + ln 2
+    .. math::
+
+        \sum_i (a_i-\hat x)^T C_i^{-1}(a_i-\hat x) + \ln\det W
+        + \sum_i \ln\det C_i
+
+    with :math:`W = \sum_i C_i^{-1}`,
+    :math:`\hat x = W^{-1}\sum_i C_i^{-1}a_i` (see :func:`group_costs`,
+    which evaluates it for every candidate group).
+
+    >>> c = ml_group_cost([[0.0], [2.0]], [[[1.0]], [[1.0]]])   # 2 + ln 2
+    >>> float(c.round(4))
     2.6931
     """
     xs, covs = _group_iv(x, cov)
-    info, logdet = zip(*(_information(c) for c in covs), strict=True)  # C_i^-1, ln det C_i
-    W = info[0] + sum(info[1:])                                      # W = sum_i C_i^-1
-    ia = [np.einsum("...kl,...l->...k", Ci, a) for Ci, a in zip(info, xs, strict=True)]
-    xhat = np.linalg.solve(W, (ia[0] + sum(ia[1:]))[..., None])[..., 0]   # the fused estimate
+    # C_i^-1, ln det C_i
+    info, logdet = zip(*(_information(c) for c in covs), strict=True)
+    W = info[0] + sum(info[1:])                       # W = sum_i C_i^-1
+    ia = [np.einsum("...kl,...l->...k", Ci, a)
+          for Ci, a in zip(info, xs, strict=True)]
+    # the fused estimate
+    xhat = np.linalg.solve(W, (ia[0] + sum(ia[1:]))[..., None])[..., 0]
     q = sum(_quad(a - xhat, Ci) for a, Ci in zip(xs, info, strict=True))
-    ld_w = 2.0 * np.sum(np.log(np.diagonal(np.linalg.cholesky(W), axis1=-2, axis2=-1)), -1)
+    ld_w = 2.0 * np.sum(np.log(np.diagonal(np.linalg.cholesky(W),
+                                           axis1=-2, axis2=-1)), -1)
     return q + ld_w + logdet[0] + sum(logdet[1:])
 
 

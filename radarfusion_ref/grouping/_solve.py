@@ -655,34 +655,44 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
     hist = None
     for b in range(B):
         x_b, cov_b = xb[b:b + 1], cb[min(b, cb.shape[0] - 1)][None]
-        if method == "milp" and p_lo is None:          # the full tensor: exact, HiGHS
+        if method == "milp" and p_lo is None:
+            # the full tensor: exact, HiGHS
             c = _tensor(x_b, cov_b, cost).ravel()
-            chosen, integral[b] = _scene_milp(c, m, n, relaxation, time_limit, b)
-            groups[b] = _normalise(np.array(np.unravel_index(chosen, (n,) * m)).T)
+            chosen, integral[b] = _scene_milp(c, m, n, relaxation,
+                                              time_limit, b)
+            groups[b] = _normalise(
+                np.array(np.unravel_index(chosen, (n,) * m)).T)
             totals[b] = lbs[b] = c[chosen].sum()
-        elif p_lo is None:                               # the full tensor: dense Lagrangian
+        elif p_lo is None:
+            # the full tensor: dense Lagrangian
             c = _tensor(x_b, cov_b, cost)[0]
             T, totals[b], lbs[b], hist = _solve_full(
-                c, gap=gap, max_iter=max_iter, time_limit=time_limit, name="x",
-                exact_limit=MAX_CANDIDATE_GROUPS, hint="a gate (`p_false_reject`)")
+                c, gap=gap, max_iter=max_iter, time_limit=time_limit,
+                name="x", exact_limit=MAX_CANDIDATE_GROUPS,
+                hint="a gate (`p_false_reject`)")
             groups[b] = _normalise(T)
-        else:                                            # gated candidate groups, by cluster
+        else:
+            # gated candidate groups, by cluster
             T, c = _scene_candidates(list(x_b[0]), list(cov_b[0]), cost=cost,
-                                     gamma=float(gate_threshold(p_lo, d)), det=None,
-                                     median_logdet=median_logdet)
+                                     gamma=float(gate_threshold(p_lo, d)),
+                                     det=None, median_logdet=median_logdet)
             chosen, totals[b], lbs[b], hist = _scene_candidates_solve(
                 T, c, [n] * m, method, gap, max_iter, time_limit, why, b, batch)
             groups[b] = _normalise(T[chosen])
         _finite_total(totals[b], b)
-    gaps = np.maximum(0.0, (totals - lbs) / np.maximum(np.abs(totals), 1.0))  # proved gap
+    # proved gap
+    gaps = np.maximum(0.0, (totals - lbs) / np.maximum(np.abs(totals), 1.0))
     integral = integral if method == "milp" and p_lo is None else None
     if not batch:
         return GroupingResult(groups[0], float(totals[0]), cost, method,
                               None if integral is None else bool(integral[0]),
-                              float(lbs[0]), float(gaps[0]), hist, bool(gaps[0] == 0.0))
-    return GroupingResult(groups.reshape(*batch, n, m), totals.reshape(batch), cost, method,
+                              float(lbs[0]), float(gaps[0]), hist,
+                              bool(gaps[0] == 0.0))
+    return GroupingResult(groups.reshape(*batch, n, m), totals.reshape(batch),
+                          cost, method,
                           None if integral is None else integral.reshape(batch),
-                          lbs.reshape(batch), gaps.reshape(batch), None, bool(np.all(gaps == 0)))
+                          lbs.reshape(batch), gaps.reshape(batch), None,
+                          bool(np.all(gaps == 0)))
 
 
 def _full_tensor_size(m, n, d, method):

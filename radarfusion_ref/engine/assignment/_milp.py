@@ -65,12 +65,13 @@ MAX_SD_TUPLES = 10**6
 
 
 def sd_constraint_matrix(m, n):
-    r"""Constraints of the S-D assignment: every report lies in exactly one chosen group.
+    r"""Constraints of the S-D assignment.
 
-    Row :math:`i n + j` is report :math:`j` of source :math:`i` (``m >= 2``
-    sources, ``n >= 1`` reports each), column :math:`t` the candidate group
-    :math:`t = (t_1, \dots, t_m)`, the :math:`n^m` groups in C order; the entry
-    is 1 when :math:`t_i = j`, so :math:`A z = 1` reads
+    Every report lies in exactly one chosen group. Row :math:`i n + j` is
+    report :math:`j` of source :math:`i` (``m >= 2`` sources, ``n >= 1``
+    reports each), column :math:`t` the candidate group
+    :math:`t = (t_1, \dots, t_m)`, the :math:`n^m` groups in C order; the
+    entry is 1 when :math:`t_i = j`, so :math:`A z = 1` reads
     :math:`\sum_{t:\,t_i = j} z_t = 1`. More than :data:`MAX_SD_TUPLES`
     groups raise a ``ValueError``.
 
@@ -78,13 +79,18 @@ def sd_constraint_matrix(m, n):
     [[1, 1, 0, 0], [0, 0, 1, 1], [1, 0, 1, 0], [0, 1, 0, 1]]
     """
     m, n = as_int(m, "m", minimum=2), as_int(n, "n", minimum=1)
-    _limit(n ** min(m, 64), MAX_SD_TUPLES, name="n",      # n**64 > the limit for n >= 2
+    # n**64 > the limit for n >= 2
+    _limit(n ** min(m, 64), MAX_SD_TUPLES, name="n",
            what=f"candidate groups n**m (n = {n}, m = {m})",
-           alternative="gated candidate groups (solve_sd with `candidates`)")
-    t = np.indices((n,) * m).reshape(m, -1)            # t_i of every candidate group t
-    rows = (np.arange(m)[:, None] * n + t).ravel()     # report j = t_i of source i ...
-    cols = np.tile(np.arange(n**m), m)                 # ... lies in group t
-    return sparse.csc_array((np.ones(m * n**m), (rows, cols)), shape=(m * n, n**m))
+           alternative="gated candidate groups "
+                       "(solve_sd with `candidates`)")
+    # t_i of every candidate group t
+    t = np.indices((n,) * m).reshape(m, -1)
+    # report j = t_i of source i lies in group t
+    rows = (np.arange(m)[:, None] * n + t).ravel()
+    cols = np.tile(np.arange(n**m), m)
+    return sparse.csc_array((np.ones(m * n**m), (rows, cols)),
+                            shape=(m * n, n**m))
 
 
 @functools.lru_cache(maxsize=16)
