@@ -95,17 +95,20 @@ def reduced_information(jac_bias, jac_object):
     """
     B, G = _jacobians_iv(jac_bias, jac_object)
     *lead, m, _, _, _ = B.shape
-    U = np.einsum("...ikab,...ikac->...ibc", B, B)                    # per radar, summed over k
+    # per radar, summed over k
+    U = np.einsum("...ikab,...ikac->...ibc", B, B)
     info = np.zeros((*lead, 3 * m, 3 * m))
-    for i in range(m):                                               # U is block-diagonal
+    for i in range(m):                            # U is block-diagonal
         info[..., 3 * i:3 * i + 3, 3 * i:3 * i + 3] = U[..., i, :, :]
-    W, V = _object_blocks(B, G)                           # (…, n, 3m, 2), (…, n, 2, 2)
+    W, V = _object_blocks(B, G)       # (…, n, 3m, 2), (…, n, 2, 2)
     try:
         Vinv_Wt = np.linalg.solve(V, np.swapaxes(W, -1, -2))
     except np.linalg.LinAlgError:
-        raise ValueError("`jac_object`: an object's position is not determined by its reports "
-                         "(a V_k is singular)") from None
-    info = info - np.einsum("...kpa,...kaq->...pq", W, Vinv_Wt)      # U - sum_k W V^-1 W^T
+        raise ValueError(
+            "`jac_object`: an object's position is not determined by its "
+            "reports (a V_k is singular)") from None
+    # U - sum_k W V^-1 W^T
+    info = info - np.einsum("...kpa,...kaq->...pq", W, Vinv_Wt)
     return 0.5 * (info + np.swapaxes(info, -1, -2))
 
 

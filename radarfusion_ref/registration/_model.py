@@ -467,10 +467,13 @@ def noncentrality(sensors, targets, biases, sigma_r, sigma_beta):
     """
     s, sr, sb = _two_radars_iv(sensors, sigma_r, sigma_beta)
     polar = true_polar(s, targets)
-    mu = bias_displacement(s, targets, biases)              # each radar's mean position error
-    cov = conversion.polar_to_cartesian(polar[..., 0], polar[..., 1], sr[:, None], sb[:, None]).cov
+    # each radar's mean position error
+    mu = bias_displacement(s, targets, biases)
+    cov = conversion.polar_to_cartesian(polar[..., 0], polar[..., 1],
+                                        sr[:, None], sb[:, None]).cov
     # lambda = (mu1 - mu2)^T (Sigma1 + Sigma2)^-1 (mu1 - mu2)
-    delta, summed = mu[..., 0, :, :] - mu[..., 1, :, :], cov[..., 0, :, :, :] + cov[..., 1, :, :, :]
+    delta = mu[..., 0, :, :] - mu[..., 1, :, :]
+    summed = cov[..., 0, :, :, :] + cov[..., 1, :, :, :]
     _require_variance_domain(summed, sr, sb)
     return np.asarray(mahalanobis_sq(delta, summed), dtype=float)
 
