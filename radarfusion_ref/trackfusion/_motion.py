@@ -163,14 +163,19 @@ def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
     P = as_covariance(P, "P", dim=n)
     model = constant_velocity(dt, q, dim=n // 2, noise=noise)
     try:
-        lead = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], model.F.shape[:-2])
+        lead = np.broadcast_shapes(x.shape[:-1], P.shape[:-2],
+                                   model.F.shape[:-2])
     except ValueError:
-        raise ValueError(f"`x`, `P`, `dt`, `q` must have broadcasting batch shapes; received "
-                         f"{x.shape}, {P.shape}, {np.shape(dt)}, {np.shape(q)}") from None
+        raise ValueError(
+            "`x`, `P`, `dt`, `q` must have broadcasting batch shapes; "
+            f"received {x.shape}, {P.shape}, {np.shape(dt)}, "
+            f"{np.shape(q)}") from None
     check_size(int(np.prod(lead, dtype=object)) * n * n, MAX_BATCH,
-               what="batch elements × state entries", alternative="several calls on slices")
+               what="batch elements × state entries",
+               alternative="several calls on slices")
     with np.errstate(over="ignore", invalid="ignore"):
-        estimate, covariance = predict_kernel(x, P, dt, q, noise)    # F x, F P Fᵀ + Q
+        # F x, F P Fᵀ + Q
+        estimate, covariance = predict_kernel(x, P, dt, q, noise)
     check_prediction(estimate, covariance, dt, q)
     return TrackEstimate(np.broadcast_to(estimate, (*lead, n)).copy(),
                          np.broadcast_to(covariance, (*lead, n, n)).copy())

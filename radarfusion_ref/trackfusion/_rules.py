@@ -134,14 +134,17 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
     """
     x1, P1, x2, P2, P12 = _pair_iv(x1, P1, x2, P2, P12)
     P21 = np.swapaxes(P12, -1, -2)
-    U = _sym(P1 + P2 - P12 - P21)                               # Cov(x2 - x1)
+    U = _sym(P1 + P2 - P12 - P21)                       # Cov(x2 - x1)
     if not np.all(is_positive_definite(U)):
-        raise ValueError("`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x2 - x1) is singular: "
-                         "the two tracks differ by a deterministic amount and carry the same "
-                         "information; use either track")
-    W = np.swapaxes(_solve(U, P1 - P21, "P12"), -1, -2)                # W = (P1 - P12) U^-1
-    estimate = x1 + (W @ (x2 - x1)[..., None])[..., 0]         # x1 + W (x2 - x1)
-    covariance = _sym(P1 - W @ (P1 - P21))                      # P1 - (P1 - P12) U^-1 (P1 - P21)
+        raise ValueError(
+            "`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x2 - x1) is "
+            "singular: the two tracks differ by a deterministic amount and "
+            "carry the same information; use either track")
+    # W = (P1 - P12) U^-1
+    W = np.swapaxes(_solve(U, P1 - P21, "P12"), -1, -2)
+    estimate = x1 + (W @ (x2 - x1)[..., None])[..., 0]  # x1 + W (x2 - x1)
+    # P1 - (P1 - P12) U^-1 (P1 - P21)
+    covariance = _sym(P1 - W @ (P1 - P21))
     return TrackEstimate(estimate, covariance)
 
 
@@ -191,11 +194,12 @@ def ci_weight(P1, P2, *, criterion="det"):
     I1, I2 = _ci_informations(P1, P2)                           # P1^-1, P2^-1
     D = I1 - I2
     lo, hi = np.zeros(I1.shape[:-2]), np.ones(I1.shape[:-2])
-    at0 = _ci_slope(lo, I1, I2, D, criterion) >= 0             # increasing from ω = 0
-    at1 = _ci_slope(hi, I1, I2, D, criterion) <= 0             # decreasing up to ω = 1
+    at0 = _ci_slope(lo, I1, I2, D, criterion) >= 0  # increasing from ω = 0
+    at1 = _ci_slope(hi, I1, I2, D, criterion) <= 0  # decreasing up to ω = 1
     for _ in range(_OMEGA_STEPS):
         mid = 0.5 * (lo + hi)
-        up = _ci_slope(mid, I1, I2, D, criterion) < 0           # still descending: go right
+        # still descending: go right
+        up = _ci_slope(mid, I1, I2, D, criterion) < 0
         lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
     return unwrap(np.where(at0, 0.0, np.where(at1, 1.0, 0.5 * (lo + hi))))
 
