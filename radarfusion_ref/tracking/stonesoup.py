@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import datetime as dt
 import functools
+import importlib.util
 import itertools
 import math
 import time as _time
@@ -39,12 +40,10 @@ _EPOCH = dt.datetime(2018, 8, 1, 11, 0, 0)
 
 
 def _import():
-    try:
-        import stonesoup  # noqa: F401
-    except ImportError:
+    if importlib.util.find_spec("stonesoup") is None:
         raise ImportError("stonesoup_track needs Stone Soup (`pip install stonesoup`, a test "
                           "dependency of this package); track_reports needs nothing "
-                          "extra") from None
+                          "extra")
 
 
 def _inputs_iv(time, position, covariance, radar, scan):
