@@ -37,7 +37,7 @@ from radarfusion_ref.kit.checks import CheckError
 #: Functions that take no data (styles, ledgers) or whose arguments are callables and
 #: drawing targets checked in their own test files.
 SKIP = {
-    "plotting.use_book_style", "plotting.book_style", "checks.passed", "checks.summary",
+    "plotting.use_book_style", "plotting.book_style", "checks.passed",
     "interactive.controls", "interactive.sweep_player", "interactive.slider",
     "symbolic.show",
     # labels and a True condition are legitimate: check_equal("abc", "abc") holds;
