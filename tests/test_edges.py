@@ -206,7 +206,7 @@ def test_bias_estimate_at_extreme_units_is_computed(k):
 
 def test_ranges_beyond_the_numeric_domain_are_refused_by_name():
     z = rg.draw_biased_reports(SITES, OBJS, [[1.0, 0, 0], [0, 0, 0]], 0.05, 1e-3, rng=1)
-    with pytest.raises(ValueError, match=r"^`reports`: ranges .* numeric domain .* 1\.2e\+150"):
+    with pytest.raises(ValueError, match=r"^`reports`: ranges .* numeric domain .* received a range of [0-9.]+e\+151"):
         rg.estimate_biases(SITES * 1e150, z * [1e150, 1.0], 0.05 * 1e150, 1e-3)
 
 
