@@ -154,7 +154,7 @@ def _estimates_at(history, times, max_age):
     order = np.lexsort((tm, tr))
     tr, tm, st = tr[order], tm[order], st[order]
     ids, first = np.unique(tr, return_index=True)
-    stops = np.append(first[1:], tr.size)
+    stops = np.append(first[1:], tr.size)[:ids.size]      # no confirmed row: no track
     pos = np.full((ids.size, times.size, 3), np.nan)
     for k, (a, b) in enumerate(zip(first, stops, strict=True)):
         j = np.searchsorted(tm[a:b], times, side="right") - 1
