@@ -19,6 +19,7 @@ from ..engine import assignment
 from ..engine._validation import _describe, as_choice, as_float, as_int, as_positive, as_probability
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.metrics import purity
+from ..engine.tracker._kalman import predict_kernel, update_kernel
 from .pipeline import PipelineResult
 
 __all__ = ["TrackFusionResult", "track_fusion"]
@@ -64,24 +65,16 @@ _V0 = 250.0 ** 2
 
 
 def _kf_update(x, P, z, R):
-    """Kalman update of (k, 6) states with (k, 3) position reports (H = [I 0]).
-
-    :mod:`radarfusion_ref.trackfusion` teaches prediction and track-to-track fusion but
-    offers no public state update, so the update of the local filters is written here.
-    """
-    S = P[:, :3, :3] + R                                        # H P H^T + R
-    K = np.swapaxes(np.linalg.solve(S, P[:, :3, :]), -1, -2)   # P H^T S^-1
-    x = x + np.einsum("kab,kb->ka", K, z - x[:, :3])            # x + K (z - H x)
-    P = P - K @ P[:, :3, :]                                     # (I - K H) P
-    return x, 0.5 * (P + np.swapaxes(P, -1, -2))
+    """Kalman update of (k, 6) states with (k, 3) position reports (the engine's kernel)."""
+    xn, Pn, _, _ = update_kernel(x, P, z, R)
+    return xn, Pn
 
 
 def _predict(x, P, period, q):
-    """Constant-velocity prediction (:func:`radarfusion_ref.trackfusion.predict`)."""
+    """Constant-velocity prediction (the engine's kernel; trusted input)."""
     if not x.shape[0]:
         return x, P
-    r = trackfusion.predict(x, P, period, q)
-    return r.estimate, r.covariance
+    return predict_kernel(x, P, float(period), float(q))
 
 
 def _link(pos, cov, XF, PF, gamma):

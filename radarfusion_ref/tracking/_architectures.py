@@ -23,12 +23,41 @@ def _gamma(settings):
     return float(gating.gate_threshold(settings.p_false_reject, 3))
 
 
-def _link(x1, P1, x2, P2, gamma):
-    """Gated joint assignment of two lists of positions (row -> column, -1 unlinked)."""
+def _link(x1, P1, x2, P2, gamma, kept=None):
+    r"""Gated joint assignment of two lists of positions (row -> column, -1 unlinked).
+
+    `kept` (n1, n2) bool marks the pairs linked at the previous instant: inside the gate
+    they cost :math:`\kappa - \gamma < 0`, so a remembered pair that still passes the gate
+    is kept against any new one (association with memory).
+    """
     if not len(x1) or not len(x2):
         return np.full(len(x1), -1)
-    kappa = mahalanobis_sq_pairwise(x1, x2, P1, P2)
-    return assignment.solve_2d(np.atleast_2d(kappa), threshold=gamma).row_to_col
+    kappa = np.atleast_2d(mahalanobis_sq_pairwise(x1, x2, P1, P2))
+    if kept is not None:
+        kappa = np.where(kept & (kappa < gamma), kappa - gamma, kappa)
+    return assignment.solve_2d(kappa, threshold=gamma).row_to_col
+
+
+def _identities(groups, ident, next_id):
+    """Fused identity of each group of local tracks: the one most of its tracks carried.
+
+    Groups and previous identities are matched greedily by (votes, age); a group with
+    no vote left gets a new identity. Returns (ids (G,), next_id).
+    """
+    votes: dict[tuple[int, int], int] = {}
+    for n, keys in enumerate(groups):
+        for k in keys:
+            if k in ident:
+                votes[n, ident[k]] = votes.get((n, ident[k]), 0) + 1
+    gid = np.full(len(groups), -1, np.int64)
+    used = set()
+    for (n, g), _ in sorted(votes.items(), key=lambda kv: (-kv[1], kv[0][1], kv[0][0])):
+        if gid[n] < 0 and g not in used:
+            gid[n] = g
+            used.add(g)
+    for n in np.flatnonzero(gid < 0):
+        gid[n], next_id = next_id, next_id + 1
+    return gid, next_id
 
 
 # --------------------------------------------------------------------------- (b)
@@ -161,9 +190,13 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     `settings.max_coast` is predicted to the instant
     (:func:`radarfusion_ref.trackfusion.predict`, chapter 10's time alignment); the
     radars' tracks join radar after radar by the gated 2-D assignment of their
-    positions (:math:`\kappa` with :math:`P_1 + P_2`) and are fused pairwise by `rule`.
-    A fused track keeps the identity its local tracks had before (the oldest when they
-    disagree); Bar-Shalom–Campo would need the cross-covariance of two asynchronous
+    positions (:math:`\kappa` with :math:`P_1 + P_2`) and are fused pairwise by `rule`;
+    the association has memory: local tracks fused together at the previous instant stay
+    together while they pass the gate (two aircraft passing close must not trade their
+    radars' tracks). A fused track keeps the identity most of its local tracks carried
+    at the previous instant (ties: the oldest), each identity going to one track, so a
+    single local track joining another group cannot carry that group's identity away.
+    Bar-Shalom–Campo would need the cross-covariance of two asynchronous
     filters, which the local trackers do not carry.
     """
     t0 = _time.perf_counter()
@@ -200,7 +233,10 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
                 groups = (x, P, [[k] for k in keys])
                 continue
             gx, gP, gk = groups
-            link = _link(x[:, :3], P[:, :3, :3], gx[:, :3], gP[:, :3, :3], gamma)
+            before = [{ident[k] for k in keys if k in ident} for keys in gk]
+            kept = np.array([[ident.get(k, -1) in b for b in before] for k in keys], bool)
+            link = _link(x[:, :3], P[:, :3, :3], gx[:, :3], gP[:, :3, :3], gamma,
+                         kept.reshape(len(keys), len(gk)))
             lk = link >= 0
             if lk.any():
                 f = fuse(gx[link[lk]], gP[link[lk]], x[lk], P[lk])
@@ -214,16 +250,8 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
         if groups is None:
             continue
         gx, gP, gk = groups
-        used = set()
-        gid = np.empty(len(gk), np.int64)
-        for n, keys in enumerate(gk):
-            known = sorted(ident[k] for k in keys if k in ident and ident[k] not in used)
-            if known:
-                g = known[0]
-            else:
-                g, next_id = next_id, next_id + 1
-            used.add(g)
-            gid[n] = g
+        gid, next_id = _identities(gk, ident, next_id)
+        for g, keys in zip(gid.tolist(), gk, strict=True):
             for k in keys:
                 ident[k] = g
         rows.append((gid, np.full(gid.size, tg), gx, gP))
