@@ -134,7 +134,7 @@ def distinctive_lines(root: Path, docnames: list[str]) -> tuple[list[str], list[
     A line that occurs anywhere else (in a shown cell, in prose, in the package's
     source that pages include with ``literalinclude``) is left out of both lists.
     """
-    hidden, shown, prose = [], [], []
+    hidden, shown, prose, shown_all = [], [], [], []
     for d in docnames:
         path = root / f"{d}.md"
         if not path.exists():
@@ -143,12 +143,17 @@ def distinctive_lines(root: Path, docnames: list[str]) -> tuple[list[str], list[
         for tags, src in code_cells(path):
             (hidden if tags & HIDING_TAGS else shown).extend(
                 line.strip() for line in src if len(line.strip()) >= 30)
+            if not tags & HIDING_TAGS:
+                shown_all.extend(line.strip() for line in src)
         prose.append(re.sub(r"```\{code-cell\}.*?\n```", "", text, flags=re.S))
     package = "\n".join(p.read_text(encoding="utf-8")
                         for p in (root / "radarfusion_ref").rglob("*.py"))
     elsewhere = "\n".join(prose) + package
     hidden_text, shown_text = "\n".join(hidden), "\n".join(shown)
-    only_hidden = sorted({h for h in hidden if h not in shown_text and h not in elsewhere})
+    # a shown cell may hold the same code wrapped over two lines: compared as the PDF is
+    shown_flat = _normal("\n".join(shown_all))
+    only_hidden = sorted({h for h in hidden if h not in shown_text and h not in elsewhere
+                          and _normal(h) not in shown_flat})
     only_shown = sorted({s for s in shown if s not in hidden_text and s not in elsewhere})
     return only_hidden, only_shown
 
