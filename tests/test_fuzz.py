@@ -124,4 +124,6 @@ def test_the_net_covers_the_package():
     assert len(FUNCTIONS) >= 60, len(FUNCTIONS)
     assert {"fusion", "proximity", "gating", "association", "features", "conversion",
             "separated", "grouping", "checks", "montecarlo", "scenes",
-            "assignment"} <= modules
+            "assignment", "registration", "trackfusion", "metrics", "linalg", "geodesy",
+            "capstone.detections", "capstone.pipeline", "capstone.traffic", "tracker",
+            "tracking", "tracking.stonesoup"} <= modules
