@@ -19,6 +19,11 @@ CONFIRMATIONS = ("sprt", "m_of_n")
 class TrackerSettings:
     r"""Settings of :func:`~radarfusion_ref.tracking.track_reports` (validated when built).
 
+    The defaults of `q`, `p_false_reject`, `relink` and `p_relink` are tuned on the tuning
+    hour by benchmarks/tune_tracking.py (``capstone.load_traffic(hour="tuning")``, never the
+    scored hour; the grid and its scores are in benchmarks/data/tracking_tuning.csv). The
+    others are stated design values.
+
     Attributes
     ----------
     p_detection : float
@@ -36,11 +41,11 @@ class TrackerSettings:
         M-of-N: confirm when `m` of the last `n` scored scans were hits
         (:math:`1 \le m \le n`, defaults 3 and 4).
     q : float
-        Process-noise intensity of the constant-velocity model (m²/s³, default 50: airliners
-        turn and change level).
+        Process-noise intensity of the constant-velocity model (m²/s³, default 10, tuned on
+        the tuning hour: airliners turn and change level).
     p_false_reject : float
         The gate: :math:`P_{lo}` of :func:`radarfusion_ref.gating.gate_threshold` with
-        3 degrees of freedom (default 1e-6).
+        3 degrees of freedom (default 1e-6, tuned on the tuning hour).
     association : {"gnn", "jpda"}
         Global nearest neighbour (default) or joint probabilistic data association.
     k : int
@@ -59,12 +64,13 @@ class TrackerSettings:
     relink : bool
         A newly confirmed track whose position passes the relinking gate of a confirmed
         track that lost its reports before the new one began continues that track's
-        identity (default True): a manoeuvre that breaks the track does not break the
-        identity.
+        identity (default True, tuned on the tuning hour): a manoeuvre that breaks the
+        track does not break the identity.
     p_relink : float
         The relinking gate: :math:`P_{lo}` of the :math:`\chi^2_3` gate on the two tracks'
-        positions (default 1e-20, :math:`d^2 < 96`: wider than the report gate, because a
-        manoeuvre that broke the track moved the aircraft off the old track's line).
+        positions (default 1e-20, tuned on the tuning hour; :math:`d^2 < 96`: wider than
+        the report gate, because a manoeuvre that broke the track moved the aircraft off
+        the old track's line).
 
     Raises
     ------
@@ -83,7 +89,7 @@ class TrackerSettings:
     confirmation: str = "sprt"
     m: int = 3
     n: int = 4
-    q: float = 50.0
+    q: float = 10.0
     p_false_reject: float = 1e-6
     association: str = "gnn"
     k: int = 200
