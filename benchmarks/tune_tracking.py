@@ -1,6 +1,6 @@
 """Tune ours and Stone Soup on the tuning hour (never on the scored hour), same grid, same rule.
 
-Run as ``python benchmarks/tune_tracking.py`` (about 8 minutes on two cores); it rewrites
+Run as ``python benchmarks/tune_tracking.py`` (about 5-8 minutes on two cores); it rewrites
 ``benchmarks/data/tracking_tuning.csv`` (one row per tracker and setting) and prints the
 chosen settings per tracker. ``benchmarks/bench_tracking.py`` reads the chosen Stone Soup rows
 from that file; our ``TrackerSettings`` defaults are the chosen values of the row ``ours``.
