@@ -1,6 +1,6 @@
 """Tune ours and Stone Soup on the tuning hour (never on the scored hour), same grid, same rule.
 
-Run as ``python benchmarks/tune_tracking.py`` (about 5-8 minutes on two cores); it rewrites
+Run as ``python benchmarks/tune_tracking.py`` (about 10-15 minutes on two cores); it rewrites
 ``benchmarks/data/tracking_tuning.csv`` (one row per tracker and setting) and prints the
 chosen settings per tracker. ``benchmarks/bench_tracking.py`` reads the chosen Stone Soup rows
 from that file; our ``TrackerSettings`` defaults are the chosen values of the row ``ours``.
@@ -9,18 +9,22 @@ The data: the tuning hour ``capstone.load_traffic(hour="tuning")`` (2018-08-01 0
 the same day and the same extraction as the scored 11:00 hour), realistic radars
 (``capstone.realistic_radars()``, ``simulate_detections(..., mode="realistic")``, seed
 ``SEED``), registration from the first five minutes (``capstone.register_detections``) and
-``capstone.to_common`` -- exactly the scored benchmark's pipeline. Stone Soup takes about
-0.15 s per second of data, so every tracker is tuned on the same WINDOW: the first
-``WINDOW`` seconds of the tuning hour, scored every 10 s from 60 s (GOSPA c = 2000 m,
-p = 2) against the ADS-B truth inside the radars' coverage.
+``capstone.to_common`` -- exactly the scored benchmark's pipeline. Every tracker is tuned on
+the whole tuning hour (``WINDOW`` s), scored every 10 s from 60 s (GOSPA c = 2000 m, p = 2)
+against the ADS-B truth inside the radars' coverage. (A first protocol tuned on the hour's
+first 10 minutes by GOSPA alone; it chose the smallest q for every tracker, which fragments
+tracks over a full hour: 1.21 tracks per aircraft for ours and 1.45 for Stone Soup on the
+scored hour. The whole hour and the constraint below replace it.)
 
 The grid: process-noise intensity ``q`` in ``Q_GRID`` m²/s³ and gate ``p_false_reject`` in
 ``GATE_GRID`` for all three trackers (ours GNN, Stone Soup GNN, Stone Soup JPDA with EHM2),
 and, for ours only, the relinking of broken identities (off, or on with ``p_relink`` in
 ``RELINK_GRID``; Stone Soup has no such step). All other settings keep their defaults.
 
-The criterion, the same for every tracker: the lowest mean GOSPA rounded to the metre; ties
-are broken by fewer tracks per aircraft, then by run time.
+The criterion, the same for every tracker: among the settings that keep tracks per aircraft
+within ``MAX_TRACKS_PER_AIRCRAFT`` (the goal the trackers are scored against), the lowest
+mean GOSPA rounded to the metre; ties are broken by fewer tracks per aircraft, then by run
+time. If no setting keeps the constraint, the fewest tracks per aircraft wins.
 """
 
 from __future__ import annotations
@@ -39,10 +43,11 @@ from radarfusion_ref import capstone as cp
 from radarfusion_ref import tracking as trk
 
 SEED = 2018
-WINDOW = 600.0
+WINDOW = 3600.0
+MAX_TRACKS_PER_AIRCRAFT = 1.10
 C_CUT, P_ORDER, STEP = 2000.0, 2.0, 10.0
 Q_GRID = (10.0, 20.0, 50.0, 120.0)
-GATE_GRID = (1e-4, 1e-6, 1e-8)
+GATE_GRID = (1e-6,)
 RELINK_GRID = (None, 1e-20, 1e-10)
 OUT = Path(__file__).resolve().parent / "data" / "tracking_tuning.csv"
 FIELDS = ("tracker", "q", "p_false_reject", "relink", "p_relink", "seconds", "mean_gospa",
@@ -100,9 +105,12 @@ def _run(job):
 
 
 def _key(row):
-    """The criterion: mean GOSPA to the metre, then tracks per aircraft, then run time."""
-    return (round(float(row["mean_gospa"])), float(row["tracks_per_aircraft"]),
-            float(row["seconds"]))
+    """The criterion: within the tracks-per-aircraft goal, mean GOSPA to the metre, then
+    tracks per aircraft, then run time (outside the goal: fewest tracks per aircraft)."""
+    tpa = float(row["tracks_per_aircraft"])
+    if tpa > MAX_TRACKS_PER_AIRCRAFT:
+        return (1, tpa, round(float(row["mean_gospa"])), float(row["seconds"]))
+    return (0, round(float(row["mean_gospa"])), tpa, float(row["seconds"]))
 
 
 def chosen_settings(path=OUT):
@@ -123,7 +131,8 @@ def chosen_settings(path=OUT):
 
 def main(workers: int = 2) -> int:
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}; tuning hour, first "
-          f"{WINDOW / 60:.0f} min, seed {SEED}")
+          f"{WINDOW / 60:.0f} min, seed {SEED}; tracks per aircraft <= "
+          f"{MAX_TRACKS_PER_AIRCRAFT}, then GOSPA")
     t0 = time.perf_counter()
     jobs = [("ours", q, g, r) for q, g, r in product(Q_GRID, GATE_GRID, RELINK_GRID)]
     slow = [(t, q, g, None) for t in ("jpda", "gnn") for q, g in product(Q_GRID, GATE_GRID)]

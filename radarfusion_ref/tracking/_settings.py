@@ -41,8 +41,8 @@ class TrackerSettings:
         M-of-N: confirm when `m` of the last `n` scored scans were hits
         (:math:`1 \le m \le n`, defaults 3 and 4).
     q : float
-        Process-noise intensity of the constant-velocity model (m²/s³, default 10, tuned on
-        the tuning hour: airliners turn and change level).
+        Process-noise intensity of the constant-velocity model (m²/s³, default 50, tuned on
+        the tuning hour by ``benchmarks/tune_tracking.py``: airliners turn and change level).
     p_false_reject : float
         The gate: :math:`P_{lo}` of :func:`radarfusion_ref.gating.gate_threshold` with
         3 degrees of freedom (default 1e-6, tuned on the tuning hour).
@@ -89,7 +89,7 @@ class TrackerSettings:
     confirmation: str = "sprt"
     m: int = 3
     n: int = 4
-    q: float = 10.0
+    q: float = 50.0
     p_false_reject: float = 1e-6
     association: str = "gnn"
     k: int = 200
