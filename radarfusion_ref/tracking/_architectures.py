@@ -11,6 +11,7 @@ from .. import gating, trackfusion
 from ..engine import assignment
 from ..engine._validation import as_choice, as_float, as_positive
 from ..engine.linalg import mahalanobis_sq_pairwise
+from ..engine.tracker import kalman_predict
 from ..fusion import fuse_gaussian
 from ._centralised import _reports_iv, track_reports
 from ._settings import TrackerSettings, TrackHistory
@@ -227,8 +228,8 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
                 continue
             rev = np.flatnonzero(sel)[::-1]              # rows in time order: latest first
             rr = rev[np.unique(ids[rev], return_index=True)[1]]
-            p = trackfusion.predict(xs[rr], Ps[rr], tg - tt[rr], settings.q)
-            x, P, keys = p.estimate, p.covariance, [(r, int(i)) for i in ids[rr]]
+            p = kalman_predict(xs[rr], Ps[rr], tg - tt[rr], settings.q)
+            x, P, keys = p.state, p.covariance, [(r, int(i)) for i in ids[rr]]
             if groups is None:
                 groups = (x, P, [[k] for k in keys])
                 continue
