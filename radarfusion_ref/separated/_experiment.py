@@ -16,7 +16,6 @@ from ..engine._validation import (
     as_float_array,
     as_int,
     as_probability,
-    as_rng,
     as_seed_sequence,
     check_size,
 )
@@ -396,10 +395,15 @@ def offset_sweep(offsets_range, offsets_cross, *, methods=("linearized", "additi
         both offsets zero.
     methods, trials, sigma_r, sigma_beta, p_false_reject :
         As :func:`association_experiment`.
-    rng : None, int or numpy.random.Generator, optional
-        One seed is drawn from it and reused at every grid point (common
-        random numbers), so the maps are smooth and differences between
-        neighbouring points are not masked by independent noise.
+    rng : None, int, numpy.random.SeedSequence or numpy.random.Generator, optional
+        The seed, converted once by the engine's seed recipe
+        (:func:`radarfusion_ref.engine._validation.as_seed_sequence`); the one
+        root sequence is given to every grid point (common random numbers), so
+        the maps are smooth and differences between neighbouring points are not
+        masked by independent noise. A point's result is therefore that of
+        :func:`association_experiment` with the same seed: it depends only on
+        the seed and the point, not on the other points of the grid nor on
+        their order.
 
     Returns
     -------
@@ -434,11 +438,10 @@ def offset_sweep(offsets_range, offsets_cross, *, methods=("linearized", "additi
     if np.any(ar == 0) and np.any(ac == 0):
         raise ValueError("`offsets_range` and `offsets_cross` must not both contain 0: the "
                          "grid point (0, 0) puts target 2 on target 1")
-    seed = int(as_rng(rng).integers(2**63))
+    root = as_seed_sequence(rng)      # one root, used as is (not advanced) at every point
     runs = [association_experiment(paper_geometry(a, c), sigma_r=sigma_r,
                                    sigma_beta=sigma_beta, methods=methods, trials=trials,
-                                   p_false_reject=p_false_reject,
-                                   rng=np.random.default_rng(seed))
+                                   p_false_reject=p_false_reject, rng=root)
             for a in ar for c in ac]
     shape = (ar.size, ac.size)
 
