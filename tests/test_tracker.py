@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
 from radarfusion_ref.engine.tracker import (
@@ -52,18 +54,37 @@ def _td(dt):
     return datetime.timedelta(seconds=dt)
 
 
-def test_predict_composes_and_broadcasts():
+@given(st.floats(0.0, 5.0), st.floats(0.0, 5.0), st.floats(0.0, 3.0))
+def test_prediction_composes_and_adds_process_noise(t1, t2, q):
+    x = np.array([1.0, -2.0, 0.5, 0.3])
+    P = np.diag([1.0, 2.0, 0.3, 0.4]) + 0.1
+    half = kalman_predict(x, P, t1, q)
+    a = kalman_predict(half.state, half.covariance, t2, q)
+    b = kalman_predict(x, P, t1 + t2, q)
+    np.testing.assert_allclose(a.state, b.state, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-9)
+    F = np.eye(4) + (t1 + t2) * np.eye(4, k=2)
+    # the motion's uncertainty is added, never removed: P(t + dt) - F P F^T is PSD
+    assert np.linalg.eigvalsh(b.covariance - F @ P @ F.T).min() >= -1e-9
+
+
+def test_predict_broadcasts_over_tracks_and_intervals():
     rng = np.random.default_rng(4)
     x = rng.standard_normal((5, 4))
     P = np.stack([_random_cov(rng, 4) for _ in range(5)])
     dt = rng.uniform(0, 10, 5)
-    one = kalman_predict(x, P, dt, 2.0)
-    two = kalman_predict(*vars(kalman_predict(x, P, dt / 2, 2.0)).values(), dt / 2, 2.0)
-    np.testing.assert_allclose(one.state, two.state, rtol=1e-12)
-    np.testing.assert_allclose(one.covariance, two.covariance, rtol=1e-10)
+    batch = kalman_predict(x, P, dt, 2.0)
     for i in range(5):
         single = kalman_predict(x[i], P[i], dt[i], 2.0)
-        np.testing.assert_allclose(single.covariance, one.covariance[i], rtol=1e-12)
+        np.testing.assert_allclose(single.state, batch.state[i], rtol=1e-12)
+        np.testing.assert_allclose(single.covariance, batch.covariance[i], rtol=1e-12)
+
+
+def test_predict_refuses_by_name():
+    with pytest.raises(ValueError, match="`dt`"):
+        kalman_predict([0, 1], np.eye(2), -1.0, 1.0)
+    with pytest.raises(ValueError, match="`x`"):
+        kalman_predict([0, 1, 2], np.eye(3), 1.0, 1.0)
 
 
 def test_update_equals_information_form():
@@ -192,8 +213,7 @@ def test_prediction_beyond_the_numeric_domain_refused_by_name(dt, q):
     from radarfusion_ref import trackfusion
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        for f in (kalman_predict, trackfusion.predict):
-            with pytest.raises(ValueError, match=r"`dt`, `q`.*numeric domain"):
-                f(np.zeros(4), np.eye(4), dt, q)
+        with pytest.raises(ValueError, match=r"`dt`, `q`.*numeric domain"):
+            kalman_predict(np.zeros(4), np.eye(4), dt, q)
         with pytest.raises(ValueError, match=r"`dt`, `q`.*numeric domain"):
             trackfusion.constant_velocity(dt, q)

@@ -207,18 +207,6 @@ def test_constant_velocity_matches_van_loan():
     np.testing.assert_allclose(two.Q[0][np.ix_([1, 3], [1, 3])], Q)
 
 
-@given(st.floats(0.0, 5.0), st.floats(0.0, 5.0), st.floats(0.0, 3.0))
-def test_prediction_composes_and_adds_process_noise(t1, t2, q):
-    x = np.array([1.0, -2.0, 0.5, 0.3])
-    P = np.diag([1.0, 2.0, 0.3, 0.4]) + 0.1
-    a = tf.predict(tf.predict(x, P, t1, q).estimate, tf.predict(x, P, t1, q).covariance, t2, q)
-    b = tf.predict(x, P, t1 + t2, q)
-    np.testing.assert_allclose(a.estimate, b.estimate, rtol=1e-10, atol=1e-10)
-    np.testing.assert_allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-9)
-    F = np.eye(4) + (t1 + t2) * np.eye(4, k=2)
-    assert _psd(b.covariance - F @ P @ F.T)
-
-
 # --------------------------------------------------------------------------- cross-covariance
 @functools.lru_cache(maxsize=1)
 def _kalata():
@@ -339,10 +327,6 @@ def test_omega_and_options_are_validated():
         tf.naive_fusion([0, 0], -P, [0, 0], P)
     with pytest.raises(ValueError, match="`x2`"):
         tf.naive_fusion([0, 0], P, [0, 0, 0], P)
-    with pytest.raises(ValueError, match="`dt`"):
-        tf.predict([0, 1], P, -1.0, 1.0)
-    with pytest.raises(ValueError, match="`x`"):
-        tf.predict([0, 1, 2], np.eye(3), 1.0, 1.0)
     with pytest.raises(ValueError, match="`R1`"):
         tf.cross_covariance(np.eye(2), np.eye(2), [[1, 0]], [[0.0]], [[1, 0]], [[1]])
 

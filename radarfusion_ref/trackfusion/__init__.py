@@ -19,8 +19,11 @@ even though the radars' measurement errors are independent.
   :math:`P_{12}`, with the weight :math:`\omega` minimising the determinant or the trace;
 * :func:`track_statistic` — the track-to-track association statistic
   :math:`\kappa = \Delta^\mathsf T(P_1 + P_2 - P_{12} - P_{21})^{-1}\Delta`;
-* :func:`predict` — a track predicted to a later instant (time alignment);
 * :func:`simulate_tracks` — Monte-Carlo runs of the two filters on one simulated object.
+
+A track is predicted to a later instant (time alignment) by the engine's
+:func:`radarfusion_ref.engine.tracker.kalman_predict`, the one home of the
+constant-velocity prediction.
 
 Notation (the book's): :math:`F` the transition matrix, :math:`Q` the process-noise
 covariance, :math:`H_i` radar *i*'s measurement matrix, :math:`\Sigma_i` its
@@ -57,7 +60,6 @@ from ._common import (
 from ._motion import (
     constant_velocity,
     cross_covariance,
-    predict,
     simulate_tracks,
 )
 from ._rules import (
@@ -82,7 +84,6 @@ __all__ = [
     "covariance_intersection",
     "cross_covariance",
     "naive_fusion",
-    "predict",
     "simulate_tracks",
     "track_statistic",
 ]

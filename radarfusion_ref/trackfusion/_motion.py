@@ -1,5 +1,6 @@
-"""Track fusion: the constant-velocity model, prediction, the cross-covariance of two
-filters and simulated tracks."""
+"""Track fusion: the constant-velocity model, the cross-covariance of two filters and
+simulated tracks (tracks are predicted by
+:func:`radarfusion_ref.engine.tracker.kalman_predict`)."""
 
 from __future__ import annotations
 
@@ -15,13 +16,12 @@ from ..engine._validation import (
     as_rng,
     check_size,
 )
-from ..engine.tracker._kalman import check_prediction, cv_matrices, predict_kernel
+from ..engine.tracker._kalman import check_prediction, cv_matrices
 from ._common import (
     MAX_BATCH,
     MAX_DIM,
     MotionModel,
     TrackCovariances,
-    TrackEstimate,
     TrackRuns,
     _as_psd,
     _joint_psd,
@@ -103,82 +103,6 @@ def constant_velocity(dt, q, *, dim=1, noise="continuous") -> MotionModel:
         model = MotionModel(*cv_matrices(dt, q, dim, noise))
     check_prediction(model.F[..., 0, :], model.Q, dt, q)
     return model
-
-
-def predict(x, P, dt, q, *, noise="continuous") -> TrackEstimate:
-    r"""Predict constant-velocity tracks forward by `dt` (time alignment).
-
-    Parameters
-    ----------
-    x : array_like, shape (..., 2 dim)
-        Track states ``[positions, velocities]`` (dim = 1, 2 or 3).
-    P : array_like, shape (..., 2 dim, 2 dim)
-        Their covariances, symmetric positive definite.
-    dt : float or array_like, shape (...)
-        Time to predict forward, :math:`\delta \ge 0`.
-    q : float or array_like
-        Process-noise intensity (see :func:`constant_velocity`).
-    noise : {"continuous", "discrete"}, optional
-        The process-noise model (see :func:`constant_velocity`).
-
-    Returns
-    -------
-    TrackEstimate
-        :math:`F(\delta)\hat{\mathbf x}` and :math:`F(\delta)PF(\delta)^\mathsf T + Q(\delta)`.
-
-    Raises
-    ------
-    ValueError
-        If the state dimension is not 2, 4 or 6, `P` is not symmetric positive
-        definite, `dt` or `q` is negative, or the shapes do not broadcast.
-    TypeError
-        If an argument is not numeric.
-
-    Notes
-    -----
-    .. math::
-
-        \hat{\mathbf x}(t+\delta) = F(\delta)\hat{\mathbf x}(t), \qquad
-        P(t+\delta) = F(\delta)P(t)F(\delta)^\mathsf T + Q(\delta).
-
-    The added :math:`Q(\delta)` is the uncertainty of the motion between the two
-    instants; without it a predicted track would be over-confident.
-
-    References
-    ----------
-    Bar-Shalom, Li & Kirubarajan (2001), sec. 5.2.3 (prediction).
-
-    Examples
-    --------
-    >>> r = predict([0.0, 1.0], np.eye(2), 2.0, 0.0)
-    >>> r.estimate, r.covariance
-    (array([2., 1.]), array([[5., 2.],
-           [2., 1.]]))
-    """
-    x = as_float_array(x, "x", ndim_min=1)
-    n = x.shape[-1]
-    if n not in (2, 4, 6):
-        raise ValueError(f"`x` must hold [positions, velocities] of 1, 2 or 3 coordinates "
-                         f"(last axis 2, 4 or 6); received shape {x.shape}")
-    P = as_covariance(P, "P", dim=n)
-    model = constant_velocity(dt, q, dim=n // 2, noise=noise)
-    try:
-        lead = np.broadcast_shapes(x.shape[:-1], P.shape[:-2],
-                                   model.F.shape[:-2])
-    except ValueError:
-        raise ValueError(
-            "`x`, `P`, `dt`, `q` must have broadcasting batch shapes; "
-            f"received {x.shape}, {P.shape}, {np.shape(dt)}, "
-            f"{np.shape(q)}") from None
-    check_size(int(np.prod(lead, dtype=object)) * n * n, MAX_BATCH,
-               what="batch elements × state entries",
-               alternative="several calls on slices")
-    with np.errstate(over="ignore", invalid="ignore"):
-        # F x, F P Fᵀ + Q
-        estimate, covariance = predict_kernel(x, P, dt, q, noise)
-    check_prediction(estimate, covariance, dt, q)
-    return TrackEstimate(np.broadcast_to(estimate, (*lead, n)).copy(),
-                         np.broadcast_to(covariance, (*lead, n, n)).copy())
 
 
 # --------------------------------------------------------------------------- cross-covariance
