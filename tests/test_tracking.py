@@ -266,3 +266,55 @@ def test_relinking_keeps_the_identity_through_a_hard_turn():
         TrackerSettings(p_relink=0.0)
     with pytest.raises(TypeError, match="`relink`"):
         TrackerSettings(relink="yes")
+
+
+def _straight(t, sigma_scale=1.0, seed=5):
+    """One aircraft flying straight at 220 m/s, reports at `t` with noise SIGMA."""
+    rng = np.random.default_rng(seed)
+    p = np.c_[220.0 * t, np.zeros(t.size), np.full(t.size, 9000.0)]
+    return p + sigma_scale * SIGMA * rng.standard_normal((t.size, 3))
+
+
+def test_relinking_bridges_a_gap_longer_than_the_deletion():
+    """20 s without a report of the aircraft from any of three radars (their scans still
+    happen, each with a far false report): the misses delete the track, a new one confirms
+    after the gap and takes the deleted track's identity, lost less than max_coast before."""
+    k = np.arange(90)
+    t, radar, scan = k * 1.0, k % 3, k // 3
+    seen = (t < 30.0) | (t >= 50.0)
+    z = _straight(t)
+    far = np.c_[np.full(t.size, -4e4), np.full(t.size, 4e4), np.full(t.size, 5000.0)]
+    tt, zz = np.r_[t[seen], t], np.r_[z[seen], far]
+    R = np.broadcast_to(np.diag(SIGMA**2), (tt.size, 3, 3))
+    args = (tt, zz, R, np.r_[radar[seen], radar], np.r_[scan[seen], scan])
+
+    def ids(h):
+        on = h.confirmed & (np.abs(h.state[:, 1]) < 1e4)
+        return np.unique(h.track[on]), h.time[on].max()
+
+    broken = track_reports(*args, settings=TrackerSettings(alpha=0.01, relink=False))
+    kept = track_reports(*args, settings=TrackerSettings(alpha=0.01))
+    assert ids(broken)[0].size == 2
+    assert ids(kept)[0].size == 1 and ids(kept)[1] == t.max()
+    # the same gap beyond max_coast: the old track is forgotten, the identity is new
+    late = track_reports(*args, settings=TrackerSettings(alpha=0.01, max_coast=15.0))
+    assert ids(late)[0].size == 2
+
+
+def test_a_duplicate_of_a_confirmed_track_is_not_confirmed():
+    """One of two radars reports the aircraft 600 m off its line at two instants (a
+    glitch): its reports leave the track's gate and start a track of their own, confirmed
+    while the old track keeps the other radar's reports. Inside the relinking gate of a
+    track still updated after it began, it is a duplicate and is deleted instead."""
+    t = np.repeat(np.arange(30) * 2.0, 2)
+    radar = np.tile([0, 1], 30)
+    z = _straight(t, sigma_scale=0.3)
+    glitch = ((t == 30.0) | (t == 32.0)) & (radar == 0)
+    z[glitch, 1] += 600.0
+    R = np.broadcast_to(np.diag(SIGMA**2), (t.size, 3, 3))
+    args = (t, z, R, radar, np.arange(t.size) // 2)
+    plain = track_reports(*args, settings=TrackerSettings(alpha=0.01, relink=False))
+    kept = track_reports(*args, settings=TrackerSettings(alpha=0.01))
+    assert np.unique(plain.track[plain.confirmed]).size == 2
+    assert np.unique(kept.track[kept.confirmed]).size == 1
+    assert kept.time[kept.confirmed].max() == t.max()

@@ -192,10 +192,13 @@ def track_reports(time, position, covariance, radar, scan, *,
     that same width below its peak. With ``"m_of_n"`` a track is confirmed when `m` of its
     last `n` scored scans were hits, and deleted (tentative) when it can no longer be or
     (confirmed) after `n` scored misses in a row. Any track is deleted after `max_coast`
-    seconds without a hit.
+    seconds without a hit. With `settings.relink`, a track about to be confirmed that
+    duplicates a confirmed track is deleted, and a newly confirmed track may continue the
+    identity of one that lost its reports (see :class:`TrackerSettings`).
 
-    The memory is bounded by the live tracks: a deleted tentative track's rows are
-    forgotten, a confirmed track's rows are written out as they come.
+    The memory is bounded by the live tracks and those lost within `max_coast`: a deleted
+    tentative track's rows are forgotten, a confirmed track's rows are written out as they
+    come.
 
     Examples
     --------
@@ -236,6 +239,9 @@ class _Tracker:
         self.mask = (1 << s.n) - 1
         self.alias: dict[int, int] = {}
         self.gamma_relink = float(gating.gate_threshold(s.p_relink, 3))
+        # confirmed tracks lost within max_coast, for relinking: ids, x, P, t, t_hit
+        self.lost = (np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros((0, 6, 6)),
+                     np.zeros(0), np.zeros(0))
 
     # ------------------------------------------------------------------ gate
     def _gate(self, z, R):
@@ -361,33 +367,83 @@ class _Tracker:
                 lv.confirmed & (window >= st.n) & (ones == 0))
         drop |= (t - lv.t_hit) > st.max_coast
         promote &= ~drop
+        if st.relink and promote.any():
+            dup = self._duplicates(promote)
+            promote &= ~dup
+            drop |= dup
         lv.confirmed |= promote
         lv.peak = np.where(lv.confirmed, np.maximum(lv.peak, lv.score), lv.score)
         rec = hit & ~drop
         self.rows.add(lv.ids[rec], t, lv.x[rec], lv.P[rec], lv.confirmed[rec])
         self.rows.settle(lv.ids[promote], lv.ids[drop & ~lv.confirmed])
-        if self.s.relink and promote.any():
-            self._relink(promote, drop)
+        if self.s.relink:
+            merged = self._relink(t, promote, drop) if promote.any() else []
+            lost = drop & lv.confirmed
+            lost[merged] = False
+            self._lose(t, lost)
         lv.keep(~drop)
 
-    def _relink(self, promote, drop):
+    def _duplicates(self, promote):
+        """Tracks about to be confirmed inside the relinking gate of a confirmed track that
+        was still updated after they began: duplicates of its aircraft."""
+        lv = self.live
+        new = np.flatnonzero(promote)
+        old = np.flatnonzero(lv.confirmed)
+        dup = np.zeros(lv.ids.size, bool)
+        if not old.size:
+            return dup
+        kappa = np.atleast_2d(mahalanobis_sq_pairwise(lv.x[new, :3], lv.x[old, :3],
+                                                      lv.P[new, :3, :3], lv.P[old, :3, :3]))
+        alive = lv.t_hit[old][None, :] >= lv.born[new][:, None]
+        dup[new] = ((kappa < self.gamma_relink) & alive).any(axis=1)
+        return dup
+
+    def _lose(self, t, lost):
+        """Keep the confirmed tracks deleted now, and forget those lost over `max_coast` ago."""
+        lv = self.live
+        ids, x, P, tt, th = self.lost
+        keep = (t - th) <= self.s.max_coast
+        self.lost = (np.concatenate([ids[keep], lv.ids[lost]]),
+                     np.concatenate([x[keep], lv.x[lost]]),
+                     np.concatenate([P[keep], lv.P[lost]]),
+                     np.concatenate([tt[keep], lv.t[lost]]),
+                     np.concatenate([th[keep], lv.t_hit[lost]]))
+
+    def _relink(self, t, promote, drop):
         """A newly confirmed track continues a confirmed one that lost its reports before it
-        began, if their positions pass the gate: it takes that track's identity."""
+        began, live or deleted within `max_coast`, if their positions pass the gate: it takes
+        that track's identity. Returns the live tracks so merged."""
         lv = self.live
         new = np.flatnonzero(promote)
         old = np.flatnonzero(lv.confirmed & ~promote)
-        if not old.size:
-            return
-        kappa = mahalanobis_sq_pairwise(lv.x[new, :3], lv.x[old, :3], lv.P[new, :3, :3],
-                                        lv.P[old, :3, :3])
-        before = lv.t_hit[old][None, :] < lv.born[new][:, None]
+        ids, x, P, tt, th = self.lost
+        fresh = (t - th) <= self.s.max_coast
+        xl, Pl = predict_kernel(x[fresh], P[fresh], t - tt[fresh], self.s.q)
+        cand_x = np.concatenate([lv.x[old, :3], xl[:, :3]])
+        if not cand_x.shape[0]:
+            return []
+        cand_P = np.concatenate([lv.P[old, :3, :3], Pl[:, :3, :3]])
+        cand_hit = np.concatenate([lv.t_hit[old], th[fresh]])
+        cand_id = np.concatenate([lv.ids[old], ids[fresh]])
+        kappa = mahalanobis_sq_pairwise(lv.x[new, :3], cand_x, lv.P[new, :3, :3], cand_P)
+        before = cand_hit[None, :] < lv.born[new][:, None]
         link = assignment.solve_2d(np.where(before, np.atleast_2d(kappa), np.inf),
                                    threshold=self.gamma_relink).row_to_col
+        merged, gone = [], []
         for i, j in zip(new, link, strict=True):
             if j >= 0:
-                self.alias[int(lv.ids[i])] = int(lv.ids[old[j]])
-                lv.ids[i] = lv.ids[old[j]]
-                drop[old[j]] = True
+                self.alias[int(lv.ids[i])] = int(cand_id[j])
+                lv.ids[i] = cand_id[j]
+                if j < old.size:
+                    drop[old[j]] = True
+                    merged.append(old[j])
+                else:
+                    gone.append(np.flatnonzero(fresh)[j - old.size])
+        if gone:
+            keep = np.ones(ids.size, bool)
+            keep[gone] = False
+            self.lost = tuple(a[keep] for a in self.lost)
+        return merged
 
     def _start(self, t, r, s, z, R):
         n = z.shape[0]

@@ -62,10 +62,14 @@ class TrackerSettings:
         reported the track within its last `miss_scans` scans (default 3, ≥ 1): a radar
         that stops seeing an aircraft (coverage, terrain) stops scoring it.
     relink : bool
-        A newly confirmed track whose position passes the relinking gate of a confirmed
-        track that lost its reports before the new one began continues that track's
-        identity (default True, tuned on the tuning hour): a manoeuvre that breaks the
-        track does not break the identity.
+        Keep one identity per aircraft (default True, tuned on the tuning hour). A newly
+        confirmed track whose position passes the relinking gate of a confirmed track
+        that lost its reports before the new one began (still live, or deleted less than
+        `max_coast` seconds ago, predicted to the instant) continues that track's
+        identity: a manoeuvre or a gap in the reports that breaks the track does not break
+        the identity. A track about to be confirmed inside the relinking gate of a
+        confirmed track still updated after it began is a duplicate of that aircraft
+        (reports of one radar off the line, for one or two scans) and is deleted instead.
     p_relink : float
         The relinking gate: :math:`P_{lo}` of the :math:`\chi^2_3` gate on the two tracks'
         positions (default 1e-20, tuned on the tuning hour; :math:`d^2 < 96`: wider than
