@@ -36,14 +36,12 @@ from ..engine._validation import (
 )
 from ..engine.geodesy import _enu_rotation
 from .radars import (
-    _CLUTTER_ALT,
-    _FEATURE_SPAN,
     MIN_REGISTRATION_GROUPS,
     Radar,
+    _draw_scans,
     _limit_false_reports,
     _polar,
     _radars_iv,
-    _wrap,
     simulate_reports,
 )
 from .traffic import ORIGIN, Traffic, truth_at, truth_scans
@@ -210,31 +208,16 @@ def _realistic(traffic, radars, start, duration, gen):
         pos, valid = truth_at(traffic, times)
         speed = _speed_at(traffic, times, valid)
         a_idx, s_idx = np.nonzero(valid)
-        A, site = _rotation(rad), rad.enu
-        local = (pos[a_idx, s_idx] - site) @ A.T
-        r, beta, eps = _polar(local)
-        cover = (r <= rad.max_range) & (eps >= rad.min_elevation)
-        det = cover & (gen.random(r.size) < rad.p_detect)
-        rb, bb = registration.apply_biases(r[det], beta[det], rad.biases)
-        n_false = gen.poisson(rad.clutter_rate, size=S)
-        nf = _limit_false_reports(i, int(n_false.sum()), S)
-        rho = rad.max_range * np.sqrt(gen.random(nf))
-        phi = gen.uniform(-np.pi, np.pi, nf)
-        z = gen.uniform(*_CLUTTER_ALT, nf) - rad.height
-        fr, fb, fe = _polar(np.stack([rho * np.cos(phi), rho * np.sin(phi), z], -1))
-        n = int(det.sum())
-        noise = gen.standard_normal((n + nf, 4))
-        cols["polar"].append(np.stack([
-            np.abs(np.concatenate([rb, fr]) + rad.sigma_r * noise[:, 0]),
-            _wrap(np.concatenate([bb, fb]) + rad.sigma_beta * noise[:, 1]),
-            np.concatenate([eps[det], fe]) + rad.sigma_epsilon * noise[:, 2]], axis=-1))
-        feat = np.concatenate([speed[a_idx[det], s_idx[det]], gen.uniform(*_FEATURE_SPAN, nf)])
-        cols["feature"].append(feat + rad.sigma_feature * noise[:, 3])
-        sidx = np.concatenate([s_idx[det], np.repeat(np.arange(S), n_false)])
+        local = (pos[a_idx, s_idx] - rad.enu) @ _rotation(rad).T
+        d = _draw_scans(i, rad, *_polar(local), speed[a_idx, s_idx], S, rad.height, gen)
+        n, nf = d.n_detected, d.r.size - d.n_detected
+        cols["polar"].append(np.stack([d.r, d.beta, d.epsilon], axis=-1))
+        cols["feature"].append(d.feature)
+        sidx = np.concatenate([s_idx[d.detected], np.repeat(np.arange(S), d.n_false)])
         cols["time"].append(times[sidx])
         cols["scan"].append(k[sidx])
         cols["radar"].append(np.full(n + nf, i))
-        cols["aircraft"].append(np.concatenate([a_idx[det], np.full(nf, -1)]))
+        cols["aircraft"].append(np.concatenate([a_idx[d.detected], np.full(nf, -1)]))
         cols["sigma"].append(np.tile([rad.sigma_r, rad.sigma_beta, rad.sigma_epsilon],
                                      (n + nf, 1)))
     out = {key: np.concatenate(v) for key, v in cols.items()}

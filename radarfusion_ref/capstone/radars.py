@@ -379,6 +379,50 @@ def _wrap(a):
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
+@dataclass(frozen=True)
+class _Drawn:
+    """One radar's reports over a batch of scans: its detections first, then its clutter."""
+
+    detected: np.ndarray        # (n_truth,) bool: which truth rows gave a report
+    n_false: np.ndarray         # (S,) int: false reports per scan, in scan order
+    r: np.ndarray               # (n + nf,) measured range (m)
+    beta: np.ndarray            # (n + nf,) measured azimuth (rad)
+    epsilon: np.ndarray         # (n + nf,) measured elevation (rad)
+    feature: np.ndarray         # (n + nf,) measured speed feature (kt)
+
+    @property
+    def n_detected(self) -> int:
+        return int(self.detected.sum())
+
+
+def _draw_scans(i, rad, r, beta, eps, speed, S, site_up, gen) -> _Drawn:
+    """The one home of a radar's detection, clutter and noise draw (trusted input).
+
+    `r`, `beta`, `eps`: the true polar coordinates of the truth rows in the radar's frame;
+    `speed`: their ground speeds (kt); `S`: the scans of the batch; `site_up`: the site's
+    height in the frame the clutter altitudes are placed in. The draws, in this order:
+    detection, clutter counts, clutter positions, the noise of every report, the clutter's
+    speed features (both modes of the capstone's simulation share this stream).
+    """
+    cover = (r <= rad.max_range) & (eps >= rad.min_elevation)
+    det = cover & (gen.random(r.size) < rad.p_detect)
+    rb, bb = registration.apply_biases(r[det], beta[det], rad.biases)
+    n_false = gen.poisson(rad.clutter_rate, size=S)
+    nf = _limit_false_reports(i, int(n_false.sum()), S)
+    rho = rad.max_range * np.sqrt(gen.random(nf))
+    phi = gen.uniform(-np.pi, np.pi, nf)
+    z = gen.uniform(*_CLUTTER_ALT, nf) - site_up
+    fr, fb, fe = _polar(np.stack([rho * np.cos(phi), rho * np.sin(phi), z], -1))
+    n = int(det.sum())
+    noise = gen.standard_normal((n + nf, 4))
+    feat = np.concatenate([speed[det], gen.uniform(*_FEATURE_SPAN, nf)])
+    return _Drawn(det, n_false,
+                  np.abs(np.concatenate([rb, fr]) + rad.sigma_r * noise[:, 0]),
+                  _wrap(np.concatenate([bb, fb]) + rad.sigma_beta * noise[:, 1]),
+                  np.concatenate([eps[det], fe]) + rad.sigma_epsilon * noise[:, 2],
+                  feat + rad.sigma_feature * noise[:, 3])
+
+
 def simulate_reports(truth, radars, *, rng=None) -> Reports:
     r"""Reports of the radars at every scan: detections with noise and biases, and clutter.
 
@@ -437,29 +481,16 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
     cols = {k: [] for k in ("scan", "radar", "r", "beta", "epsilon", "feature", "source")}
     for i, rad in enumerate(radars):
         site = rad.enu
-        r, beta, eps = _polar(truth.position - site)
-        cover = (r <= rad.max_range) & (eps >= rad.min_elevation)
-        det = cover & (gen.random(r.size) < rad.p_detect)
-        rb, bb = registration.apply_biases(r[det], beta[det], rad.biases)
-        n_false = gen.poisson(rad.clutter_rate, size=S)
-        nf = _limit_false_reports(i, int(n_false.sum()), S)
-        rho = rad.max_range * np.sqrt(gen.random(nf))
-        phi = gen.uniform(-np.pi, np.pi, nf)
-        z = gen.uniform(*_CLUTTER_ALT, nf) - site[2]
-        fr, fb, fe = _polar(np.stack([rho * np.cos(phi), rho * np.sin(phi), z], -1))
-        n = int(det.sum())
-        r_all = np.concatenate([rb, fr])
-        b_all = np.concatenate([bb, fb])
-        e_all = np.concatenate([eps[det], fe])
-        noise = gen.standard_normal((n + nf, 4))
-        cols["r"].append(np.abs(r_all + rad.sigma_r * noise[:, 0]))
-        cols["beta"].append(_wrap(b_all + rad.sigma_beta * noise[:, 1]))
-        cols["epsilon"].append(e_all + rad.sigma_epsilon * noise[:, 2])
-        feat = np.concatenate([truth.speed[det], gen.uniform(*_FEATURE_SPAN, nf)])
-        cols["feature"].append(feat + rad.sigma_feature * noise[:, 3])
-        cols["scan"].append(np.concatenate([truth.scan[det], np.repeat(np.arange(S), n_false)]))
-        cols["radar"].append(np.full(n + nf, i))
-        cols["source"].append(np.concatenate([truth.aircraft[det], np.full(nf, -1)]))
+        d = _draw_scans(i, rad, *_polar(truth.position - site), truth.speed, S, site[2], gen)
+        cols["r"].append(d.r)
+        cols["beta"].append(d.beta)
+        cols["epsilon"].append(d.epsilon)
+        cols["feature"].append(d.feature)
+        cols["scan"].append(np.concatenate([truth.scan[d.detected],
+                                            np.repeat(np.arange(S), d.n_false)]))
+        cols["radar"].append(np.full(d.r.size, i))
+        cols["source"].append(np.concatenate([truth.aircraft[d.detected],
+                                              np.full(d.r.size - d.n_detected, -1)]))
     out = {k: np.concatenate(v) for k, v in cols.items()}
     order = np.lexsort((out["source"] < 0, out["radar"], out["scan"]))
     return Reports(**{k: v[order] for k, v in out.items()}, n_scans=S)
