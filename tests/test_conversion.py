@@ -21,6 +21,7 @@ from scipy import integrate
 
 from radarfusion_ref import conversion as cv
 from radarfusion_ref.engine.errors import RadarFusionWarning
+from radarfusion_ref.engine.geometry import SIGMA_BETA_MAX
 
 ALL = (*cv.METHODS, "measurement_conditioned")     # every method that needs no prior
 
@@ -63,7 +64,7 @@ def _sympy_route():
 def _rand_inputs(seed, n=25):
     g = np.random.default_rng(seed)
     return (g.uniform(1, 300, n), g.uniform(-np.pi, np.pi, n), g.uniform(0.01, 2, n),
-            g.uniform(1e-3, cv.SIGMA_BETA_MAX, n))
+            g.uniform(1e-3, SIGMA_BETA_MAX, n))
 
 
 def test_sympy_characteristic_function():
@@ -193,7 +194,7 @@ def test_singular_covariance_warns():
 # --------------------------------------------------------------------------- properties
 finite = dict(allow_nan=False, allow_infinity=False)
 polar = st.tuples(st.floats(0.5, 500, **finite), st.floats(-7, 7, **finite),
-                  st.floats(0.01, 5, **finite), st.floats(1e-3, cv.SIGMA_BETA_MAX, **finite))
+                  st.floats(0.01, 5, **finite), st.floats(1e-3, SIGMA_BETA_MAX, **finite))
 
 
 @settings(max_examples=40, deadline=None)
@@ -625,7 +626,7 @@ def test_gain_and_principal_variances_closed_forms():
     """E cos w = exp(-s/2) (w ~ N(0, s)): the multiplicative gain undoes it exactly, the
     measurement-conditioned one applies it once more; the linearized covariance is the
     Jacobian's, diag(sigma_r^2, r^2 sigma_beta^2) in the line-of-sight frame."""
-    sb = np.array([1e-4, 0.01, 0.3, cv.SIGMA_BETA_MAX])
+    sb = np.array([1e-4, 0.01, 0.3, SIGMA_BETA_MAX])
     q = np.exp(-sb**2 / 2)
     np.testing.assert_allclose(cv.conversion_gain(sb, method="multiplicative") * q, 1.0,
                                rtol=1e-15)
@@ -655,10 +656,10 @@ def test_gain_and_principal_variances_closed_forms():
 def test_sigma_beta_max_is_one_documented_value():
     """0.5 rad: the fold-over probability P(|w| > 90°) is below 2e-3 there (4.6 % at π/4)."""
     from scipy import stats
-    assert cv.SIGMA_BETA_MAX == 0.5
-    assert 2 * stats.norm.sf(np.pi / 2 / cv.SIGMA_BETA_MAX) < 2e-3
+    assert SIGMA_BETA_MAX == 0.5
+    assert 2 * stats.norm.sf(np.pi / 2 / SIGMA_BETA_MAX) < 2e-3
     assert 2 * stats.norm.sf(2.0) > 0.04                      # at π/4
-    cv.polar_to_cartesian(100.0, 0.0, 0.1, cv.SIGMA_BETA_MAX)  # the limit itself is accepted
+    cv.polar_to_cartesian(100.0, 0.0, 0.1, SIGMA_BETA_MAX)  # the limit itself is accepted
     for f in (lambda sb: cv.polar_to_cartesian(100.0, 0.0, 0.1, sb),
               lambda sb: cv.conversion_bias(100.0, 0.0, sb),
               lambda sb: cv.nonlinearity_index(100.0, 0.1, sb),
@@ -666,7 +667,7 @@ def test_sigma_beta_max_is_one_documented_value():
               lambda sb: cv.draw_polar(100.0, 0.0, 0.1, sb, trials=2, rng=1),
               lambda sb: cv.conversion_monte_carlo(100.0, 0.0, 0.1, sb, trials=2, rng=1)):
         with pytest.raises(ValueError, match=r"`sigma_beta`.*SIGMA_BETA_MAX"):
-            f(np.nextafter(cv.SIGMA_BETA_MAX, 1.0))
+            f(np.nextafter(SIGMA_BETA_MAX, 1.0))
 
 
 # --------------------------------------------------------------------------- extreme values vs mpmath
@@ -709,7 +710,7 @@ def _mp_bias_factor(method, sb):
 
 log_r = st.floats(-100, 170, **finite)
 log_ratio = st.floats(-12, 3, **finite)        # σr / r
-log_sb = st.floats(-12, math.log10(cv.SIGMA_BETA_MAX), **finite)
+log_sb = st.floats(-12, math.log10(SIGMA_BETA_MAX), **finite)
 
 
 @given(log_r, log_ratio, log_sb, st.sampled_from(ALL))
@@ -867,7 +868,7 @@ def test_monte_carlo_nees_equals_the_generic_nees():
 
 # --------------------------------------------------------------------------- properties of every public function
 pol = st.tuples(st.floats(1.0, 1e4, **finite), st.floats(-10, 10, **finite),
-                st.floats(1e-3, 10, **finite), st.floats(1e-4, cv.SIGMA_BETA_MAX, **finite))
+                st.floats(1e-3, 10, **finite), st.floats(1e-4, SIGMA_BETA_MAX, **finite))
 
 
 @given(pol, st.sampled_from(ALL))
@@ -1175,8 +1176,8 @@ def test_3d_bad_input():
 
 @settings(max_examples=15)
 @given(st.floats(1.0, 1e4, **finite), st.floats(-10, 10, **finite), st.floats(-1.5, 1.5, **finite),
-       st.floats(1e-3, 10, **finite), st.floats(1e-4, cv.SIGMA_BETA_MAX, **finite),
-       st.floats(1e-4, cv.SIGMA_BETA_MAX, **finite), st.sampled_from(cv.METHODS_3D))
+       st.floats(1e-3, 10, **finite), st.floats(1e-4, SIGMA_BETA_MAX, **finite),
+       st.floats(1e-4, SIGMA_BETA_MAX, **finite), st.sampled_from(cv.METHODS_3D))
 def test_3d_properties(r, b, e, sr, sb, se, method):
     with warnings_ignored():
         out = cv.spherical_to_cartesian(r, b, e, sr, sb, se, method=method)

@@ -242,6 +242,25 @@ def test_no_chapter_module_offers_a_scene_under_its_own_name():
     assert not offered, offered
 
 
+def test_no_chapter_module_offers_a_geometry_name_under_its_own_name():
+    """The geometry's names (the two-radar layout, the trial limits, the one limit on an
+    angle's standard deviation) have one home, the engine's: no chapter module lists them."""
+    import importlib
+    import pkgutil
+
+    import radarfusion_ref
+    assert {"SIGMA_BETA_MAX", "Geometry", "radar2_position", "polar_from",
+            "BLOCK_TRIALS", "MAX_TRIALS"} <= set(geometry.__all__)
+    chapters = [importlib.import_module(f"radarfusion_ref.{m.name}")
+                for m in pkgutil.iter_modules(radarfusion_ref.__path__)
+                if m.name not in ("engine", "kit")]
+    assert {"conversion", "separated", "registration"} <= {m.__name__.rsplit(".", 1)[-1]
+                                                          for m in chapters}
+    offered = [(m.__name__, name) for m in chapters for name in getattr(m, "__all__", ())
+               if name in geometry.__all__]
+    assert not offered, offered
+
+
 # ================================================================ statistics
 def test_two_radar_errors_by_monte_carlo():
     sc = two_radar_scene(3, spacing=2.0, sigma1=0.3, sigma2=0.7, trials=20_000, dim=2, rng=5)

@@ -443,8 +443,8 @@ def test_pair_statistic_refuses_non_symmetric_and_negative_definite_covariances(
         sep.pair_statistic([[0.0, 0.0]], nonsym, [[1.0, 0.0]], eye)
 
 
-def test_sigma_beta_limit_is_the_conversion_modules():
-    lim = conversion.SIGMA_BETA_MAX
+def test_sigma_beta_limit_is_the_engines_one_limit():
+    lim = geometry.SIGMA_BETA_MAX
     rep = scenes.polar_scene(GEO, sigma_r=0.1, sigma_beta=lim, trials=2, rng=0)
     assert rep.sigma_beta == lim
     with pytest.raises(ValueError, match="SIGMA_BETA_MAX"):

@@ -90,11 +90,11 @@ its eigenvectors point along range (variance :math:`a + b`) and across range
 * 3-D (:func:`spherical_to_cartesian`, :func:`spherical_moments`, :func:`draw_spherical`,
   :func:`spherical_monte_carlo`).
 
-The limit :data:`SIGMA_BETA_MAX` on an angle's standard deviation is the engine's
-(:mod:`radarfusion_ref.engine.geometry`), checked there for every function that takes one.
+The limit :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX` on an angle's standard
+deviation is the engine's, checked there for every function that takes one; import it from
+:mod:`radarfusion_ref.engine.geometry` (it is not one of this chapter's names).
 """
 
-from ..engine.geometry import SIGMA_BETA_MAX
 from ._consistency import (
     ConversionTrials,
     conversion_monte_carlo,
@@ -135,7 +135,6 @@ __all__ = [
     "METHODS",
     "METHODS_3D",
     "MIN_RANGE_OVER_SIGMA",
-    "SIGMA_BETA_MAX",
     "ConversionMoments",
     "ConversionTrials",
     "ConvertedMeasurement",

@@ -132,8 +132,8 @@ def conversion_gain(sigma_beta, *, method: str = "linearized"):
     Parameters
     ----------
     sigma_beta : array_like
-        Azimuth error standard deviation in radians, ``0 <= sigma_beta <=
-        SIGMA_BETA_MAX``.
+        Azimuth error standard deviation in radians, from 0 up to
+        :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`.
     method : str
         One of :data:`ALL_METHODS` (keyword-only).
 
@@ -148,7 +148,7 @@ def conversion_gain(sigma_beta, *, method: str = "linearized"):
     Raises
     ------
     ValueError
-        `sigma_beta` negative or above :data:`SIGMA_BETA_MAX`, or an unknown `method`.
+        `sigma_beta` negative or above that limit, or an unknown `method`.
 
     Examples
     --------
@@ -215,10 +215,9 @@ def principal_variances(r, sigma_r, sigma_beta, *,
     r : array_like
         Measured range :math:`\hat r \ge 0`, at most 1e150 (:func:`polar_to_cartesian`
         scales larger ones by powers of two).
-    sigma_r : array_like
-        Range error standard deviation :math:`\ge 0`, at most 1e150.
-    sigma_beta : array_like
-        Azimuth error standard deviation in radians, at most :data:`SIGMA_BETA_MAX`.
+    sigma_r, sigma_beta : array_like
+        Range and azimuth error standard deviations, :math:`\ge 0`: at most 1e150
+        and at most :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX` (radians).
     method : str
         One of :data:`ALL_METHODS` but ``"decorrelated"`` (keyword-only).
 
@@ -398,10 +397,9 @@ def decorrelated_variances(mean_sq_range, sigma_r, sigma_beta,
     ----------
     mean_sq_range : array_like
         :math:`\overline{r^2} = r_p^2 + \sigma_{rp}^2`, the mean squared range over the prior.
-    sigma_r : array_like
-        Range error standard deviation :math:`\ge 0`, at most 1e150.
-    sigma_beta : array_like
-        Azimuth error standard deviation in radians, at most :data:`SIGMA_BETA_MAX`.
+    sigma_r, sigma_beta : array_like
+        Range and azimuth error standard deviations, :math:`\ge 0`: at most 1e150
+        and at most :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX` (radians).
     prior_azimuth_var : array_like
         :math:`s_p = \sigma_{\beta p}^2`, the prior's azimuth variance (rad², :math:`\ge 0`).
 
@@ -414,7 +412,7 @@ def decorrelated_variances(mean_sq_range, sigma_r, sigma_beta,
     ------
     ValueError
         A negative argument, a `sigma_r` above 1e150 or a `sigma_beta` above
-        :data:`SIGMA_BETA_MAX`.
+        :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`.
 
     Examples
     --------
@@ -488,7 +486,8 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
         Range error standard deviation :math:`\sigma_r \ge 0` (unit of `r`).
     sigma_beta : array_like
         Azimuth error standard deviation :math:`\sigma_\beta` in radians,
-        :math:`0 \le \sigma_\beta \le` :data:`SIGMA_BETA_MAX` (0.5 rad).
+        :math:`0 \le \sigma_\beta \le`
+        :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX` (0.5 rad).
     method : str
         The conversion (keyword-only), one of :data:`ALL_METHODS`: ``"linearized"``,
         ``"additive"``, ``"multiplicative"``, ``"first_order"``, ``"first_order_printed"``,
@@ -511,7 +510,8 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     ------
     ValueError
         Negative `r`, `sigma_r` or `sigma_beta`; `sigma_beta` above
-        :data:`SIGMA_BETA_MAX`; non-finite input; shapes that do not broadcast;
+        :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`;
+        non-finite input; shapes that do not broadcast;
         unknown `method`; a broadcast batch above :data:`MAX_BATCH` (refused
         before allocation); a position or variance beyond the float range
         (about 1.8e308, or below 5e-324: express `r` and `sigma_r` in another
@@ -576,7 +576,8 @@ def polar_to_cartesian(r, beta, sigma_r, sigma_beta, *, method: str = "linearize
     :math:`O(\sigma_\beta^4)` terms, the linearized form assumes the error is
     small, and beyond a few tenths of a radian the converted error is a
     crescent that no 2×2 covariance summarises. The package refuses
-    :math:`\sigma_\beta >` :data:`SIGMA_BETA_MAX` = 0.5 rad (≈ 28.6°), which also
+    :math:`\sigma_\beta >` :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`
+    = 0.5 rad (≈ 28.6°), which also
     catches azimuths passed in degrees by mistake.
 
     References
@@ -751,7 +752,8 @@ def nonlinearity_index(r, sigma_r, sigma_beta) -> np.ndarray:
     sigma_r : array_like
         Range error standard deviation, > 0.
     sigma_beta : array_like
-        Azimuth error standard deviation in radians (≤ :data:`SIGMA_BETA_MAX`).
+        Azimuth error standard deviation in radians (at most
+        :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`).
 
     Returns
     -------

@@ -135,7 +135,7 @@ def spherical_covariance(r, beta, epsilon, sigma_r, sigma_beta,
         larger ones), azimuth and elevation (radians).
     sigma_r, sigma_beta, sigma_epsilon : array_like
         Error standard deviations (:math:`\sigma_r` at most 1e150, the angles' at most
-        :data:`SIGMA_BETA_MAX`).
+        :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`).
     method : str
         One of :data:`METHODS_3D` (keyword-only).
 
@@ -239,7 +239,8 @@ def spherical_to_cartesian(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon,
         Measured elevation :math:`\hat\varepsilon` in radians, up from the x–y plane.
     sigma_r, sigma_beta, sigma_epsilon : array_like
         Error standard deviations (≥ 0; the angular ones in radians, at most
-        :data:`SIGMA_BETA_MAX`). The errors are independent and Gaussian.
+        :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`).
+        The errors are independent and Gaussian.
     method : str
         One of :data:`METHODS_3D` (keyword-only): ``"linearized"``, ``"additive"``,
         ``"multiplicative"``, ``"measurement_conditioned"``.
@@ -255,7 +256,8 @@ def spherical_to_cartesian(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon,
     ------
     ValueError
         As :func:`polar_to_cartesian` (negative `r` or deviations, angular deviations
-        above :data:`SIGMA_BETA_MAX`, non-finite input, shapes that do not broadcast,
+        above :data:`~radarfusion_ref.engine.geometry.SIGMA_BETA_MAX`,
+        non-finite input, shapes that do not broadcast,
         unknown `method`, batches above :data:`MAX_BATCH`, overflow).
     TypeError
         Non-numeric input.
