@@ -281,6 +281,38 @@ def test_coverage_count(short):
         cp.coverage_count(truth.position, radars[0])
 
 
+def test_as_radars_is_the_door_check_of_every_radars_argument():
+    radars = cp.default_radars()
+    assert cp.as_radars(list(radars)) == radars
+    late = dataclasses.replace(radars[1], phase=radars[1].period)
+    blind = dataclasses.replace(radars[2], p_detect=0.0)
+    cases = [((radars[0], late), ValueError, r"`radars\[1\]\.phase`"),
+             ((radars[0], blind), ValueError, r"p_detect in \(0, 1\]"),
+             (radars[:1], ValueError, "at least two radars; received 1"),
+             (radars[0], TypeError, "`radars` must be a list or tuple of Radar")]
+    for bad, kind, match in cases:
+        with pytest.raises(kind, match=match):
+            cp.as_radars(bad)
+        # every function taking radars refuses them alike, before any work
+        with pytest.raises(kind, match=match):
+            cp.coverage_count(np.zeros((1, 3)), bad)
+
+
+@pytest.mark.parametrize(("c", "p"), [(0.0, 2.0), (-1.0, 2.0), (1.0, 0.5), (np.nan, 2.0),
+                                      ([1.0, 2.0], 2.0), ("1", 2.0), (1.0, True)])
+def test_gospa_parameters_refuse_as_gospa_does(c, p):
+    with pytest.raises((ValueError, TypeError)) as ours:
+        cp.gospa_parameters(c, p)
+    with pytest.raises((ValueError, TypeError)) as engine:
+        gospa([[0.0, 0.0]], [[1.0, 0.0]], c=c, p=p)
+    assert (type(ours.value), str(ours.value)) == (type(engine.value), str(engine.value))
+
+
+def test_gospa_parameters_accept_what_gospa_accepts():
+    assert cp.gospa_parameters(np.float32(3.0), np.array(1.0)) == (3.0, 1.0)
+    assert gospa([[0.0]], [[1.0]], c=np.float32(3.0), p=np.array(1.0)).total == 1.0
+
+
 def test_simulator_statistics(traffic):
     """P_D, clutter rate and the noise variances agree with the model (Monte Carlo, CIs)."""
     truth = cp.truth_scans(traffic, duration=3600.0)

@@ -125,5 +125,6 @@ def test_the_net_covers_the_package():
     assert {"fusion", "proximity", "gating", "association", "features", "conversion",
             "separated", "grouping", "checks", "montecarlo", "scenes",
             "assignment", "registration", "trackfusion", "metrics", "linalg", "geodesy",
-            "capstone.detections", "capstone.pipeline", "capstone.traffic", "tracker",
+            "capstone.detections", "capstone.evaluation", "capstone.pipeline",
+            "capstone.radars", "capstone.traffic", "tracker",
             "tracking", "tracking.stonesoup"} <= modules

@@ -12,7 +12,8 @@ module per concept:
 * :mod:`~radarfusion_ref.capstone.radars` — three radars at stated sites
   (:data:`RADAR_SITES`, :func:`default_radars`) reporting range, azimuth, elevation and
   a speed feature, with noise, systematic biases, missed detections, clutter and
-  coverage limits (:func:`simulate_reports`);
+  coverage limits (:func:`simulate_reports`, :func:`coverage_count`; :func:`as_radars`
+  is the door check of every `radars` argument);
 * :mod:`~radarfusion_ref.capstone.detections` — the radars' reports over time
   (:func:`simulate_detections`): synchronous in the common frame (``mode="simple"``), or
   each radar at its own period and phase in its own east-north-up frame
@@ -26,7 +27,8 @@ module per concept:
   track to track (:func:`track_fusion`, with :mod:`radarfusion_ref.trackfusion`);
 * :mod:`~radarfusion_ref.capstone.evaluation` — scores against the truth
   (:func:`evaluate`, :func:`evaluate_tracks`) with the engine's metrics
-  (:mod:`radarfusion_ref.engine.metrics`: GOSPA, NEES, purity).
+  (:mod:`radarfusion_ref.engine.metrics`: GOSPA, NEES, purity); :func:`gospa_parameters`
+  checks an evaluation's GOSPA cut-off and order at GOSPA's own door.
 
 .. rubric:: References
 
@@ -45,7 +47,7 @@ from .detections import (
     simulate_detections,
     to_common,
 )
-from .evaluation import Evaluation, TrackEvaluation, evaluate, evaluate_tracks
+from .evaluation import Evaluation, TrackEvaluation, evaluate, evaluate_tracks, gospa_parameters
 from .pipeline import (
     MIN_REGISTRATION_GROUPS,
     SPEED_TYPE_MEANS,
@@ -60,6 +62,7 @@ from .radars import (
     REALISTIC_TIMING,
     Radar,
     Reports,
+    as_radars,
     coverage_count,
     default_radars,
     realistic_radars,
@@ -108,10 +111,12 @@ __all__ = [
     "TrackFusionResult",
     "Traffic",
     "TruthScans",
+    "as_radars",
     "coverage_count",
     "default_radars",
     "evaluate",
     "evaluate_tracks",
+    "gospa_parameters",
     "load_traffic",
     "local_rotation",
     "realistic_radars",

@@ -41,7 +41,7 @@ from .radars import (
     _draw_scans,
     _limit_false_reports,
     _polar,
-    _radars_iv,
+    as_radars,
     simulate_reports,
 )
 from .traffic import ORIGIN, Traffic, truth_at, truth_scans
@@ -136,7 +136,7 @@ def local_rotation(radar) -> np.ndarray:
     if not isinstance(radar, Radar):
         raise TypeError(f"`radar` must be a Radar (see realistic_radars()); received "
                         f"{_describe(radar)}")
-    return _rotation(_radars_iv((radar, radar))[0])
+    return _rotation(as_radars((radar, radar))[0])
 
 
 def _rotation(radar):
@@ -147,7 +147,7 @@ def _simulate_iv(traffic, radars, start, duration, mode):
     if not isinstance(traffic, Traffic):
         raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
                         f"{_describe(traffic)}")
-    radars = _radars_iv(radars)
+    radars = as_radars(radars)
     start = as_float(as_positive(start, "start", strict=False), "start")
     duration = as_float(as_positive(duration, "duration"), "duration")
     mode = as_choice(mode, "mode", MODES)
@@ -304,7 +304,7 @@ def _to_common_iv(detections, radars, biases, debias):
     if not isinstance(detections, Detections):
         raise TypeError(f"`detections` must be a Detections (from simulate_detections); "
                         f"received {_describe(detections)}")
-    radars = _radars_iv(radars)
+    radars = as_radars(radars)
     m = len(radars)
     if detections.radar.size and int(detections.radar.max()) >= m:
         raise ValueError(f"`detections` name radar {int(detections.radar.max())} but "

@@ -14,15 +14,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import _describe, as_choice, as_float, as_int, as_positive
+from ..engine._validation import _describe, as_choice, as_int
 from ..engine.metrics import NeesResult, gospa, nees, purity
 from ..engine.montecarlo import Proportion, proportion
 from .pipeline import PipelineResult
-from .radars import _coverage_count, _radars_iv
+from .radars import _coverage_count, as_radars
 from .tracking import TrackFusionResult
 from .traffic import TruthScans
 
-__all__ = ["Evaluation", "TrackEvaluation", "evaluate", "evaluate_tracks"]
+__all__ = ["Evaluation", "TrackEvaluation", "evaluate", "evaluate_tracks", "gospa_parameters"]
 
 
 @dataclass(frozen=True)
@@ -118,6 +118,45 @@ def _completeness(result, truth):
     return proportion(int(ok.sum()), uk.size) if uk.size else None
 
 
+def gospa_parameters(c, p) -> tuple[float, float]:
+    """Check the GOSPA cut-off and order of an evaluation, before any work.
+
+    The rule has one home, the door of :func:`radarfusion_ref.engine.metrics.gospa`:
+    this calls it with no points, so an evaluation refuses a bad `c` or `p` exactly as
+    GOSPA would, but before it interpolates a truth or pairs a track.
+
+    Parameters
+    ----------
+    c : float
+        Cut-off (a single finite number > 0).
+    p : float
+        Order (a single finite number >= 1).
+
+    Returns
+    -------
+    (float, float)
+        `c` and `p` as floats.
+
+    Raises
+    ------
+    TypeError
+        A value that is not a number.
+    ValueError
+        `c` not > 0, `p` not >= 1, or either not a single finite number.
+
+    Examples
+    --------
+    >>> gospa_parameters(2000, 2)
+    (2000.0, 2.0)
+    >>> gospa_parameters(2000.0, 0.5)
+    Traceback (most recent call last):
+    ...
+    ValueError: `p` must be a finite number >= 1; received 0.5
+    """
+    gospa(np.zeros((0, 1)), np.zeros((0, 1)), c=c, p=p)
+    return float(c), float(p)
+
+
 def _evaluate_iv(result, truth, c, p, scope):
     if not isinstance(result, PipelineResult):
         raise TypeError(f"`result` must be a PipelineResult (from run_pipeline); received "
@@ -125,10 +164,7 @@ def _evaluate_iv(result, truth, c, p, scope):
     if not isinstance(truth, TruthScans):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
                         f"{_describe(truth)}")
-    c = as_float(as_positive(c, "c"), "c")
-    p = as_float(as_positive(p, "p"), "p")
-    if p < 1:
-        raise ValueError(f"`p` must be >= 1; received {p!r}")
+    c, p = gospa_parameters(c, p)
     scope = as_choice(scope, "scope", ("covered", "all"))
     if truth.n_scans != result.reports.n_scans:
         raise ValueError(f"`truth` has {truth.n_scans} scans but the result's reports "
@@ -235,11 +271,8 @@ def _evaluate_tracks_iv(tracks, truth, radars, c, p, min_radars):
     if not isinstance(truth, TruthScans):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
                         f"{_describe(truth)}")
-    radars = _radars_iv(radars)
-    c = as_float(as_positive(c, "c"), "c")
-    p = as_float(as_positive(p, "p"), "p")
-    if p < 1:
-        raise ValueError(f"`p` must be >= 1; received {p!r}")
+    radars = as_radars(radars)
+    c, p = gospa_parameters(c, p)
     min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))
     if truth.n_scans != tracks.n_scans:
         raise ValueError(f"`truth` has {truth.n_scans} scans but `tracks` {tracks.n_scans}")

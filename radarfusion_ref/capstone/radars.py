@@ -33,6 +33,7 @@ __all__ = [
     "REALISTIC_TIMING",
     "Radar",
     "Reports",
+    "as_radars",
     "coverage_count",
     "default_radars",
     "realistic_radars",
@@ -151,7 +152,7 @@ def default_radars(**overrides) -> tuple[Radar, ...]:
     TypeError
         An override that is not a field of :class:`Radar` (or is a site field).
     ValueError
-        An override value the radars cannot take (as :func:`simulate_reports` checks them).
+        An override value the radars cannot take (as :func:`as_radars` checks them).
 
     Examples
     --------
@@ -173,7 +174,7 @@ def default_radars(**overrides) -> tuple[Radar, ...]:
               bias_azimuth=math.radians(extra[name][1]), p_detect=extra[name][2]),
         **{k: float(v) for k, v in overrides.items()})
         for name, site in RADAR_SITES.items())
-    return _radars_iv(out)
+    return as_radars(out)
 
 
 #: Fewest groups holding a report of every radar that the registration accepts
@@ -226,7 +227,7 @@ def realistic_radars(**overrides) -> tuple[Radar, ...]:
         default_radars(**overrides)                          # the same checks, by name
         out = tuple(dataclasses.replace(r, **{k: float(v) for k, v in overrides.items()})
                     for r in out)
-    return _radars_iv(out)
+    return as_radars(out)
 
 
 #: Bytes one false report of :func:`simulate_reports` occupies at most, summed over
@@ -268,8 +269,40 @@ def _timing_iv(i, r):
                              f"received {_describe(getattr(r, name))}")
 
 
-def _radars_iv(radars):
-    """The door check of a `radars` argument: a list or tuple of valid :class:`Radar`."""
+def as_radars(radars) -> tuple[Radar, ...]:
+    """Check a `radars` argument: at least two valid :class:`Radar`, as a tuple.
+
+    The door check of every function of the package that takes radars; a caller with
+    radars of its own (``dataclasses.replace`` of :func:`default_radars`, say) can run it
+    once up front.
+
+    Parameters
+    ----------
+    radars : list or tuple of Radar
+
+    Returns
+    -------
+    tuple of Radar
+
+    Raises
+    ------
+    TypeError
+        `radars` not a list or tuple of :class:`Radar`, or a timing field not a number.
+    ValueError
+        Fewer than two radars; a scan period not > 0, a phase outside ``[0, period)`` or a
+        range scale error outside (-0.5, 0.5) (named ``radars[i].period`` and so on); a
+        site, noise level, range, detection probability, clutter rate or azimuth offset
+        outside its meaning.
+
+    Examples
+    --------
+    >>> len(as_radars(list(default_radars())))
+    3
+    >>> as_radars(default_radars()[:1])
+    Traceback (most recent call last):
+    ...
+    ValueError: `radars` must hold at least two radars; received 1
+    """
     if isinstance(radars, Radar) or not isinstance(radars, (list, tuple)) or not all(
             isinstance(r, Radar) for r in radars):
         raise TypeError(f"`radars` must be a list or tuple of Radar (see default_radars()); "
@@ -289,6 +322,9 @@ def _radars_iv(radars):
                              "deviations and range, p_detect in (0, 1], clutter_rate >= 0, "
                              f"|bias_azimuth| < pi and a valid site; received {r!r}")
     return tuple(radars)
+
+
+_radars_iv = as_radars          # the name capstone.pipeline imports it by
 
 
 @dataclass(frozen=True)
@@ -365,7 +401,7 @@ def coverage_count(position, radars) -> np.ndarray:
     [3, 0]
     """
     pos = _position_iv(position)
-    return _coverage_count(pos, _radars_iv(radars))
+    return _coverage_count(pos, as_radars(radars))
 
 
 def _position_iv(position):
@@ -473,7 +509,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
     if not isinstance(truth, TruthScans):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
                         f"{_describe(truth)}")
-    radars = _radars_iv(radars)
+    radars = as_radars(radars)
     gen = as_rng(rng)
     S = truth.n_scans
     for i, rad in enumerate(radars):                 # refused before any draw

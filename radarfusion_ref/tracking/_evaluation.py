@@ -13,7 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..capstone.radars import _coverage_count, _radars_iv
+from ..capstone.evaluation import gospa_parameters
+from ..capstone.radars import as_radars, coverage_count
 from ..capstone.traffic import Traffic, truth_at
 from ..engine._validation import (
     MEMORY_LIMIT,
@@ -173,16 +174,13 @@ def _evaluate_iv(history, traffic, c, p, times, radars, min_radars, max_age, sca
     if not isinstance(traffic, Traffic):
         raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
                         f"{_describe(traffic)}")
-    c = as_float(as_positive(c, "c"), "c")
-    p = as_float(as_positive(p, "p"), "p")
-    if p < 1:
-        raise ValueError(f"`p` must be >= 1; received {p!r}")
+    c, p = gospa_parameters(c, p)
     t = as_float_array(times, "times")
     if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
         raise ValueError(f"`times` must be at least two increasing instants (s); received "
                          f"{_describe(times)}")
     if radars is not None:
-        radars = _radars_iv(radars)
+        radars = as_radars(radars)
         min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))
     max_age = as_float(as_positive(max_age, "max_age"), "max_age")
     if scans is not None:
@@ -262,7 +260,7 @@ def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radar
     truth, valid = truth_at(traffic, t)
     if radars is not None:
         cov = np.zeros(valid.shape, dtype=bool)
-        cov[valid] = _coverage_count(truth[valid], radars) >= min_radars
+        cov[valid] = coverage_count(truth[valid], radars) >= min_radars
         valid = cov
     ids, est = _estimates_at(history, t, max_age)
     A, T = valid.shape
