@@ -482,17 +482,17 @@ def test_nees_matches_solve_and_chi2_mean():
     cov = a @ np.swapaxes(a, -1, -2) + 0.1 * np.eye(2)
     e = g.normal(size=(500, 2))
     ref = np.einsum("ni,ni->n", e, np.linalg.solve(cov, e[..., None])[..., 0])
-    np.testing.assert_allclose(cv.nees(e, cov), ref, rtol=1e-10)
+    np.testing.assert_allclose(cv.nees_per_trial(e, cov), ref, rtol=1e-10)
     # Gaussian errors with the right covariance: mean NEES = 2, variance 4 (χ²₂)
     chol = np.linalg.cholesky(cov)
     draws = np.einsum("nij,tnj->tni", chol, g.normal(size=(400, 500, 2)))
-    vals = cv.nees(draws, cov)
+    vals = cv.nees_per_trial(draws, cov)
     assert abs(vals.mean() - 2) < 5 * 2 / np.sqrt(vals.size)
 
 
 def test_nees_general_dimension():
     cov = np.diag([1.0, 4.0, 9.0])
-    assert cv.nees([1.0, 2.0, 3.0], cov) == pytest.approx(3.0)
+    assert cv.nees_per_trial([1.0, 2.0, 3.0], cov) == pytest.approx(3.0)
 
 
 @pytest.mark.parametrize(("err", "cov", "name"), [
@@ -503,7 +503,7 @@ def test_nees_general_dimension():
 ])
 def test_nees_bad_input(err, cov, name):
     with pytest.raises(ValueError, match=name):
-        cv.nees(err, cov)
+        cv.nees_per_trial(err, cov)
 
 
 def test_nees_at_truth_linearized_small_sigma_is_two_and_matches_sympy():
@@ -611,7 +611,7 @@ def test_moments_bias_independent_of_sigma_r_and_mse_psd(p, method):
 PUBLIC = ("polar_to_cartesian", "conversion_moments", "conversion_bias", "nonlinearity_index",
           "conversion_gain", "principal_variances", "decorrelated_variances",
           "spherical_covariance",
-          "draw_polar", "nees", "nees_at_truth", "conversion_monte_carlo",
+          "draw_polar", "nees_per_trial", "nees_at_truth", "conversion_monte_carlo",
           "spherical_to_cartesian", "spherical_moments", "draw_spherical",
           "spherical_monte_carlo")
 
@@ -774,9 +774,9 @@ def test_coordinates_near_1e154_no_longer_overflow_in_silence():
     with pytest.raises(ValueError, match="float range"):
         cv.nonlinearity_index(1e300, 1e-300, 0.1)
     with pytest.raises(ValueError, match=r"`error`.*numeric domain"):
-        cv.nees([1e200, 0.0], np.eye(2))
+        cv.nees_per_trial([1e200, 0.0], np.eye(2))
     with pytest.raises(ValueError, match=r"`cov`.*numeric domain"):
-        cv.nees([1.0, 0.0], np.eye(2) * 1e-200)
+        cv.nees_per_trial([1.0, 0.0], np.eye(2) * 1e-200)
     with pytest.raises(ValueError, match="`r`"):
         cv.draw_polar(1.7e308, 0.0, 1e307, 0.01, trials=50, rng=0)
 
@@ -787,11 +787,11 @@ def test_nees_is_invariant_to_the_unit(le, lc):
     numeric domain (variances within 2**-150 .. 2**150)."""
     err = np.array([0.3, -1.2])
     cov = np.array([[2.0, 0.4], [0.4, 0.5]])
-    ref = cv.nees(err, cov)
+    ref = cv.nees_per_trial(err, cov)
     k = 10.0 ** ((le + lc) / 4)
-    np.testing.assert_allclose(cv.nees(err * k, cov * k**2), ref, rtol=1e-12)
-    np.testing.assert_allclose(cv.nees(np.r_[err, 1.0] * k, np.diag([2.0, 0.5, 1.0]) * k**2),
-                               cv.nees(np.r_[err, 1.0], np.diag([2.0, 0.5, 1.0])), rtol=1e-12)
+    np.testing.assert_allclose(cv.nees_per_trial(err * k, cov * k**2), ref, rtol=1e-12)
+    np.testing.assert_allclose(cv.nees_per_trial(np.r_[err, 1.0] * k, np.diag([2.0, 0.5, 1.0]) * k**2),
+                               cv.nees_per_trial(np.r_[err, 1.0], np.diag([2.0, 0.5, 1.0])), rtol=1e-12)
 
 
 def test_nonlinearity_index_over_the_float_range():
@@ -843,7 +843,7 @@ def test_sizes_are_refused_before_allocation():
     with pytest.raises(TypeError, match="`chunk_size`"):
         cv.conversion_monte_carlo(100.0, 0.0, 1.0, 0.01, trials=10, rng=1, chunk_size=2.5)
     with pytest.raises(ValueError, match="refused"):
-        cv.nees(np.ones((100_000, 1, 2)), np.broadcast_to(np.eye(2), (1, 100_000, 2, 2)))
+        cv.nees_per_trial(np.ones((100_000, 1, 2)), np.broadcast_to(np.eye(2), (1, 100_000, 2, 2)))
 
 
 @given(st.integers(1, 700), st.integers(1, 3), st.integers(0, 2**32 - 1))
@@ -863,7 +863,7 @@ def test_monte_carlo_nees_equals_the_generic_nees():
     r_hat, b_hat = cv.draw_polar([120.0, 80.0], [0.4, -2.0], 0.5, 0.2, trials=500, rng=4)
     for m in cv.METHODS:
         conv = cv.polar_to_cartesian(r_hat.T, b_hat.T, 0.5, 0.2, method=m)   # trials last
-        np.testing.assert_allclose(out[m].nees, cv.nees(out[m].error, conv.cov), rtol=1e-9)
+        np.testing.assert_allclose(out[m].nees, cv.nees_per_trial(out[m].error, conv.cov), rtol=1e-9)
 
 
 # --------------------------------------------------------------------------- properties of every public function
@@ -924,7 +924,7 @@ CALLS = {
     "nees_at_truth": (lambda **k: cv.nees_at_truth(**k), BASE),
     "draw_polar": (lambda **k: cv.draw_polar(**k, trials=3, rng=1), BASE),
     "conversion_monte_carlo": (lambda **k: cv.conversion_monte_carlo(**k, trials=3, rng=1), BASE),
-    "nees": (lambda **k: cv.nees(**k), {"error": [1.0, 2.0], "cov": np.eye(2)}),
+    "nees_per_trial": (lambda **k: cv.nees_per_trial(**k), {"error": [1.0, 2.0], "cov": np.eye(2)}),
     "conversion_gain": (lambda **k: cv.conversion_gain(**k), {"sigma_beta": 0.01}),
     "principal_variances": (lambda **k: cv.principal_variances(**k),
                             {"r": 100.0, "sigma_r": 0.5, "sigma_beta": 0.01}),
@@ -1002,7 +1002,7 @@ def test_bad_method_generated(method, func):
 ])
 def test_nees_bad_input_more(err, cov, name):
     with pytest.raises((ValueError, TypeError), match=name):
-        cv.nees(err, cov)
+        cv.nees_per_trial(err, cov)
 
 
 def warnings_ignored():

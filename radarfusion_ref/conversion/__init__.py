@@ -85,7 +85,8 @@ its eigenvectors point along range (variance :math:`a + b`) and across range
   from :func:`conversion_gain` and :func:`principal_variances`; :func:`conversion_moments`,
   :func:`conversion_bias`, :func:`nonlinearity_index`);
 * consistency — noisy measurements (:func:`draw_polar`, trial axis first), NEES
-  (:func:`nees`, :func:`nees_at_truth`) and the Monte Carlo of every method
+  (:func:`nees_per_trial`, :func:`nees_at_truth`; the summary over many errors is
+  :func:`radarfusion_ref.engine.metrics.nees`) and the Monte Carlo of every method
   (:func:`conversion_monte_carlo`);
 * 3-D (:func:`spherical_to_cartesian`, :func:`spherical_moments`, :func:`draw_spherical`,
   :func:`spherical_monte_carlo`).
@@ -99,8 +100,8 @@ from ._consistency import (
     ConversionTrials,
     conversion_monte_carlo,
     draw_polar,
-    nees,
     nees_at_truth,
+    nees_per_trial,
 )
 from ._planar import (
     ALL_METHODS,
@@ -146,8 +147,8 @@ __all__ = [
     "decorrelated_variances",
     "draw_polar",
     "draw_spherical",
-    "nees",
     "nees_at_truth",
+    "nees_per_trial",
     "nonlinearity_index",
     "polar_to_cartesian",
     "principal_variances",

@@ -174,14 +174,20 @@ def _draw_range_azimuth(r, beta, sigma_r, sigma_beta, trials, rng):
     return r_hat, beta_hat
 
 
-def nees(error, cov) -> np.ndarray:
-    r"""Normalized estimation error squared :math:`\mathbf e^\mathsf T C^{-1}\mathbf e`.
+def nees_per_trial(error, cov) -> np.ndarray:
+    r"""The NEES :math:`\mathbf e^\mathsf T C^{-1}\mathbf e` of every trial: one value per error.
 
-    The package's one squared Mahalanobis distance,
+    The per-trial statistic of a conversion's Monte Carlo (the ``nees`` of
+    :class:`ConversionTrials`): one value for each error of a batch, with
+    covariances that broadcast against the errors (one per trial, or one for
+    all), and no summary. The summary over :math:`N` errors — the mean NEES
+    and its :math:`\chi^2_{dN}` consistency range — is
+    :func:`radarfusion_ref.engine.metrics.nees`; both compute the value with the
+    package's one squared Mahalanobis distance,
     :func:`radarfusion_ref.engine.linalg.mahalanobis_sq` (a factorisation of
     :math:`C`, forward substitution, no inverse). If :math:`C` is the true error
-    covariance, the mean is the dimension :math:`d`; for Gaussian errors NEES is
-    :math:`\chi^2_d`.
+    covariance, the mean is the dimension :math:`d`; for Gaussian errors the
+    NEES is :math:`\chi^2_d`.
 
     Parameters
     ----------
@@ -204,7 +210,7 @@ def nees(error, cov) -> np.ndarray:
 
     Examples
     --------
-    >>> float(nees([1.0, 2.0], [[1.0, 0.0], [0.0, 4.0]]))
+    >>> float(nees_per_trial([1.0, 2.0], [[1.0, 0.0], [0.0, 4.0]]))
     2.0
     """
     e = as_float_array(error, "error", ndim_min=1)

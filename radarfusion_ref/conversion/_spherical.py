@@ -23,7 +23,7 @@ from ._consistency import (
     ConversionTrials,
     _as_methods,
     _draw_range_azimuth,
-    nees,
+    nees_per_trial,
 )
 from ._planar import (
     METHODS_3D,
@@ -510,5 +510,6 @@ def spherical_monte_carlo(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, 
         xyz, cov = _convert3(m, rh, bh, eh, sr, sb, se)
         err = xyz - truth
         mse = _moments3(m, r, beta, eps, sigma_r, sigma_beta, sigma_epsilon).mse[..., None, :, :]
-        out[m] = ConversionTrials(m, err, nees(err, cov), nees(err, mse))
+        out[m] = ConversionTrials(m, err, nees_per_trial(err, cov),
+                                  nees_per_trial(err, mse))
     return out
