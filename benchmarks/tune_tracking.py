@@ -2,8 +2,10 @@
 
 Run as ``python benchmarks/tune_tracking.py`` (about 10-15 minutes on two cores); it rewrites
 ``benchmarks/data/tracking_tuning.csv`` (one row per tracker and setting) and prints the
-chosen settings per tracker. ``benchmarks/bench_tracking.py`` reads the chosen Stone Soup rows
-from that file; our ``TrackerSettings`` defaults are the chosen values of the row ``ours``.
+chosen settings per tracker. ``--only-ours`` re-runs our rows only and keeps Stone Soup's rows
+of the file (for a change to our tracker alone). The chosen values must be the package's:
+``TrackerSettings()``'s defaults for ours and ``tracking.STONESOUP_SETTINGS`` for Stone Soup;
+the script exits with 1 naming any difference (and a test checks the committed file).
 
 The data: the tuning hour ``capstone.load_traffic(hour="tuning")`` (2018-08-01 09:00-10:00 UTC,
 the same day and the same extraction as the scored 11:00 hour), realistic radars
@@ -21,10 +23,16 @@ The grid: process-noise intensity ``q`` in ``Q_GRID`` m²/s³ and gate ``p_false
 and, for ours only, the relinking of broken identities (off, or on with ``p_relink`` in
 ``RELINK_GRID``; Stone Soup has no such step). All other settings keep their defaults.
 
-The criterion, the same for every tracker: among the settings that keep tracks per aircraft
-within ``MAX_TRACKS_PER_AIRCRAFT`` (the goal the trackers are scored against), the lowest
-mean GOSPA rounded to the metre; ties are broken by fewer tracks per aircraft, then by run
-time. If no setting keeps the constraint, the fewest tracks per aircraft wins.
+The criterion: among the settings that meet the goals the trackers are scored against, the
+lowest mean GOSPA rounded to the metre; ties are broken by fewer tracks per aircraft, then by
+run time. If no setting meets the goals, the fewest tracks per aircraft wins. For Stone Soup
+the goal is tracks per aircraft within ``MAX_TRACKS_PER_AIRCRAFT``. Ours has the same goal
+and, as the scored benchmark asks, no more track switches and false tracks per hour than
+Stone Soup's better tuned tracker (lower mean GOSPA) on the same tuning hour. (With the
+fragmentation goal alone, our identity-keeping tracker was tuned to q = 10, 1.095 tracks per
+aircraft and 13 switches on the tuning hour: GOSPA alone pushes fragmentation to the limit.
+On the Stone Soup side every rule picks the same rows: only q = 120 keeps the fragmentation
+goal.)
 """
 
 from __future__ import annotations
@@ -104,11 +112,17 @@ def _run(job):
             "chosen": 0}
 
 
-def _key(row):
-    """The criterion: within the tracks-per-aircraft goal, mean GOSPA to the metre, then
-    tracks per aircraft, then run time (outside the goal: fewest tracks per aircraft)."""
+def _key(row, limits=None):
+    """The criterion: within the goals, mean GOSPA to the metre, then tracks per aircraft,
+    then run time (outside them: fewest tracks per aircraft). The goals are tracks per
+    aircraft <= MAX_TRACKS_PER_AIRCRAFT and, with `limits` (switches, false tracks per
+    hour), no more switches and false tracks than those."""
     tpa = float(row["tracks_per_aircraft"])
-    if tpa > MAX_TRACKS_PER_AIRCRAFT:
+    ok = tpa <= MAX_TRACKS_PER_AIRCRAFT
+    if limits is not None:
+        ok = ok and int(row["switches"]) <= limits[0] and \
+            float(row["false_tracks_per_hour"]) <= limits[1]
+    if not ok:
         return (1, tpa, round(float(row["mean_gospa"])), float(row["seconds"]))
     return (0, round(float(row["mean_gospa"])), tpa, float(row["seconds"]))
 
@@ -129,19 +143,55 @@ def chosen_settings(path=OUT):
     return out
 
 
-def main(workers: int = 2) -> int:
+def _kept_rows(path, tracker_names):
+    """Rows of `tracker_names` from an earlier tuning file, as written."""
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["tracker"] in tracker_names]
+    for r in rows:
+        for k in ("q", "p_false_reject", "seconds", "mean_gospa", "localisation", "missed",
+                  "false", "tracks_per_aircraft", "false_tracks_per_hour", "mean_latency"):
+            r[k] = float(r[k])
+        for k in ("relink", "n_tracks", "switches", "chosen"):
+            r[k] = int(r[k])
+        r["chosen"] = 0
+    return rows
+
+
+def package_mismatches(chosen):
+    """Differences between chosen settings and the package's (ours: the defaults)."""
+    package = {"ours": trk.TrackerSettings(), **trk.STONESOUP_SETTINGS}
+    out = []
+    for tracker, s in chosen.items():
+        names = ("q", "p_false_reject") + (("relink", "p_relink") if tracker == "ours" else ())
+        for name in names:
+            if tracker == "ours" and name == "p_relink" and not s.relink:
+                continue
+            if getattr(s, name) != getattr(package[tracker], name):
+                out.append(f"{tracker}: {name} tuned {getattr(s, name)!r}, package "
+                           f"{getattr(package[tracker], name)!r}")
+    return out
+
+
+def main(workers: int = 2, only_ours: bool = False) -> int:
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}; tuning hour, first "
           f"{WINDOW / 60:.0f} min, seed {SEED}; tracks per aircraft <= "
           f"{MAX_TRACKS_PER_AIRCRAFT}, then GOSPA")
     t0 = time.perf_counter()
     jobs = [("ours", q, g, r) for q, g, r in product(Q_GRID, GATE_GRID, RELINK_GRID)]
     slow = [(t, q, g, None) for t in ("jpda", "gnn") for q, g in product(Q_GRID, GATE_GRID)]
+    kept = _kept_rows(OUT, ("gnn", "jpda")) if only_ours else []
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        rows = list(pool.map(_run, slow + jobs))
-    for tracker in ("ours", "gnn", "jpda"):
-        best = min((r for r in rows if r["tracker"] == tracker), key=_key)
-        best["chosen"] = 1
-    rows.sort(key=lambda r: (("ours", "gnn", "jpda").index(r["tracker"]), _key(r)))
+        rows = kept + list(pool.map(_run, jobs if only_ours else slow + jobs))
+    for tracker in ("gnn", "jpda"):
+        min((r for r in rows if r["tracker"] == tracker), key=_key)["chosen"] = 1
+    ss = min((r for r in rows if r["chosen"]), key=lambda r: float(r["mean_gospa"]))
+    limits = (int(ss["switches"]), float(ss["false_tracks_per_hour"]))
+    print(f"Stone Soup's better tracker on the tuning hour: {ss['tracker']}, {limits[0]} "
+          f"switches, {limits[1]:g} false tracks per hour (our limits)")
+    min((r for r in rows if r["tracker"] == "ours"),
+        key=lambda r: _key(r, limits))["chosen"] = 1
+    rows.sort(key=lambda r: (("ours", "gnn", "jpda").index(r["tracker"]),
+                             _key(r, limits if r["tracker"] == "ours" else None)))
     OUT.parent.mkdir(exist_ok=True)
     with open(OUT, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=FIELDS)
@@ -157,11 +207,15 @@ def main(workers: int = 2) -> int:
               f"{'  *' if r['chosen'] else '':>7}")
     print(f"\nwrote {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}; "
           f"total {time.perf_counter() - t0:.0f} s")
-    for tracker, s in chosen_settings().items():
+    chosen = chosen_settings()
+    for tracker, s in chosen.items():
         extra = f", relink {s.relink}, p_relink {s.p_relink:g}" if tracker == "ours" else ""
         print(f"chosen {tracker}: q {s.q:g}, p_false_reject {s.p_false_reject:g}{extra}")
-    return 0
+    wrong = package_mismatches(chosen)
+    for line in wrong:
+        print(f"MISMATCH {line}: update TrackerSettings' defaults or STONESOUP_SETTINGS")
+    return 1 if wrong else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main(workers=min(2, os.cpu_count() or 1)))
+    sys.exit(main(workers=min(2, os.cpu_count() or 1), only_ours="--only-ours" in sys.argv))

@@ -318,3 +318,24 @@ def test_a_duplicate_of_a_confirmed_track_is_not_confirmed():
     assert np.unique(plain.track[plain.confirmed]).size == 2
     assert np.unique(kept.track[kept.confirmed]).size == 1
     assert kept.time[kept.confirmed].max() == t.max()
+
+
+def test_tuned_settings_are_the_tuning_tables_choice():
+    """TrackerSettings' defaults and STONESOUP_SETTINGS are the rows the tuning script chose
+    on the tuning hour (benchmarks/tune_tracking.py writes the table and exits with 1 when
+    its choice differs from the package's)."""
+    import csv
+    from pathlib import Path
+
+    from radarfusion_ref.tracking import STONESOUP_SETTINGS
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "data" / "tracking_tuning.csv"
+    with open(path, newline="") as f:
+        chosen = {r["tracker"]: r for r in csv.DictReader(f) if r["chosen"] == "1"}
+    assert sorted(chosen) == ["gnn", "jpda", "ours"]
+    package = {"ours": TrackerSettings(), **STONESOUP_SETTINGS}
+    for tracker, row in chosen.items():
+        s = package[tracker]
+        assert (float(row["q"]), float(row["p_false_reject"])) == (s.q, s.p_false_reject)
+    assert bool(int(chosen["ours"]["relink"])) == TrackerSettings().relink
+    assert float(chosen["ours"]["p_relink"]) == TrackerSettings().p_relink

@@ -1,6 +1,7 @@
 r"""From reports to tracks: one tracker over the radars' reports, and three architectures.
 
-* :class:`TrackerSettings` — the tracker's settings, validated when built;
+* :class:`TrackerSettings` — the tracker's settings, validated when built (defaults tuned
+  on the tuning hour); :data:`STONESOUP_SETTINGS` — Stone Soup's, tuned the same way;
 * :class:`TrackHistory` — tracks over time, one row per (track, update);
 * :func:`track_reports` — architecture (a): every report, in time order, updates one
   tracker (GNN or JPDA, the track score's sequential test or M-of-N logic);
@@ -28,13 +29,20 @@ The formulas (Kalman filter, track score, JPDA probabilities) live in
 from ._architectures import T2T_RULES, fuse_then_track, track_then_fuse
 from ._centralised import MAX_REPORTS, track_reports
 from ._evaluation import TrackingMetrics, evaluate_tracks_over_time, gospa_pairs, summarise_runs
-from ._settings import ASSOCIATIONS, CONFIRMATIONS, TrackerSettings, TrackHistory
+from ._settings import (
+    ASSOCIATIONS,
+    CONFIRMATIONS,
+    STONESOUP_SETTINGS,
+    TrackerSettings,
+    TrackHistory,
+)
 from .stonesoup import STONESOUP_TRACKERS, stonesoup_track
 
 __all__ = [
     "ASSOCIATIONS",
     "CONFIRMATIONS",
     "MAX_REPORTS",
+    "STONESOUP_SETTINGS",
     "STONESOUP_TRACKERS",
     "T2T_RULES",
     "TrackHistory",

@@ -171,3 +171,14 @@ class TrackHistory:
     def n_confirmed(self) -> int:
         """Number of distinct tracks that were ever confirmed."""
         return int(np.unique(self.track[self.confirmed]).size)
+
+
+#: Stone Soup's settings tuned on the tuning hour (``capstone.load_traffic(hour="tuning")``,
+#: never the scored hour) by ``benchmarks/tune_tracking.py`` with the grid and the rule that
+#: tuned :class:`TrackerSettings`' defaults; the script fails if its choice differs from
+#: these, and a test checks them against its committed table
+#: (``benchmarks/data/tracking_tuning.csv``). Keys: Stone Soup's ``"gnn"`` and ``"jpda"``.
+STONESOUP_SETTINGS = {
+    "gnn": TrackerSettings(q=120.0, p_false_reject=1e-6),
+    "jpda": TrackerSettings(q=120.0, p_false_reject=1e-6),
+}
