@@ -168,6 +168,43 @@ def chromium_path() -> str | None:
     return None
 
 
+CHROMIUM_MISSING = "Chromium is not installed (apt-get install chromium)"
+
+
+@contextlib.contextmanager
+def chromium_browser():
+    """The system's Chromium launched by Playwright (:data:`CHROMIUM_ARGS`); yields the
+    browser and closes it after. Raises :class:`FileNotFoundError` without Chromium."""
+    path = chromium_path()
+    if path is None:
+        raise FileNotFoundError(CHROMIUM_MISSING)
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
+        try:
+            yield browser
+        finally:
+            browser.close()
+
+
+def browser_fixture(what: str):
+    """Body of a module-scoped pytest fixture: the browser of `what` (e.g. "layout test").
+
+    Without Chromium the module's tests are skipped, except under ``CI=true``, where
+    they fail: there the browser tests must run. Use as
+    ``yield from browser_fixture("layout test")``.
+    """
+    import pytest
+
+    if chromium_path() is None:
+        if os.environ.get("CI", "").lower() == "true":
+            pytest.fail(f"{CHROMIUM_MISSING}; under CI=true the {what} must run")
+        pytest.skip(CHROMIUM_MISSING)
+    with chromium_browser() as browser:
+        yield browser
+
+
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):
     def log_message(self, *args):
         pass

@@ -58,7 +58,8 @@ if str(ROOT) not in sys.path:
 from book_metrics import html_metrics, source_metrics  # noqa: E402
 from book_tools import (  # noqa: E402
     BUILD_DIR,
-    CHROMIUM_ARGS,
+    CHROMIUM_MISSING,
+    chromium_browser,
     chromium_path,
     is_notebook,
     page_docname,
@@ -479,21 +480,14 @@ def html_dir_of(build: str | Path | None) -> Path:
 def measure(pages: list[str], html_dir: Path,
             screenshots: Path | None = None) -> list[PageLayout]:
     """Measure `pages` of the book built in `html_dir` (first screens into `screenshots`)."""
-    from playwright.sync_api import sync_playwright
-
-    path = chromium_path()
-    if path is None:
-        raise SystemExit("Chromium is not installed (apt-get install chromium)")
+    if chromium_path() is None:
+        raise SystemExit(CHROMIUM_MISSING)
     rows = []
-    with sync_playwright() as p, serve(html_dir) as url:
-        browser = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        try:
-            for d in pages:
-                shot = (Path(screenshots) / f"{d.replace('/', '_')}.png"
-                        if screenshots is not None else None)
-                rows.append(measure_page(browser, url, d, html_dir, screenshot=shot))
-        finally:
-            browser.close()
+    with chromium_browser() as browser, serve(html_dir) as url:
+        for d in pages:
+            shot = (Path(screenshots) / f"{d.replace('/', '_')}.png"
+                    if screenshots is not None else None)
+            rows.append(measure_page(browser, url, d, html_dir, screenshot=shot))
     return rows
 
 

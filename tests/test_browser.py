@@ -12,29 +12,17 @@ There is no allow-list.
 
 from __future__ import annotations
 
-import os
 from urllib.parse import urlparse
 
 import pytest
-from book_tools import BUILD_DIR, CHROMIUM_ARGS, chromium_path, serve, toc_docnames
+from book_tools import BUILD_DIR, browser_fixture, serve, toc_docnames
 
 pytestmark = pytest.mark.book
 
 
 @pytest.fixture(scope="module")
 def browser():
-    path = chromium_path()
-    if path is None:
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail("Chromium is not installed (apt-get install chromium); under CI=true "
-                        "the browser test must run")
-        pytest.skip("Chromium is not installed (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
+    yield from browser_fixture("browser test")
 
 
 @pytest.fixture(scope="module")

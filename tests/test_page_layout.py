@@ -21,7 +21,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from book_tools import CHROMIUM_ARGS, chromium_path, serve
+from book_tools import browser_fixture, serve
 from page_layout import (
     LESSON_STDERR_TAG,
     PageLayout,
@@ -39,18 +39,7 @@ PAGES = default_pages()
 
 @pytest.fixture(scope="module")
 def browser():
-    path = chromium_path()
-    if path is None:
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail("Chromium is not installed (apt-get install chromium); under CI=true "
-                        "the layout test must run")
-        pytest.skip("Chromium is not installed (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
+    yield from browser_fixture("layout test")
 
 
 @pytest.fixture(scope="module")
