@@ -355,3 +355,74 @@ def test_ci_weight_minimises_the_criterion_on_a_fine_grid():
         ci_weight(np.eye(2), np.eye(2), criterion="max")
     with pytest.raises(ValueError, match="`P2`"):
         ci_weight(np.eye(2), -np.eye(2))
+
+
+# --------------------------------------------------------------------------- blue_fusion
+def _random_joint(rng, n, d):
+    """A random joint covariance of n correlated d-vectors (symmetric positive definite)."""
+    a = rng.normal(size=(n * d, n * d))
+    return a @ a.T + 0.1 * np.eye(n * d)
+
+
+def test_blue_fusion_is_the_generalised_least_squares_estimate():
+    # independent route: whiten the stacked problem y = H x + e by C's Cholesky factor and
+    # solve it by numpy.linalg.lstsq; the covariance is the inverse of the whitened normal
+    # matrix
+    rng = np.random.default_rng(21)
+    for n, d in ((2, 1), (3, 2), (3, 6), (4, 3)):
+        C = _random_joint(rng, n, d)
+        x = rng.normal(size=(n, d)) + 1e3
+        L = np.linalg.cholesky(C)
+        Hw = np.linalg.solve(L, np.tile(np.eye(d), (n, 1)))
+        ref, *_ = np.linalg.lstsq(Hw, np.linalg.solve(L, x.reshape(-1)), rcond=None)
+        r = tf.blue_fusion(x, C)
+        np.testing.assert_allclose(r.estimate, ref, rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(r.covariance, np.linalg.inv(Hw.T @ Hw), rtol=1e-9,
+                                   atol=1e-12)
+
+
+def test_blue_fusion_of_two_is_bar_shalom_campo_and_without_correlation_naive():
+    rng = np.random.default_rng(22)
+    C = np.stack([_random_joint(rng, 2, 3) for _ in range(5)])      # a batch of 5
+    x = rng.normal(size=(5, 2, 3))
+    r = tf.blue_fusion(x, C)
+    b = tf.bar_shalom_campo(x[:, 0], C[:, :3, :3], x[:, 1], C[:, 3:, 3:], C[:, :3, 3:])
+    np.testing.assert_allclose(r.estimate, b.estimate, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(r.covariance, b.covariance, rtol=1e-10, atol=1e-12)
+    C[:, :3, 3:] = C[:, 3:, :3] = 0.0
+    r = tf.blue_fusion(x, C)
+    nv = tf.naive_fusion(x[:, 0], C[:, :3, :3], x[:, 1], C[:, 3:, 3:])
+    np.testing.assert_allclose(r.covariance, nv.covariance, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(r.estimate, nv.estimate, rtol=1e-10, atol=1e-12)
+
+
+def test_blue_fusion_covariance_is_the_error_covariance_monte_carlo():
+    # 20 000 draws of three correlated estimates of a known state: the fused errors' sample
+    # covariance matches the returned covariance, each entry within 4.5 standard errors
+    rng = np.random.default_rng(23)
+    n, d, trials = 3, 2, 20_000
+    C = _random_joint(rng, n, d)
+    truth = np.array([5.0, -2.0])
+    e = rng.multivariate_normal(np.zeros(n * d), C, trials).reshape(trials, n, d)
+    r = tf.blue_fusion(truth + e, C)
+    err = r.estimate - truth
+    P = r.covariance[0]
+    emp = err.T @ err / trials
+    se = np.sqrt((np.outer(np.diag(P), np.diag(P)) + P**2) / trials)
+    assert np.all(np.abs(emp - P) < 4.5 * se), (emp, P)
+    assert np.all(np.abs(err.mean(0)) < 4.5 * np.sqrt(np.diag(P) / trials))
+
+
+def test_blue_fusion_refuses_bad_input_by_name():
+    with pytest.raises(ValueError, match=r"`covariance` must have shape \(\.\.\., 4, 4\) for `x`"):
+        tf.blue_fusion(np.zeros((2, 2)), np.eye(3))
+    with pytest.raises(ValueError, match="`covariance`"):
+        tf.blue_fusion(np.zeros((2, 1)), [[1.0, 2.0], [2.0, 1.0]])        # not PD
+    with pytest.raises(ValueError, match=r"`x` must have shape \(\.\.\., n, d\)"):
+        tf.blue_fusion(np.zeros((0, 2)), np.eye(0))
+    with pytest.raises(ValueError, match="`x`"):
+        tf.blue_fusion([1.0, 2.0], np.eye(2))                              # no (n, d) axes
+    with pytest.raises(ValueError, match=r"`x`, `covariance` must have broadcasting"):
+        tf.blue_fusion(np.zeros((3, 2, 1)), np.broadcast_to(np.eye(2), (4, 2, 2)))
+    with pytest.raises(ValueError, match=r"`x`.*2\*\*150"):
+        tf.blue_fusion([[1e300], [0.0]], np.eye(2))

@@ -64,6 +64,7 @@ from ._motion import (
 )
 from ._rules import (
     bar_shalom_campo,
+    blue_fusion,
     ci_weight,
     covariance_intersection,
     naive_fusion,
@@ -79,6 +80,7 @@ __all__ = [
     "TrackEstimate",
     "TrackRuns",
     "bar_shalom_campo",
+    "blue_fusion",
     "constant_velocity",
     "ci_weight",
     "covariance_intersection",

@@ -9,6 +9,7 @@ from ..engine._validation import (
     _describe,
     as_choice,
     as_float_array,
+    check_size,
     unwrap,
 )
 from ..engine.linalg import _as_cov, _check_domain, _kappa, is_positive_definite
@@ -16,6 +17,7 @@ from ..fusion import fuse_gaussian
 from ._common import (
     _OMEGA_STEPS,
     CRITERIA,
+    MAX_BATCH,
     CovarianceIntersection,
     TrackEstimate,
     _pair_iv,
@@ -145,6 +147,106 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
     estimate = x1 + (W @ (x2 - x1)[..., None])[..., 0]  # x1 + W (x2 - x1)
     # P1 - (P1 - P12) U^-1 (P1 - P21)
     covariance = _sym(P1 - W @ (P1 - P21))
+    return TrackEstimate(estimate, covariance)
+
+
+def _blue_iv(x, covariance):
+    x = as_float_array(x, "x", ndim_min=2)
+    n, d = x.shape[-2:]
+    if n < 1 or d < 1:
+        raise ValueError(f"`x` must have shape (..., n, d) with n, d >= 1 (n estimates of a "
+                         f"d-vector); received shape {x.shape}")
+    _check_domain(x, "x")
+    C = as_float_array(covariance, "covariance", ndim_min=2)
+    if C.shape[-2:] != (n * d, n * d):
+        raise ValueError(f"`covariance` must have shape (..., {n * d}, {n * d}) for `x` of "
+                         f"shape {x.shape} (n = {n} estimates of d = {d}); received shape "
+                         f"{C.shape}")
+    C = _as_cov(C, "covariance", n * d)                 # the PD rule and the variance domain
+    try:
+        lead = np.broadcast_shapes(x.shape[:-2], C.shape[:-2])
+    except ValueError:
+        raise ValueError(f"`x`, `covariance` must have broadcasting batch shapes; received "
+                         f"{x.shape}, {C.shape}") from None
+    check_size(int(np.prod(lead, dtype=object)) * (n * d) ** 2, MAX_BATCH,
+               what="batch elements × joint covariance entries",
+               alternative="several calls on slices of the batch")
+    return (np.broadcast_to(x, (*lead, n, d)),
+            np.broadcast_to(C, (*lead, n * d, n * d)))
+
+
+def blue_fusion(x, covariance) -> TrackEstimate:
+    r"""Fuse `n` correlated estimates of one state: the best linear unbiased estimate.
+
+    Parameters
+    ----------
+    x : array_like, shape (..., n, d)
+        The estimates :math:`\hat{\mathbf x}_1, \dots, \hat{\mathbf x}_n` of one state.
+    covariance : array_like, shape (..., n d, n d)
+        The joint covariance :math:`C` of the stacked errors
+        :math:`[\mathbf e_1; \dots; \mathbf e_n]`: block :math:`(i, j)` is
+        :math:`P_{ij} = E[\mathbf e_i\mathbf e_j^\mathsf T]` (:math:`P_{ii} = P_i`),
+        symmetric positive definite.
+
+    Returns
+    -------
+    TrackEstimate
+        ``estimate`` (..., d) and ``covariance`` (..., d, d).
+
+    Raises
+    ------
+    ValueError
+        If `covariance` is not symmetric positive definite or not ``n d`` square, a
+        variance or coordinate lies outside the numeric domain, the batch shapes do not
+        broadcast or the batch is too large.
+    TypeError
+        If an argument is not numeric.
+
+    Notes
+    -----
+    Every estimate measures the same state, :math:`[\hat{\mathbf x}_1; \dots;
+    \hat{\mathbf x}_n] = \mathsf H\mathbf x + \mathbf e` with
+    :math:`\mathsf H = [I; \dots; I]` and :math:`\operatorname{Cov}\mathbf e = C`. The
+    generalised least-squares (Aitken) estimate is the BLUE:
+
+    .. math::
+
+        \tilde P = (\mathsf H^\mathsf T C^{-1}\mathsf H)^{-1}, \qquad
+        \tilde{\mathbf x} = \tilde P\,\mathsf H^\mathsf T C^{-1}
+        [\hat{\mathbf x}_1; \dots; \hat{\mathbf x}_n],
+
+    and :math:`\tilde P` is its true error covariance. For two tracks it is
+    :func:`bar_shalom_campo`; with every :math:`P_{ij} = 0` (:math:`i \ne j`) it is
+    :func:`naive_fusion`. Computed on the differences from :math:`\hat{\mathbf x}_1`
+    (no cancellation far from the origin).
+
+    References
+    ----------
+    A. C. Aitken, "On least squares and linear combination of observations",
+    Proc. Royal Society of Edinburgh 55 (1935) 42–48; S.-L. Sun, Z.-L. Deng,
+    "Multi-sensor optimal information fusion Kalman filter", Automatica 40(6) (2004)
+    1017–1023 (the same weights for `n` correlated tracks).
+
+    Examples
+    --------
+    >>> r = blue_fusion([[0.0], [2.0]], [[1.0, 0.5], [0.5, 1.0]])
+    >>> r.estimate, r.covariance
+    (array([1.]), array([[0.75]]))
+    >>> C = np.eye(3) + 0.5 * (1 - np.eye(3))             # three equally correlated tracks
+    >>> r = blue_fusion([[0.0], [3.0], [6.0]], C)
+    >>> r.estimate, 3 * r.covariance          # (1 + (n - 1) 0.5) / n = 2/3
+    (array([3.]), array([[2.]]))
+    """
+    x, C = _blue_iv(x, covariance)
+    n, d = x.shape[-2:]
+    ref = x[..., 0, :]
+    y = (x - ref[..., None, :]).reshape(*x.shape[:-2], n * d, 1)      # differences from x̂1
+    H = np.broadcast_to(np.tile(np.eye(d), (n, 1)), (*x.shape[:-2], n * d, d))
+    Z = _solve(C, np.concatenate([H, y], -1), "covariance")          # C^-1 [H, y]
+    M = Z[..., :d].reshape(*x.shape[:-2], n, d, d).sum(-3)            # Hᵀ C^-1 H
+    b = Z[..., d].reshape(*x.shape[:-2], n, d).sum(-2)                # Hᵀ C^-1 y
+    covariance = _sym(_solve(M, np.eye(d), "covariance"))
+    estimate = ref + (covariance @ b[..., None])[..., 0]
     return TrackEstimate(estimate, covariance)
 
 
