@@ -108,6 +108,8 @@ VALID = {
     tf.ci_weight: dict(P1=_P, P2=np.eye(2), criterion="trace"),
     tf.track_statistic: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2),
                              P12=0.2 * np.eye(2)),
+    tf.blue_fusion: dict(x=[[0.0, 1.0], [1.0, 0.0]],
+                         covariance=np.block([[_P, 0.2 * np.eye(2)], [0.2 * np.eye(2), np.eye(2)]])),
     tf.constant_velocity: dict(dt=1.0, q=0.5, dim=1, noise="continuous"),
     # the prediction chapter 10 aligns tracks with (the engine's one home of it)
     kalman_predict: dict(x=[0.0, 1.0], P=_P, dt=1.0, q=0.5, noise="continuous"),
