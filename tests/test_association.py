@@ -98,7 +98,7 @@ def cost_matrices(draw, max_n=5, allow_inf=True):
        st.one_of(st.none(), st.floats(-1.0, 6.0)))
 def test_joint_equals_bruteforce(cost, threshold, miss):
     j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
-    b = A.associate_bruteforce(cost, threshold=threshold, miss_cost=miss)
+    b = asg.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss)
     assert j.cost == pytest.approx(b.cost, rel=1e-9, abs=1e-9)
     assert j.n_assigned == b.n_assigned
     check_feasible(j, cost, threshold)
@@ -146,13 +146,13 @@ def test_joint_batch_equals_loop():
 def test_bruteforce_square_n8_matches_joint():
     rng = np.random.default_rng(1)
     c = rng.random((3, 8, 8))
-    np.testing.assert_array_equal(A.associate_bruteforce(c).row_to_col,
+    np.testing.assert_array_equal(asg.solve_2d_bruteforce(c).row_to_col,
                                   A.associate_joint(c).row_to_col)
 
 
 def test_bruteforce_too_large():
     with pytest.raises(ValueError, match="`cost`"):
-        A.associate_bruteforce(np.zeros((11, 11)))
+        asg.solve_2d_bruteforce(np.zeros((11, 11)))
 
 
 def test_joint_large_rectangular_feasible():
@@ -186,7 +186,7 @@ def test_all_gated_out_returns_no_pairs():
               A.associate_joint(c, threshold=1.0, miss_cost=0.5),
               A.associate_pointwise(c, 1.0),
               A.associate_pointwise(c, 1.0, order="best_first"),
-              A.associate_bruteforce(c, threshold=1.0)):
+              asg.solve_2d_bruteforce(c, threshold=1.0)):
         assert r.n_assigned == 0
         assert r.unassigned_rows.tolist() == [0, 1, 2]
         assert r.unassigned_cols.tolist() == [0, 1, 2, 3]
@@ -286,7 +286,7 @@ def test_greedy_is_not_joint_ml():
 @given(cost_matrices(max_n=5), st.integers(1, 130))
 def test_murty_equals_sorted_bruteforce(cost, k):
     every = sorted(t for _, t in enumerate_complete(cost) if np.isfinite(t))
-    r = A.k_best_assignments(cost, k)
+    r = asg.k_best_2d(cost, k)
     assert r.k == min(k, len(every))
     np.testing.assert_allclose(r.cost, every[:r.k], atol=1e-9)
     assert len({tuple(a) for a in r.row_to_col}) == r.k
@@ -300,7 +300,7 @@ def test_murty_distinct_costs_same_assignments():
     rng = np.random.default_rng(4)
     c = rng.random((6, 6))
     every = sorted(enumerate_complete(c), key=lambda x: x[1])
-    r = A.k_best_assignments(c, 40)
+    r = asg.k_best_2d(c, 40)
     for (a_ref, _), a in zip(every[:40], r.row_to_col, strict=True):
         np.testing.assert_array_equal(a, a_ref)
 
@@ -308,7 +308,7 @@ def test_murty_distinct_costs_same_assignments():
 def test_murty_larger_costs_match_lower_bound_logic():
     rng = np.random.default_rng(5)
     c = rng.random((30, 30))
-    r = A.k_best_assignments(c, 60)
+    r = asg.k_best_2d(c, 60)
     assert np.all(np.diff(r.cost) >= -1e-12)
     assert r.cost[0] == pytest.approx(A.associate_joint(c).cost)
     assert len({tuple(a) for a in r.row_to_col}) == 60
@@ -420,9 +420,9 @@ def test_miss_cost_rule_pair_iff_below_twice_miss():
 
 @pytest.mark.parametrize("func", [
     lambda c: A.associate_joint(c),
-    lambda c: A.associate_bruteforce(c),
+    lambda c: asg.solve_2d_bruteforce(c),
     lambda c: A.associate_pointwise(c, 1.0),
-    lambda c: A.k_best_assignments(c, 2),
+    lambda c: asg.k_best_2d(c, 2),
     lambda c: A.association_probabilities(c),
 ])
 @pytest.mark.parametrize("bad", [
@@ -452,9 +452,9 @@ def test_bad_threshold(th):
 
 def test_bad_k_and_order_and_miss():
     with pytest.raises(ValueError, match="`k`"):
-        A.k_best_assignments(np.eye(2), 0)
+        asg.k_best_2d(np.eye(2), 0)
     with pytest.raises(TypeError, match="`k`"):
-        A.k_best_assignments(np.eye(2), 2.5)
+        asg.k_best_2d(np.eye(2), 2.5)
     with pytest.raises(ValueError, match="`order`"):
         A.associate_pointwise(np.eye(2), 1.0, order="random")
     with pytest.raises(ValueError, match="`miss_cost`"):
@@ -462,7 +462,7 @@ def test_bad_k_and_order_and_miss():
     with pytest.raises(ValueError, match="`miss_cost`"):
         A.associate_joint(np.eye(2), miss_cost=-np.inf)
     with pytest.raises(ValueError, match="`cost`"):
-        A.k_best_assignments(np.zeros((2, 2, 2)), 1)
+        asg.k_best_2d(np.zeros((2, 2, 2)), 1)
 
 
 def test_miss_cost_inf_is_none():
@@ -547,8 +547,7 @@ def test_all_correct():
 # the function's invariants; invalid generated input raises ValueError / TypeError naming
 # the public argument. The example budget is the CI profile of tests/conftest.py.
 
-PUBLIC = ("associate_pointwise", "associate_joint", "associate_bruteforce", "k_best_assignments",
-          "association_probabilities", "non_assignment_cost",
+PUBLIC = ("associate_pointwise", "associate_joint", "association_probabilities", "non_assignment_cost",
           "proximity_matrix", "all_correct", "compare_decisions", "decision_outcome",
           "calibrate_gate", "outcome_by_gate")
 
@@ -600,7 +599,7 @@ def test_property_pointwise_is_a_gated_matching(cost, threshold, order):
 @given(cost_matrices(max_n=5), thresholds, st.one_of(st.none(), st.floats(-1.0, 6.0)))
 def test_property_joint_is_a_matching_and_the_brute_force_optimum(cost, threshold, miss):
     j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
-    b = A.associate_bruteforce(cost, threshold=threshold, miss_cost=miss)
+    b = asg.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss)
     for r in (j, b):
         assert_matching(r.row_to_col, r.col_to_row, cost.shape[1])
         assert np.isfinite(r.cost)
@@ -609,7 +608,7 @@ def test_property_joint_is_a_matching_and_the_brute_force_optimum(cost, threshol
 
 @given(cost_matrices(max_n=4), st.integers(1, 30))
 def test_property_k_best_are_distinct_matchings_in_order(cost, k):
-    r = A.k_best_assignments(cost, k)
+    r = asg.k_best_2d(cost, k)
     assert np.all(np.isfinite(r.cost)) and np.all(np.diff(r.cost) >= -1e-9)
     for a in r.row_to_col:
         assert_matching(a, inverse_of(a, cost.shape[1]), cost.shape[1])
@@ -687,12 +686,12 @@ def test_threshold_none_means_no_gate_everywhere():
         np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
     np.testing.assert_array_equal(A.associate_pointwise(c).row_to_col,
                                   A.associate_pointwise(c, None).row_to_col)
-    for f in (A.associate_joint, A.associate_bruteforce):
+    for f in (A.associate_joint, asg.solve_2d_bruteforce):
         np.testing.assert_array_equal(f(c, threshold=None).row_to_col,
                                       f(c, threshold=np.inf).row_to_col)
     # the gate is strict everywhere: kappa == gamma is outside
     for r in (A.associate_pointwise([[1.0]], 1.0), A.associate_joint([[1.0]], threshold=1.0),
-              A.associate_bruteforce([[1.0]], threshold=1.0)):
+              asg.solve_2d_bruteforce([[1.0]], threshold=1.0)):
         assert r.n_assigned == 0
 
 
@@ -710,14 +709,14 @@ def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
     for kw in ({"threshold": 6.0}, {"miss_cost": 2.5}, {"threshold": 6.0, "miss_cost": 2.0}):
         skw = {k: v * scale for k, v in kw.items()}
         ref = A.associate_joint(c, **kw)
-        for f in (A.associate_joint, A.associate_bruteforce):
+        for f in (A.associate_joint, asg.solve_2d_bruteforce):
             got = f(c * scale, **skw)
             np.testing.assert_array_equal(got.row_to_col, ref.row_to_col)
             assert np.isfinite(got.cost)
             assert got.cost == pytest.approx(ref.cost * scale, rel=1e-12)
     np.testing.assert_array_equal(A.associate_pointwise(c * scale, 6.0 * scale).row_to_col,
                                   A.associate_pointwise(c, 6.0).row_to_col)
-    kb_ref, kb = A.k_best_assignments(c, 10), A.k_best_assignments(c * scale, 10)
+    kb_ref, kb = asg.k_best_2d(c, 10), asg.k_best_2d(c * scale, 10)
     np.testing.assert_array_equal(kb.row_to_col, kb_ref.row_to_col)
     np.testing.assert_allclose(kb.cost, kb_ref.cost * scale, rtol=1e-12)
 
@@ -725,23 +724,23 @@ def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
 def test_costs_near_the_float_maximum():
     big = np.finfo(float).max / 4                                  # ~4.5e307, finite
     c = np.array([[big, big / 2], [big / 2, big]])
-    for f in (A.associate_joint, A.associate_bruteforce):
+    for f in (A.associate_joint, asg.solve_2d_bruteforce):
         r = f(c)                                                   # used to claim infeasibility
         np.testing.assert_array_equal(r.row_to_col, [1, 0])
         assert r.cost == big
     c2 = np.array([[big, 1.0], [np.inf, big]])
-    for f in (A.associate_joint, A.associate_bruteforce):
+    for f in (A.associate_joint, asg.solve_2d_bruteforce):
         np.testing.assert_array_equal(f(c2, threshold=np.inf).row_to_col, [0, 1])
         np.testing.assert_array_equal(f(c2, miss_cost=big / 8).row_to_col, [1, -1])
     np.testing.assert_allclose(A.association_probabilities(c), [[0, 1], [1, 0]])
     np.testing.assert_allclose(A.association_probabilities(np.full((3, 3), 1e308)), 1 / 3)
-    np.testing.assert_allclose(A.k_best_assignments(c, 2).cost, [big, 2 * big])
+    np.testing.assert_allclose(asg.k_best_2d(c, 2).cost, [big, 2 * big])
 
 
 def test_a_total_beyond_the_float_range_is_refused_not_inf():
     c = np.full((3, 3), np.finfo(float).max / 2)
-    for call in (lambda: A.associate_joint(c), lambda: A.associate_bruteforce(c),
-                 lambda: A.associate_pointwise(c), lambda: A.k_best_assignments(c, 1)):
+    for call in (lambda: A.associate_joint(c), lambda: asg.solve_2d_bruteforce(c),
+                 lambda: A.associate_pointwise(c), lambda: asg.k_best_2d(c, 1)):
         with pytest.raises(ValueError, match=r"`cost`.*float range"):
             call()
 
@@ -771,18 +770,18 @@ def test_non_assignment_cost_extremes_against_mpmath():
 # ----------------------------------------------------------------------------- resource limits
 
 def test_enumeration_limits_are_checked_before_allocation():
-    with pytest.raises(ValueError, match=r"`cost`.*limit of 4000000.*associate_joint"):
-        A.associate_bruteforce(np.zeros((11, 11)))
-    with pytest.raises(ValueError, match=r"`cost`.*partial matchings.*associate_joint"):
-        A.associate_bruteforce(np.zeros((8, 8)), threshold=1.0)
-    with pytest.raises(ValueError, match=r"`cost`.*over a batch.*associate_joint"):
-        A.associate_bruteforce(np.broadcast_to(np.zeros((9, 9)), (1000, 9, 9)))
+    with pytest.raises(ValueError, match=r"`cost`.*limit of 4000000.*solve_2d"):
+        asg.solve_2d_bruteforce(np.zeros((11, 11)))
+    with pytest.raises(ValueError, match=r"`cost`.*partial matchings.*solve_2d"):
+        asg.solve_2d_bruteforce(np.zeros((8, 8)), threshold=1.0)
+    with pytest.raises(ValueError, match=r"`cost`.*over a batch.*solve_2d"):
+        asg.solve_2d_bruteforce(np.broadcast_to(np.zeros((9, 9)), (1000, 9, 9)))
     with pytest.raises(ValueError, match=r"`cost`.*k=\.\.\."):
         A.association_probabilities(np.zeros((11, 11)))
     with pytest.raises(ValueError, match=r"`k`.*limit"):
-        A.k_best_assignments(np.eye(3), asg.MAX_K_BEST + 1)
+        asg.k_best_2d(np.eye(3), asg.MAX_K_BEST + 1)
     with pytest.raises(ValueError, match=r"`k`.*bytes of Murty"):
-        A.k_best_assignments(np.zeros((1000, 1000)), 10_000)
+        asg.k_best_2d(np.zeros((1000, 1000)), 10_000)
     with pytest.raises(ValueError, match=r"`false_density1`.*bytes.*trials"):
         scenes.two_radar_clutter_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.1,
                                   false_density1=1e12, trials=10)
@@ -809,11 +808,11 @@ BAD_COSTS = st.sampled_from([
 
 
 @given(BAD_COSTS, st.sampled_from(["associate_pointwise", "associate_joint",
-                                   "associate_bruteforce", "k_best_assignments",
+                                   "solve_2d_bruteforce", "k_best_2d",
                                    "association_probabilities"]))
 def test_fuzz_bad_costs_name_the_argument(bad, name):
-    call = {"k_best_assignments": lambda c: A.k_best_assignments(c, 2)}.get(
-        name, getattr(A, name))
+    call = {"k_best_2d": lambda c: asg.k_best_2d(c, 2),
+            "solve_2d_bruteforce": asg.solve_2d_bruteforce}.get(name, getattr(A, name, None))
     with pytest.raises((ValueError, TypeError), match="`cost`"):
         call(bad)
 
@@ -827,7 +826,7 @@ def test_fuzz_bad_thresholds_name_the_argument(bad, where):
     elif where == "joint":
         call, arg = (lambda: A.associate_joint(c, threshold=bad)), "threshold"
     elif where == "bruteforce":
-        call, arg = (lambda: A.associate_bruteforce(c, threshold=bad)), "threshold"
+        call, arg = (lambda: asg.solve_2d_bruteforce(c, threshold=bad)), "threshold"
     else:
         call, arg = (lambda: A.compare_decisions(c[None], [[0, 1]], threshold=1.0,
                                                  joint_threshold=bad)), "joint_threshold"
@@ -844,7 +843,7 @@ def test_fuzz_bad_miss_cost(bad):
 @given(st.sampled_from([0, -3, 2.5, "2", True, None]))
 def test_fuzz_bad_k(bad):
     with pytest.raises((ValueError, TypeError), match="`k`"):
-        A.k_best_assignments(np.eye(2), bad)
+        asg.k_best_2d(np.eye(2), bad)
     if bad is not None:
         with pytest.raises((ValueError, TypeError), match="`k`"):
             A.association_probabilities(np.eye(2), k=bad)
@@ -1126,7 +1125,7 @@ def test_sparse_joint_equals_dense_and_brute_force(seed, n1, n2, density, miss, 
     assert np.array_equal(got.row_to_col, ref.row_to_col)
     assert np.array_equal(got.col_to_row, ref.col_to_row)
     assert got.cost == pytest.approx(ref.cost, rel=1e-12, abs=1e-12)
-    brute = A.associate_bruteforce(dense, threshold=th, miss_cost=miss)
+    brute = asg.solve_2d_bruteforce(dense, threshold=th, miss_cost=miss)
     assert got.cost == pytest.approx(brute.cost, rel=1e-12, abs=1e-12)
     assert np.array_equal(got.row_to_col, brute.row_to_col)
 
@@ -1374,7 +1373,7 @@ def test_joint_outcome_matches_the_definition_on_the_brute_force_pairing(seed, n
     truth = np.where(truth < n2, truth, -1)
     truth = np.where(np.isfinite(k[np.arange(n1), np.maximum(truth, 0)]) | (truth < 0), truth,
                      g.integers(-1, n2, n1))
-    best = A.associate_bruteforce(k)
+    best = asg.solve_2d_bruteforce(k)
     total = sum(k[i, j] for i, j in enumerate(best.row_to_col) if j >= 0)
     expect = _outcome_by_definition(best.row_to_col, truth, total < gate)
     o = A.decision_outcome(k, truth, "joint", gate)

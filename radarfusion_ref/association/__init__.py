@@ -19,11 +19,14 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   :func:`scipy.optimize.linear_sum_assignment`; rectangular matrices, gating
   and a per-report non-assignment cost (missed detections, false reports) are
   supported;
-* :func:`associate_bruteforce` — the same optimum by enumerating every joint
-  hypothesis (the :math:`n!` route; small :math:`n` only);
-* :func:`k_best_assignments` — Murty's ranking of the :math:`k` best joint
-  hypotheses, and :func:`association_probabilities` — marginal association
-  probabilities, exact (enumeration) or approximated from the :math:`k` best;
+* the same optimum by enumerating every joint hypothesis (the :math:`n!` route,
+  small :math:`n` only) and Murty's ranking of the :math:`k` best joint
+  hypotheses are the engine's solvers, called directly:
+  :func:`radarfusion_ref.engine.assignment.solve_2d_bruteforce` and
+  :func:`radarfusion_ref.engine.assignment.k_best_2d`;
+* :func:`association_probabilities` — the chapter's hypothesis likelihood
+  :math:`e^{-C(\pi)}` turned into marginal association probabilities, exact
+  (enumeration) or approximated from the :math:`k` best;
 * :func:`non_assignment_cost` — the non-assignment cost implied by the
   likelihood ratio (detection probabilities, false-report densities);
 * the scenes of the chapter come from
@@ -37,11 +40,10 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   comparison of the rules at the same error rate).
 
 The solvers themselves live in :mod:`radarfusion_ref.engine.assignment` (the home of
-the 2-D and S-D assignment solvers): :func:`associate_joint`,
-:func:`associate_bruteforce` and :func:`k_best_assignments` call
-:func:`radarfusion_ref.engine.assignment.solve_2d`,
-:func:`radarfusion_ref.engine.assignment.solve_2d_bruteforce` and
-:func:`radarfusion_ref.engine.assignment.k_best_2d`; their results,
+the 2-D and S-D assignment solvers; this module adds the chapter's costs, gates,
+hypothesis likelihood and decision rules): :func:`associate_joint` is
+:func:`radarfusion_ref.engine.assignment.solve_2d` under the chapter's name, with its
+arguments documented here. The results,
 :class:`radarfusion_ref.engine.assignment.Association` and
 :class:`radarfusion_ref.engine.assignment.KBestAssignments` (import them from there),
 share the vocabulary ``cost``, ``lower_bound``, ``gap``, ``history``, ``exact``
@@ -73,25 +75,21 @@ from ._decisions import (
     outcome_by_gate,
 )
 from ._rules import (
-    associate_bruteforce,
     associate_joint,
     associate_pointwise,
     association_probabilities,
-    k_best_assignments,
 )
 
 __all__ = [
     "DecisionComparison",
     "DecisionOutcome",
     "all_correct",
-    "associate_bruteforce",
     "associate_joint",
     "associate_pointwise",
     "association_probabilities",
     "calibrate_gate",
     "compare_decisions",
     "decision_outcome",
-    "k_best_assignments",
     "non_assignment_cost",
     "outcome_by_gate",
     "proximity_matrix",

@@ -1,4 +1,4 @@
-"""The association rules: pointwise, joint (exact), enumeration, k best, marginals."""
+"""The association rules: pointwise, joint (exact), and the marginal association probabilities."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from ..engine._validation import (
 from ..engine.assignment import (
     MAX_HYPOTHESES,
     Association,
-    KBestAssignments,
 )
 from ..engine.assignment._checks import (
     _as_cost,
@@ -142,6 +141,10 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
 def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     r"""The joint maximum-likelihood association: an exact linear assignment.
 
+    The engine's 2-D solver, :func:`radarfusion_ref.engine.assignment.solve_2d`,
+    applied to the chapter's cost matrix; its arguments, result and errors are
+    documented here.
+
     Parameters
     ----------
     cost : array_like, shape (..., n1, n2), or scipy.sparse matrix (n1, n2)
@@ -240,118 +243,6 @@ def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
     return assignment.solve_2d(cost, threshold=threshold, miss_cost=miss_cost)
 
 
-# --------------------------------------------------------------------------- brute force
-def associate_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
-    r"""The joint ML association by enumerating every joint hypothesis.
-
-    The reference route for :func:`associate_joint`: the same problem (same
-    arguments, same meaning), solved by scoring every hypothesis. Square
-    matrices without gate or miss cost enumerate the :math:`n!` permutations
-    (chunked, vectorized); otherwise all partial matchings are scored.
-
-    Parameters
-    ----------
-    cost : array_like, shape (..., n1, n2)
-        As in :func:`associate_joint`.
-    threshold, miss_cost : float, optional
-        As in :func:`associate_joint`.
-
-    Returns
-    -------
-    Association
-
-    Raises
-    ------
-    ValueError
-        As :func:`associate_joint`; and, before anything is allocated, if
-        there are more than
-        :data:`~radarfusion_ref.engine.assignment.MAX_HYPOTHESES` complete
-        hypotheses (:math:`n > 10`), more than
-        :data:`~radarfusion_ref.engine.assignment.MAX_PARTIAL_MATCHINGS` partial
-        ones (gate / miss cost / forbidden pairs, e.g. :math:`8 \times 8`), or
-        more than :data:`~radarfusion_ref.engine.assignment.MAX_SCORED_HYPOTHESES`
-        over the whole batch. The message names
-        the scalable alternative, :func:`associate_joint`.
-
-    Notes
-    -----
-    Grachov & Korneev's "optimal algorithm": full enumeration of the
-    hypotheses :math:`H_n` and choice of the most plausible one, eq. (6).
-    Among hypotheses of equal cost the first enumerated is returned.
-
-    Examples
-    --------
-    >>> associate_bruteforce([[0.5, 0.1], [0.2, 3.0]]).row_to_col
-    array([1, 0])
-    """
-    return assignment.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss_cost)
-
-
-# --------------------------------------------------------------------------- Murty k-best
-def k_best_assignments(cost, k) -> KBestAssignments:
-    r"""Rank the `k` best complete assignments (joint hypotheses): Murty's algorithm.
-
-    Parameters
-    ----------
-    cost : array_like, shape (n1, n2)
-        Pair costs; ``+inf`` forbids a pair; rectangular allowed (then every
-        report of the shorter side is assigned).
-    k : int
-        Number of hypotheses wanted (≥ 1).
-
-    Returns
-    -------
-    KBestAssignments
-        Fewer than `k` if fewer feasible assignments exist.
-
-    Raises
-    ------
-    ValueError
-        For NaN or ``-inf`` costs, an empty matrix, ``k < 1``, ``k >``
-        :data:`~radarfusion_ref.engine.assignment.MAX_K_BEST`, a planned working memory (about ``_MURTY_BYTES_PER_NODE
-        * k * n**2`` bytes) above ``MEMORY_LIMIT``, or a hypothesis total
-        beyond the float range.
-    TypeError
-        If `k` is not an integer.
-
-    Notes
-    -----
-    Murty's partitioning: after the best remaining solution :math:`\pi` of a
-    sub-problem (some pairs fixed, some forbidden) is output, its free rows
-    :math:`r_1, \dots, r_q` give :math:`q` disjoint children — child
-    :math:`t` fixes :math:`r_1 \dots r_{t-1}` to their columns in
-    :math:`\pi` and forbids :math:`(r_t, \pi(r_t))`. Their union is every
-    solution of the parent apart from :math:`\pi`, so taking the best child
-    solution overall, repeatedly, ranks all assignments exactly.
-
-    Work is saved as in Miller, Stone & Cox (1997): with dual potentials of
-    the parent's optimum (reduced costs :math:`\bar c \ge 0`), child
-    :math:`t` costs at least
-
-    .. math::
-
-        C(\pi) + \min_{j \ne \pi(r_t)} \bar c_{r_t j}
-               + \min_{i \ne r_t} \bar c_{i \pi(r_t)},
-
-    so children enter the queue with this bound and are solved
-    (:func:`scipy.optimize.linear_sum_assignment` on the child's reduced
-    matrix) only when the bound reaches the front. A rectangular problem is
-    padded with zero-cost dummy rows, and only real rows are partitioned, so
-    every assignment of the real rows appears once.
-
-    References
-    ----------
-    Murty (1968); Miller, Stone & Cox (1997).
-
-    Examples
-    --------
-    >>> r = k_best_assignments([[1.0, 2.0], [2.0, 5.0]], 5)
-    >>> r.row_to_col.tolist(), r.cost.tolist()
-    ([[1, 0], [0, 1]], [4.0, 6.0])
-    """
-    return assignment.k_best_2d(cost, k)
-
-
 # --------------------------------------------------------------------------- marginals
 def association_probabilities(cost, *, k=None) -> np.ndarray:
     r"""Marginal probabilities that report ``i`` of radar 1 and ``j`` of radar 2 match.
@@ -365,7 +256,8 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
     k : int, optional
         None (default): exact, by enumerating every complete assignment (small
         matrices only). An integer: the approximation from the `k` best
-        hypotheses of :func:`k_best_assignments`.
+        hypotheses of :func:`radarfusion_ref.engine.assignment.k_best_2d`
+        (Murty's ranking).
 
     Returns
     -------
@@ -378,7 +270,7 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
         For invalid costs, ``k < 1``, no feasible assignment, or, before
         anything is allocated, more than :data:`~radarfusion_ref.engine.assignment.MAX_HYPOTHESES` hypotheses to
         enumerate exactly (the message points to the `k`-best route) or a `k`
-        beyond the limits of :func:`k_best_assignments`.
+        beyond the limits of :func:`radarfusion_ref.engine.assignment.k_best_2d`.
 
     Notes
     -----
@@ -429,7 +321,7 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
             for i in range(a):
                 p[i] += np.bincount(h[:, i], weights=wts, minlength=b)
     else:
-        kb = k_best_assignments(ws, k)          # rows = the shorter side; scaled: same ranking
+        kb = assignment.k_best_2d(ws, k)        # rows = the shorter side; scaled: same ranking
         assign, costs = kb.row_to_col, kb.cost
         finite = np.isfinite(costs)
         if not finite.any():
