@@ -15,6 +15,8 @@ even though the radars' measurement errors are independent.
 * :func:`naive_fusion` — fusion that ignores :math:`P_{12}` (the ML fusion of
   independent reports, :func:`radarfusion_ref.fusion.fuse_gaussian`);
 * :func:`bar_shalom_campo` — the best linear fusion with a known :math:`P_{12}`;
+* :func:`blue_fusion` — the best linear unbiased fusion of n correlated tracks from
+  their joint covariance (Bar-Shalom–Campo for two);
 * :func:`covariance_intersection` — fusion that is consistent for *every*
   :math:`P_{12}`, with the weight :math:`\omega` minimising the determinant or the trace;
 * :func:`track_statistic` — the track-to-track association statistic

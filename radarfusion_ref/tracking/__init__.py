@@ -8,7 +8,7 @@ r"""From reports to tracks: one tracker over the radars' reports, and three arch
 * :func:`fuse_then_track` — architecture (b): the radars' scans grouped and fused per time
   window, then tracked;
 * :func:`track_then_fuse` — architecture (c): a tracker per radar, then track-to-track
-  fusion (covariance intersection);
+  fusion (covariance intersection, naive or Bar-Shalom–Campo);
 * :func:`~radarfusion_ref.tracking.stonesoup.stonesoup_track` — Stone Soup's GNN and JPDA
   trackers on the same reports, for comparison (Stone Soup imported when called);
 * :func:`evaluate_tracks_over_time` — GOSPA over time, track switches against the ADS-B
