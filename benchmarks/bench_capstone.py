@@ -5,8 +5,7 @@ this run: the committed hour (2018-08-01 11:00–12:00 UTC over Switzerland, 360
 at 10 s) is simulated for the three default radars and run through the whole pipeline
 (registration over the first 30 scans, debiased 3-D conversion, gate, S-D grouping with
 dummies by the exact MILP, ML fusion, recognition; ``cp.PipelineSettings()``), then scored
-(GOSPA, association, NEES, recognition); step 7 (tracking with track-to-track fusion) is timed and scored
-after it; then the realistic radars (each its own period, phase and frame) over the same
+(GOSPA, association, NEES, recognition); then the realistic radars (each its own period, phase and frame) over the same
 window are simulated, registered and converted, printing the bias estimates against the
 true biases and the reports' NEES before and after. It prints the per-stage wall times and
 two ratios:
@@ -72,13 +71,6 @@ def main(quick: bool = False) -> int:
           f"(Lagrangian / MILP = {times['lagrangian'] / times['milp']:.1f}); the hour by the "
           f"Lagrangian would take about {times['lagrangian'] * S:.0f} s")
 
-    t = time.perf_counter()
-    tracks = cp.track_fusion(result, period=truth.period)
-    tev = cp.evaluate_tracks(tracks, truth, radars, c=2000.0, p=2.0)
-    t_track = time.perf_counter() - t
-    print(f"step 7, tracking with track-to-track fusion (covariance intersection) and its "
-          f"scores: {t_track:.2f} s; the whole chain with it {total + t_track:.1f} s")
-
     parts = ev.parts_rms()
     print(f"\nGOSPA (c = {ev.c:g} m, p = {ev.p:g}, alpha = 2), mean over scans "
           f"{ev.mean_gospa:.0f} m; root-mean parts: localisation {parts['localisation']:.0f} m, "
@@ -93,10 +85,7 @@ def main(quick: bool = False) -> int:
                     f"(true {r.bias_range:+.0f} / {np.degrees(r.bias_azimuth):+.2f})"
                     for i, r in enumerate(radars))
     print(f"registration: {est}")
-    print(f"tracks: {tev.n_tracks} for {np.unique(truth.aircraft).size} aircraft; GOSPA mean "
-          f"{tev.mean_gospa:.0f} m (objects {ev.mean_gospa:.0f} m); position RMSE {tev.rmse:.0f} m; "
-          f"NEES mean {tev.nees.mean:.3f} (95 % interval [{tev.nees.low:.3f}, {tev.nees.high:.3f}], "
-          "covariance intersection is conservative)")
+    print("tracks over time: benchmarks/bench_tracking.py")
     realistic(duration, t_sim)
     if quick:
         return 0

@@ -662,69 +662,6 @@ def test_pipeline_bad_input(short, short_runs):
         cp.evaluate(res, other)
 
 
-# ----------------------------------------------------------------------------- tracking
-@pytest.fixture(scope="module")
-def tracked(traffic):
-    truth = cp.truth_scans(traffic, start=600.0, duration=300.0)
-    radars = cp.default_radars()
-    res = cp.run_pipeline(cp.simulate_reports(truth, radars, rng=9), radars)
-    return truth, radars, res
-
-
-def test_track_fusion(tracked):
-    truth, radars, res = tracked
-    ci = cp.track_fusion(res)
-    naive = cp.track_fusion(res, rule="naive")
-    e_ci = cp.evaluate_tracks(ci, truth, radars)
-    e_naive = cp.evaluate_tracks(naive, truth, radars)
-    e_obj = cp.evaluate(res, truth)
-    n_aircraft = np.unique(truth.aircraft).size
-    assert n_aircraft <= e_ci.n_tracks < 2 * n_aircraft
-    # a track follows one aircraft: rows labelled by another aircraft are rare
-    labels = {}
-    for t, s in zip(ci.track[ci.source >= 0], ci.source[ci.source >= 0], strict=True):
-        labels.setdefault(int(t), set()).add(int(s))
-    assert sum(len(v) > 1 for v in labels.values()) <= 0.05 * len(labels)
-    # tracking smooths: the labelled rows are closer to the truth than the scan's objects
-    pure_err = []
-    src = np.where(res.members >= 0, res.reports.source[np.maximum(res.members, 0)], -2)
-    first = src[np.arange(len(src)), np.argmax(res.members >= 0, axis=1)]
-    pure = (first >= 0) & np.all((src == first[:, None]) | (res.members < 0), axis=1)
-    key = truth.scan * 1000 + truth.aircraft
-    ti = np.searchsorted(key, res.scan[pure] * 1000 + first[pure])
-    pure_err = res.position[pure] - truth.position[ti]
-    assert e_ci.rmse < math.sqrt(np.mean(np.sum(pure_err**2, axis=1)))
-    # covariance intersection is conservative, the naive rule is not
-    assert e_ci.nees.mean < 3.0 < e_naive.nees.mean * 1.05
-    assert e_ci.nees.mean < e_naive.nees.mean
-    # coasting tracks fill scans in which an aircraft was missed
-    assert np.mean(e_ci.missed) < np.mean(e_obj.missed)
-    assert np.allclose(e_ci.localisation + e_ci.missed + e_ci.false, e_ci.gospa**2)
-
-
-def test_track_fusion_bad_input(tracked):
-    truth, radars, res = tracked
-    with pytest.raises(TypeError, match="`result`"):
-        cp.track_fusion(truth)
-    for kw, match in ((dict(q=-1.0), "`q`"), (dict(rule="mean"), "`rule`"),
-                      (dict(confirm=0), "`confirm`"), (dict(max_misses=-1), "`max_misses`"),
-                      (dict(p_false_reject=0.0), "`p_false_reject`"),
-                      (dict(period=0.0), "`period`")):
-        with pytest.raises(ValueError, match=match):
-            cp.track_fusion(res, **kw)
-    tr = cp.track_fusion(res)
-    with pytest.raises(TypeError, match="`tracks`"):
-        cp.evaluate_tracks(res, truth, radars)
-    with pytest.raises(TypeError, match="`truth`"):
-        cp.evaluate_tracks(tr, res, radars)
-    with pytest.raises(TypeError, match="`radars`"):
-        cp.evaluate_tracks(tr, truth, None)
-    with pytest.raises(ValueError, match="`min_radars`"):
-        cp.evaluate_tracks(tr, truth, radars, min_radars=4)
-    with pytest.raises(ValueError, match="`c`"):
-        cp.evaluate_tracks(tr, truth, radars, c=0.0)
-
-
 @settings(max_examples=60, deadline=None)
 @given(points, points, st.floats(0.5, 20), st.sampled_from([1.0, 2.0, 3.0]),
        st.sampled_from([1e-150, 1e-100, 1e-20, 1e20, 1e100, 1e150]))

@@ -23,10 +23,8 @@ module per concept:
 * :mod:`~radarfusion_ref.capstone.pipeline` — the fusion centre scan by scan
   (:func:`run_pipeline`, configured by a frozen :class:`PipelineSettings`), each step
   calling the function its chapter teaches;
-* :mod:`~radarfusion_ref.capstone.tracking` — step 7: one local track per radar, fused
-  track to track (:func:`track_fusion`, with :mod:`radarfusion_ref.trackfusion`);
 * :mod:`~radarfusion_ref.capstone.evaluation` — scores against the truth
-  (:func:`evaluate`, :func:`evaluate_tracks`) with the engine's metrics
+  (:func:`evaluate`) with the engine's metrics
   (:mod:`radarfusion_ref.engine.metrics`: GOSPA, NEES, purity); :func:`gospa_parameters`
   checks an evaluation's GOSPA cut-off and order at GOSPA's own door.
 
@@ -47,7 +45,7 @@ from .detections import (
     simulate_detections,
     to_common,
 )
-from .evaluation import Evaluation, TrackEvaluation, evaluate, evaluate_tracks, gospa_parameters
+from .evaluation import Evaluation, evaluate, gospa_parameters
 from .pipeline import (
     MIN_REGISTRATION_GROUPS,
     SPEED_TYPE_MEANS,
@@ -68,7 +66,6 @@ from .radars import (
     realistic_radars,
     simulate_reports,
 )
-from .tracking import TrackFusionResult, track_fusion
 from .traffic import (
     COLUMNS,
     DATA_FILE,
@@ -107,15 +104,12 @@ __all__ = [
     "PipelineSettings",
     "Radar",
     "Reports",
-    "TrackEvaluation",
-    "TrackFusionResult",
     "Traffic",
     "TruthScans",
     "as_radars",
     "coverage_count",
     "default_radars",
     "evaluate",
-    "evaluate_tracks",
     "gospa_parameters",
     "load_traffic",
     "local_rotation",
@@ -125,7 +119,6 @@ __all__ = [
     "simulate_detections",
     "simulate_reports",
     "to_common",
-    "track_fusion",
     "truth_at",
     "truth_scans",
 ]

@@ -1,7 +1,7 @@
 r"""Scores of the capstone's fusion centre against the truth.
 
-:func:`evaluate` scores the fused objects of each scan, :func:`evaluate_tracks` the
-fused tracks: GOSPA with its localisation, missed and false parts
+:func:`evaluate` scores the fused objects of each scan: GOSPA with its localisation, missed
+and false parts
 (:func:`radarfusion_ref.engine.metrics.gospa`), association accuracy (purity,
 :func:`radarfusion_ref.engine.metrics.purity`, and completeness), NEES
 (:func:`radarfusion_ref.engine.metrics.nees`) and recognition accuracy.
@@ -14,15 +14,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import _describe, as_choice, as_int
+from ..engine._validation import _describe, as_choice
 from ..engine.metrics import NeesResult, gospa, nees, purity
 from ..engine.montecarlo import Proportion, proportion
 from .pipeline import PipelineResult
-from .radars import _coverage_count, as_radars
-from .tracking import TrackFusionResult
+from .radars import _coverage_count
 from .traffic import TruthScans
 
-__all__ = ["Evaluation", "TrackEvaluation", "evaluate", "evaluate_tracks", "gospa_parameters"]
+__all__ = ["Evaluation", "evaluate", "gospa_parameters"]
 
 
 @dataclass(frozen=True)
@@ -227,94 +226,3 @@ def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
                       missed=parts[:, 2], false=parts[:, 3], c=c, p=p, purity=pur.fraction,
                       completeness=_completeness(result, truth), nees=nees_t,
                       recognition=recognition, timings=timings)
-
-
-# ----------------------------------------------------------------------------- tracks
-@dataclass(frozen=True)
-class TrackEvaluation:
-    r"""Scores of a :class:`~radarfusion_ref.capstone.tracking.TrackFusionResult`.
-
-    Attributes
-    ----------
-    gospa, localisation, missed, false : numpy.ndarray, shape (S,)
-        Per scan, as in :class:`Evaluation`.
-    c, p : float
-    nees : NeesResult or None
-        3-D NEES of the labelled rows (a track row whose object came from one aircraft),
-        with the 95 % range of the mean under :math:`\chi^2_3` errors.
-    rmse : float or None
-        Root-mean-square position error of those rows (m).
-    n_tracks : int
-        Tracks reported at least once.
-    """
-
-    gospa: np.ndarray
-    localisation: np.ndarray
-    missed: np.ndarray
-    false: np.ndarray
-    c: float
-    p: float
-    nees: NeesResult | None
-    rmse: float | None
-    n_tracks: int
-
-    @property
-    def mean_gospa(self) -> float:
-        """Mean over scans of the per-scan GOSPA (m)."""
-        return float(np.mean(self.gospa))
-
-
-def _evaluate_tracks_iv(tracks, truth, radars, c, p, min_radars):
-    if not isinstance(tracks, TrackFusionResult):
-        raise TypeError(f"`tracks` must be a TrackFusionResult (from track_fusion); received "
-                        f"{_describe(tracks)}")
-    if not isinstance(truth, TruthScans):
-        raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
-                        f"{_describe(truth)}")
-    radars = as_radars(radars)
-    c, p = gospa_parameters(c, p)
-    min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))
-    if truth.n_scans != tracks.n_scans:
-        raise ValueError(f"`truth` has {truth.n_scans} scans but `tracks` {tracks.n_scans}")
-    return radars, c, p, min_radars
-
-
-def evaluate_tracks(tracks, truth, radars, *, c=2000.0, p=2.0, min_radars=2) -> TrackEvaluation:
-    """Score fused tracks against the truth: GOSPA per scan, NEES and RMSE.
-
-    Parameters
-    ----------
-    tracks : TrackFusionResult
-    truth : TruthScans
-    radars : sequence of Radar
-        For the GOSPA truth set: the aircraft inside the coverage of at least
-        `min_radars` of them (as :func:`evaluate` with ``scope="covered"``).
-    c, p : float, optional
-        GOSPA cut-off (m, default 2000) and order (default 2); α = 2.
-    min_radars : int, optional
-        Default 2.
-
-    Returns
-    -------
-    TrackEvaluation
-
-    Raises
-    ------
-    TypeError
-        Wrong types of `tracks`, `truth` or `radars`.
-    ValueError
-        Bad `c`, `p` or `min_radars`, or scan counts that differ.
-    """
-    radars, c, p, min_radars = _evaluate_tracks_iv(tracks, truth, radars, c, p, min_radars)
-    keep = _coverage_count(truth.position, radars) >= min_radars
-    parts = _gospa_per_scan(truth, keep, tracks.scan, tracks.position, c, p)
-    ok = tracks.source >= 0
-    nees_t, rmse = None, None
-    if ok.any():
-        err = tracks.position[ok] - truth.position[_truth_rows(truth, tracks.scan[ok],
-                                                               tracks.source[ok])]
-        nees_t = nees(err, tracks.covariance[ok])
-        rmse = float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
-    return TrackEvaluation(gospa=parts[:, 0], localisation=parts[:, 1], missed=parts[:, 2],
-                           false=parts[:, 3], c=c, p=p, nees=nees_t, rmse=rmse,
-                           n_tracks=int(np.unique(tracks.track).size))

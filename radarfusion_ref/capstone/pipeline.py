@@ -36,7 +36,7 @@ from .radars import (
     MIN_REGISTRATION_GROUPS,
     Reports,
     _coverage_count,
-    _radars_iv,
+    as_radars,
 )
 
 __all__ = [
@@ -396,7 +396,7 @@ def _pipeline_iv(reports, radars, settings):
     if not isinstance(reports, Reports):
         raise TypeError(f"`reports` must be a Reports (from simulate_reports); received "
                         f"{_describe(reports)}")
-    radars = _radars_iv(radars)
+    radars = as_radars(radars)
     if settings is None:
         settings = PipelineSettings()
     if not isinstance(settings, PipelineSettings):

@@ -324,8 +324,6 @@ def as_radars(radars) -> tuple[Radar, ...]:
     return tuple(radars)
 
 
-_radars_iv = as_radars          # the name capstone.pipeline imports it by
-
 
 @dataclass(frozen=True)
 class Reports:
