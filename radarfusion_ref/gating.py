@@ -596,7 +596,7 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
     :math:`\kappa_{ij} < \gamma` (eq-gate, 2 degrees of freedom), are found and
     scored — in time and memory that grow with the gated pairs, not with
     :math:`n_1 n_2`. The result is the input
-    :func:`radarfusion_ref.association.associate_joint` takes for a gated
+    :func:`radarfusion_ref.engine.assignment.solve_2d` takes for a gated
     sparse assignment (a missing entry is a forbidden pair).
 
     Parameters

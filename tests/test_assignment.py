@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 from scipy import sparse
 from scipy.optimize import linear_sum_assignment, linprog
 
-from radarfusion_ref import association, grouping
+from radarfusion_ref import grouping
 from radarfusion_ref.engine import assignment as asg
 
 
@@ -119,17 +119,6 @@ def test_plain_dense_equals_scipy_and_threshold_equals_forbidden():
     b = asg.solve_2d(np.where(c < gate, c, np.inf))
     assert np.array_equal(a.row_to_col, b.row_to_col)
     assert np.all(c[np.flatnonzero(a.row_to_col >= 0), a.row_to_col[a.row_to_col >= 0]] < gate)
-
-
-def test_association_functions_are_the_assignment_solvers():
-    rng = np.random.default_rng(4)
-    c = gated(rng, 5, 6, 0.6)
-    for f, g in ((association.associate_joint, asg.solve_2d),
-                 (association.associate_bruteforce, asg.solve_2d_bruteforce)):
-        a, b = f(c, miss_cost=3.0), g(c, miss_cost=3.0)
-        assert np.array_equal(a.row_to_col, b.row_to_col) and a.cost == b.cost
-    k1, k2 = association.k_best_assignments(c[:, :5], 4), asg.k_best_2d(c[:, :5], 4)
-    assert np.array_equal(k1.row_to_col, k2.row_to_col) and np.array_equal(k1.cost, k2.cost)
 
 
 def test_k_best_ranks_every_assignment_in_order():

@@ -97,7 +97,7 @@ def cost_matrices(draw, max_n=5, allow_inf=True):
        st.one_of(st.none(), st.floats(0.1, 10.0)),
        st.one_of(st.none(), st.floats(-1.0, 6.0)))
 def test_joint_equals_bruteforce(cost, threshold, miss):
-    j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
+    j = asg.solve_2d(cost, threshold=threshold, miss_cost=miss)
     b = asg.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss)
     assert j.cost == pytest.approx(b.cost, rel=1e-9, abs=1e-9)
     assert j.n_assigned == b.n_assigned
@@ -107,14 +107,14 @@ def test_joint_equals_bruteforce(cost, threshold, miss):
 @given(cost_matrices(allow_inf=False))
 def test_joint_complete_equals_itertools_enumeration(cost):
     best = min(t for _, t in enumerate_complete(cost))
-    j = A.associate_joint(cost)
+    j = asg.solve_2d(cost)
     assert j.cost == pytest.approx(best, abs=1e-9)
     assert j.n_assigned == min(cost.shape)
 
 
 @given(cost_matrices(), st.floats(-1.0, 6.0), st.one_of(st.none(), st.floats(0.1, 10.0)))
 def test_miss_cost_equals_augmented_matrix(cost, miss, threshold):
-    j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
+    j = asg.solve_2d(cost, threshold=threshold, miss_cost=miss)
     assert j.cost == pytest.approx(augmented_optimum(cost, miss, threshold), abs=1e-9)
 
 
@@ -130,15 +130,15 @@ def test_threshold_only_is_maximum_cardinality(cost, threshold):
         if found:
             best = k
             break
-    assert A.associate_joint(cost, threshold=threshold).n_assigned == best
+    assert asg.solve_2d(cost, threshold=threshold).n_assigned == best
 
 
 def test_joint_batch_equals_loop():
     rng = np.random.default_rng(0)
     c = rng.random((4, 3, 5, 6))
-    batch = A.associate_joint(c, miss_cost=0.3)
+    batch = asg.solve_2d(c, miss_cost=0.3)
     for idx in np.ndindex(4, 3):
-        single = A.associate_joint(c[idx], miss_cost=0.3)
+        single = asg.solve_2d(c[idx], miss_cost=0.3)
         np.testing.assert_array_equal(batch.row_to_col[idx], single.row_to_col)
         assert batch.cost[idx] == pytest.approx(single.cost)
 
@@ -147,7 +147,7 @@ def test_bruteforce_square_n8_matches_joint():
     rng = np.random.default_rng(1)
     c = rng.random((3, 8, 8))
     np.testing.assert_array_equal(asg.solve_2d_bruteforce(c).row_to_col,
-                                  A.associate_joint(c).row_to_col)
+                                  asg.solve_2d(c).row_to_col)
 
 
 def test_bruteforce_too_large():
@@ -158,13 +158,13 @@ def test_bruteforce_too_large():
 def test_joint_large_rectangular_feasible():
     rng = np.random.default_rng(2)
     c = rng.random((60, 80))
-    r = A.associate_joint(c, threshold=0.5, miss_cost=0.2)
+    r = asg.solve_2d(c, threshold=0.5, miss_cost=0.2)
     check_feasible(r, c, 0.5)
     assert np.all(c[r.pairs[:, 0], r.pairs[:, 1]] < 0.4)
 
 
 def test_result_fields():
-    r = A.associate_joint([[1.0, 9.0, 9.0], [9.0, 9.0, 2.0]], miss_cost=2.0)
+    r = asg.solve_2d([[1.0, 9.0, 9.0], [9.0, 9.0, 2.0]], miss_cost=2.0)
     assert r.pairs.tolist() == [[0, 0], [1, 2]]
     assert r.unassigned_rows.tolist() == []
     assert r.unassigned_cols.tolist() == [1]
@@ -172,7 +172,7 @@ def test_result_fields():
     np.testing.assert_array_equal(r.col_to_row, [0, -1, 1])
     with pytest.raises(AttributeError):
         r.cost = 0.0  # frozen
-    batch = A.associate_joint(np.zeros((2, 2, 2)))
+    batch = asg.solve_2d(np.zeros((2, 2, 2)))
     with pytest.raises(ValueError, match="`pairs`"):
         _ = batch.pairs
 
@@ -182,15 +182,15 @@ def test_result_fields():
 
 def test_all_gated_out_returns_no_pairs():
     c = np.full((3, 4), 50.0)
-    for r in (A.associate_joint(c, threshold=1.0),
-              A.associate_joint(c, threshold=1.0, miss_cost=0.5),
+    for r in (asg.solve_2d(c, threshold=1.0),
+              asg.solve_2d(c, threshold=1.0, miss_cost=0.5),
               A.associate_pointwise(c, 1.0),
               A.associate_pointwise(c, 1.0, order="best_first"),
               asg.solve_2d_bruteforce(c, threshold=1.0)):
         assert r.n_assigned == 0
         assert r.unassigned_rows.tolist() == [0, 1, 2]
         assert r.unassigned_cols.tolist() == [0, 1, 2, 3]
-    np.testing.assert_array_equal(A.associate_joint(np.full((2, 2), np.inf)).row_to_col, [-1, -1])
+    np.testing.assert_array_equal(asg.solve_2d(np.full((2, 2), np.inf)).row_to_col, [-1, -1])
 
 
 # ----------------------------------------------------------------------------- pointwise rule
@@ -212,7 +212,7 @@ def test_pointwise_scan_hand_worked():
     g = A.associate_pointwise(c, 1.5, order="best_first")
     np.testing.assert_array_equal(g.row_to_col, [2, 1, 0])
     # the joint optimum here happens to equal the greedy choice
-    assert A.associate_joint(c).cost == pytest.approx(0.5)
+    assert asg.solve_2d(c).cost == pytest.approx(0.5)
 
 
 def test_pointwise_strict_inequality():
@@ -226,7 +226,7 @@ def test_pointwise_order_matters_but_joint_does_not():
     np.testing.assert_array_equal(A.associate_pointwise(c, 1.0).row_to_col, [0, -1])
     flipped = c[::-1]
     np.testing.assert_array_equal(A.associate_pointwise(flipped, 1.0).row_to_col, [0, 1])
-    assert A.associate_joint(c).cost == A.associate_joint(flipped).cost
+    assert asg.solve_2d(c).cost == asg.solve_2d(flipped).cost
 
 
 def greedy_reference(c, th):
@@ -277,7 +277,7 @@ def test_greedy_is_not_joint_ml():
     # the counterexample used in the chapter's erratum
     c = np.array([[1.0, 2.0], [2.0, 100.0]])
     assert A.associate_pointwise(c, np.inf, order="best_first").cost == 101.0
-    assert A.associate_joint(c).cost == 4.0
+    assert asg.solve_2d(c).cost == 4.0
 
 
 # ----------------------------------------------------------------------------- k best
@@ -310,7 +310,7 @@ def test_murty_larger_costs_match_lower_bound_logic():
     c = rng.random((30, 30))
     r = asg.k_best_2d(c, 60)
     assert np.all(np.diff(r.cost) >= -1e-12)
-    assert r.cost[0] == pytest.approx(A.associate_joint(c).cost)
+    assert r.cost[0] == pytest.approx(asg.solve_2d(c).cost)
     assert len({tuple(a) for a in r.row_to_col}) == 60
 
 
@@ -411,15 +411,15 @@ def test_non_assignment_cost_bad_input():
 def test_miss_cost_rule_pair_iff_below_twice_miss():
     # one report each: paired iff kappa < 2m (the likelihood-ratio boundary)
     m = 1.3
-    assert A.associate_joint([[2 * m - 1e-6]], miss_cost=m).n_assigned == 1
-    assert A.associate_joint([[2 * m + 1e-6]], miss_cost=m).n_assigned == 0
+    assert asg.solve_2d([[2 * m - 1e-6]], miss_cost=m).n_assigned == 1
+    assert asg.solve_2d([[2 * m + 1e-6]], miss_cost=m).n_assigned == 0
 
 
 # ----------------------------------------------------------------------------- bad input
 
 
 @pytest.mark.parametrize("func", [
-    lambda c: A.associate_joint(c),
+    lambda c: asg.solve_2d(c),
     lambda c: asg.solve_2d_bruteforce(c),
     lambda c: A.associate_pointwise(c, 1.0),
     lambda c: asg.k_best_2d(c, 2),
@@ -439,13 +439,13 @@ def test_bad_cost(func, bad):
 
 def test_bad_cost_type():
     with pytest.raises(TypeError, match="`cost`"):
-        A.associate_joint("abc")
+        asg.solve_2d("abc")
 
 
 @pytest.mark.parametrize("th", [0.0, -1.0, np.nan])
 def test_bad_threshold(th):
     with pytest.raises(ValueError, match="`threshold`"):
-        A.associate_joint(np.eye(2), threshold=th)
+        asg.solve_2d(np.eye(2), threshold=th)
     with pytest.raises(ValueError, match="`threshold`"):
         A.associate_pointwise(np.eye(2), th)
 
@@ -458,17 +458,17 @@ def test_bad_k_and_order_and_miss():
     with pytest.raises(ValueError, match="`order`"):
         A.associate_pointwise(np.eye(2), 1.0, order="random")
     with pytest.raises(ValueError, match="`miss_cost`"):
-        A.associate_joint(np.eye(2), miss_cost=np.nan)
+        asg.solve_2d(np.eye(2), miss_cost=np.nan)
     with pytest.raises(ValueError, match="`miss_cost`"):
-        A.associate_joint(np.eye(2), miss_cost=-np.inf)
+        asg.solve_2d(np.eye(2), miss_cost=-np.inf)
     with pytest.raises(ValueError, match="`cost`"):
         asg.k_best_2d(np.zeros((2, 2, 2)), 1)
 
 
 def test_miss_cost_inf_is_none():
     c = np.array([[0.1, 5.0], [5.0, 9.0]])
-    a = A.associate_joint(c, threshold=6.0, miss_cost=np.inf)
-    b = A.associate_joint(c, threshold=6.0)
+    a = asg.solve_2d(c, threshold=6.0, miss_cost=np.inf)
+    b = asg.solve_2d(c, threshold=6.0)
     np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
 
 
@@ -547,7 +547,7 @@ def test_all_correct():
 # the function's invariants; invalid generated input raises ValueError / TypeError naming
 # the public argument. The example budget is the CI profile of tests/conftest.py.
 
-PUBLIC = ("associate_pointwise", "associate_joint", "association_probabilities", "non_assignment_cost",
+PUBLIC = ("associate_pointwise", "association_probabilities", "non_assignment_cost",
           "proximity_matrix", "all_correct", "compare_decisions", "decision_outcome",
           "calibrate_gate", "outcome_by_gate")
 
@@ -598,7 +598,7 @@ def test_property_pointwise_is_a_gated_matching(cost, threshold, order):
 
 @given(cost_matrices(max_n=5), thresholds, st.one_of(st.none(), st.floats(-1.0, 6.0)))
 def test_property_joint_is_a_matching_and_the_brute_force_optimum(cost, threshold, miss):
-    j = A.associate_joint(cost, threshold=threshold, miss_cost=miss)
+    j = asg.solve_2d(cost, threshold=threshold, miss_cost=miss)
     b = asg.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss)
     for r in (j, b):
         assert_matching(r.row_to_col, r.col_to_row, cost.shape[1])
@@ -686,11 +686,11 @@ def test_threshold_none_means_no_gate_everywhere():
         np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
     np.testing.assert_array_equal(A.associate_pointwise(c).row_to_col,
                                   A.associate_pointwise(c, None).row_to_col)
-    for f in (A.associate_joint, asg.solve_2d_bruteforce):
+    for f in (asg.solve_2d, asg.solve_2d_bruteforce):
         np.testing.assert_array_equal(f(c, threshold=None).row_to_col,
                                       f(c, threshold=np.inf).row_to_col)
     # the gate is strict everywhere: kappa == gamma is outside
-    for r in (A.associate_pointwise([[1.0]], 1.0), A.associate_joint([[1.0]], threshold=1.0),
+    for r in (A.associate_pointwise([[1.0]], 1.0), asg.solve_2d([[1.0]], threshold=1.0),
               asg.solve_2d_bruteforce([[1.0]], threshold=1.0)):
         assert r.n_assigned == 0
 
@@ -702,14 +702,14 @@ def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
     rng = np.random.default_rng(21)
     c = rng.uniform(1.0, 8.0, size=(5, 5))
     c[1, 3] = np.inf
-    ref_j = A.associate_joint(c)
-    got_j = A.associate_joint(c * scale)
+    ref_j = asg.solve_2d(c)
+    got_j = asg.solve_2d(c * scale)
     np.testing.assert_array_equal(got_j.row_to_col, ref_j.row_to_col)
     assert got_j.cost == pytest.approx(ref_j.cost * scale, rel=1e-12)
     for kw in ({"threshold": 6.0}, {"miss_cost": 2.5}, {"threshold": 6.0, "miss_cost": 2.0}):
         skw = {k: v * scale for k, v in kw.items()}
-        ref = A.associate_joint(c, **kw)
-        for f in (A.associate_joint, asg.solve_2d_bruteforce):
+        ref = asg.solve_2d(c, **kw)
+        for f in (asg.solve_2d, asg.solve_2d_bruteforce):
             got = f(c * scale, **skw)
             np.testing.assert_array_equal(got.row_to_col, ref.row_to_col)
             assert np.isfinite(got.cost)
@@ -724,12 +724,12 @@ def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
 def test_costs_near_the_float_maximum():
     big = np.finfo(float).max / 4                                  # ~4.5e307, finite
     c = np.array([[big, big / 2], [big / 2, big]])
-    for f in (A.associate_joint, asg.solve_2d_bruteforce):
+    for f in (asg.solve_2d, asg.solve_2d_bruteforce):
         r = f(c)                                                   # used to claim infeasibility
         np.testing.assert_array_equal(r.row_to_col, [1, 0])
         assert r.cost == big
     c2 = np.array([[big, 1.0], [np.inf, big]])
-    for f in (A.associate_joint, asg.solve_2d_bruteforce):
+    for f in (asg.solve_2d, asg.solve_2d_bruteforce):
         np.testing.assert_array_equal(f(c2, threshold=np.inf).row_to_col, [0, 1])
         np.testing.assert_array_equal(f(c2, miss_cost=big / 8).row_to_col, [1, -1])
     np.testing.assert_allclose(A.association_probabilities(c), [[0, 1], [1, 0]])
@@ -739,7 +739,7 @@ def test_costs_near_the_float_maximum():
 
 def test_a_total_beyond_the_float_range_is_refused_not_inf():
     c = np.full((3, 3), np.finfo(float).max / 2)
-    for call in (lambda: A.associate_joint(c), lambda: asg.solve_2d_bruteforce(c),
+    for call in (lambda: asg.solve_2d(c), lambda: asg.solve_2d_bruteforce(c),
                  lambda: A.associate_pointwise(c), lambda: asg.k_best_2d(c, 1)):
         with pytest.raises(ValueError, match=r"`cost`.*float range"):
             call()
@@ -807,11 +807,10 @@ BAD_COSTS = st.sampled_from([
     "abc", [[True, False]], None, [["1", "2"]]])
 
 
-@given(BAD_COSTS, st.sampled_from(["associate_pointwise", "associate_joint",
-                                   "solve_2d_bruteforce", "k_best_2d",
-                                   "association_probabilities"]))
+@given(BAD_COSTS, st.sampled_from(["associate_pointwise", "solve_2d", "solve_2d_bruteforce",
+                                   "k_best_2d", "association_probabilities"]))
 def test_fuzz_bad_costs_name_the_argument(bad, name):
-    call = {"k_best_2d": lambda c: asg.k_best_2d(c, 2),
+    call = {"k_best_2d": lambda c: asg.k_best_2d(c, 2), "solve_2d": asg.solve_2d,
             "solve_2d_bruteforce": asg.solve_2d_bruteforce}.get(name, getattr(A, name, None))
     with pytest.raises((ValueError, TypeError), match="`cost`"):
         call(bad)
@@ -824,7 +823,7 @@ def test_fuzz_bad_thresholds_name_the_argument(bad, where):
     if where == "pointwise":
         call, arg = (lambda: A.associate_pointwise(c, bad)), "threshold"
     elif where == "joint":
-        call, arg = (lambda: A.associate_joint(c, threshold=bad)), "threshold"
+        call, arg = (lambda: asg.solve_2d(c, threshold=bad)), "threshold"
     elif where == "bruteforce":
         call, arg = (lambda: asg.solve_2d_bruteforce(c, threshold=bad)), "threshold"
     else:
@@ -837,7 +836,7 @@ def test_fuzz_bad_thresholds_name_the_argument(bad, where):
 @given(st.sampled_from([np.nan, -np.inf, "1", True, [1.0, 2.0]]))
 def test_fuzz_bad_miss_cost(bad):
     with pytest.raises((ValueError, TypeError), match="`miss_cost`"):
-        A.associate_joint(np.eye(2), miss_cost=bad)
+        asg.solve_2d(np.eye(2), miss_cost=bad)
 
 
 @given(st.sampled_from([0, -3, 2.5, "2", True, None]))
@@ -992,7 +991,7 @@ def test_proximity_matrix_default_unchanged_and_scalar_logdet_is_a_constant():
     np.testing.assert_allclose(full - k, 2 * math.log(2 * math.pi * 0.25), rtol=1e-12)
     best = min(itertools.permutations(range(6)), key=lambda p: sum(full[i, p[i]]
                                                                     for i in range(6)))
-    np.testing.assert_array_equal(A.associate_joint(k).row_to_col, best)
+    np.testing.assert_array_equal(asg.solve_2d(k).row_to_col, best)
 
 
 def test_logdet_changes_no_complete_pairing_when_variances_are_per_radar():
@@ -1019,8 +1018,8 @@ def test_logdet_changes_the_joint_decision_with_per_report_variances():
     by_kappa = min(itertools.permutations(range(2)), key=lambda p: kappa[0, p[0]] + kappa[1, p[1]])
     by_ml = min(itertools.permutations(range(2)), key=lambda p: oracle[0, p[0]] + oracle[1, p[1]])
     assert by_kappa != by_ml
-    np.testing.assert_array_equal(A.associate_joint(kappa).row_to_col, by_kappa)
-    np.testing.assert_array_equal(A.associate_joint(full).row_to_col, by_ml)
+    np.testing.assert_array_equal(asg.solve_2d(kappa).row_to_col, by_kappa)
+    np.testing.assert_array_equal(asg.solve_2d(full).row_to_col, by_ml)
 
 
 @given(st.floats(0.05, 1.0), st.floats(0.05, 1.0), st.floats(0.0, 2.0), st.floats(0.0, 2.0),
@@ -1054,8 +1053,8 @@ def test_full_costs_and_kappa_costs_decide_alike_with_one_covariance():
     c0_full = A.non_assignment_cost(**kw, logdet=True)
     k = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.3, 0.4))
     f = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.3, 0.4, logdet=True))
-    a = A.associate_joint(k, miss_cost=c0)
-    b = A.associate_joint(f, miss_cost=c0_full)
+    a = asg.solve_2d(k, miss_cost=c0)
+    b = asg.solve_2d(f, miss_cost=c0_full)
     np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
 
 
@@ -1120,8 +1119,8 @@ def test_sparse_joint_equals_dense_and_brute_force(seed, n1, n2, density, miss, 
     rng = np.random.default_rng(seed)
     sp_cost = _random_gated(rng, n1, n2, density, negative)
     dense = _dense_twin(sp_cost)
-    got = A.associate_joint(sp_cost, threshold=th, miss_cost=miss)
-    ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
+    got = asg.solve_2d(sp_cost, threshold=th, miss_cost=miss)
+    ref = asg.solve_2d(dense, threshold=th, miss_cost=miss)
     assert np.array_equal(got.row_to_col, ref.row_to_col)
     assert np.array_equal(got.col_to_row, ref.col_to_row)
     assert got.cost == pytest.approx(ref.cost, rel=1e-12, abs=1e-12)
@@ -1141,19 +1140,19 @@ def test_sparse_joint_formats_rectangular_and_explicit_zeros(fmt):
     cost = conv(base)
     dense = _dense_twin(base)
     for th, miss in ((None, None), (6.0, None), (None, 2.5), (8.0, 3.0)):
-        got = A.associate_joint(cost, threshold=th, miss_cost=miss)
-        ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
+        got = asg.solve_2d(cost, threshold=th, miss_cost=miss)
+        ref = asg.solve_2d(dense, threshold=th, miss_cost=miss)
         assert np.array_equal(got.row_to_col, ref.row_to_col), (th, miss)
         assert got.cost == pytest.approx(ref.cost, rel=1e-12)
     # a stored 0 is an allowed pair of cost 0, taken here
-    got = A.associate_joint(sparse.csr_array(([0.0], ([1], [2])), shape=(3, 4)))
+    got = asg.solve_2d(sparse.csr_array(([0.0], ([1], [2])), shape=(3, 4)))
     assert got.pairs.tolist() == [[1, 2]] and got.cost == 0.0
     # nothing stored: no pair, every report unassigned
-    empty = A.associate_joint(sparse.csr_array((3, 4)), miss_cost=1.5)
+    empty = asg.solve_2d(sparse.csr_array((3, 4)), miss_cost=1.5)
     assert empty.n_assigned == 0 and empty.cost == pytest.approx(1.5 * 7)
     # duplicates are summed (scipy's meaning of a repeated entry)
     dup = sparse.coo_array(([1.0, 2.0, 5.0], ([0, 0, 1], [0, 0, 1])), shape=(2, 2))
-    assert A.associate_joint(dup).cost == pytest.approx(8.0)
+    assert asg.solve_2d(dup).cost == pytest.approx(8.0)
 
 
 def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
@@ -1171,8 +1170,8 @@ def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
     dense = np.where(kappa < th, kappa, np.inf)
     assert np.array_equal(np.isfinite(dense), _dense_twin(gated) < np.inf)
     for miss in (None, 0.5 * th, 2.0):
-        got = A.associate_joint(gated, threshold=th, miss_cost=miss)
-        ref = A.associate_joint(dense, threshold=th, miss_cost=miss)
+        got = asg.solve_2d(gated, threshold=th, miss_cost=miss)
+        ref = asg.solve_2d(dense, threshold=th, miss_cost=miss)
         assert np.array_equal(got.row_to_col, ref.row_to_col), miss
         assert got.cost == pytest.approx(ref.cost, rel=1e-9)
 
@@ -1187,17 +1186,17 @@ def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
 ])
 def test_sparse_joint_bad_input(bad, exc, msg):
     with pytest.raises(exc, match=f"`cost`.*{msg}|{msg}"):
-        A.associate_joint(bad)
+        asg.solve_2d(bad)
 
 
 def test_sparse_joint_other_arguments_validated():
     cost = sparse.csr_array(([1.0], ([0], [0])), shape=(2, 2))
     with pytest.raises(ValueError, match="`threshold`"):
-        A.associate_joint(cost, threshold=0.0)
+        asg.solve_2d(cost, threshold=0.0)
     with pytest.raises(ValueError, match="`miss_cost`"):
-        A.associate_joint(cost, miss_cost=np.nan)
+        asg.solve_2d(cost, miss_cost=np.nan)
     with pytest.raises(ValueError, match="`miss_cost`"):
-        A.associate_joint(cost, miss_cost=[1.0, 2.0])
+        asg.solve_2d(cost, miss_cost=[1.0, 2.0])
 
 
 # ---------------------------------------------------------------- calibration (decision_outcome, calibrate_gate)

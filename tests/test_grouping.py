@@ -746,8 +746,9 @@ def test_public_functions_are_all_fuzzed():
 # ================================================================ S-D at scale: gate, Lagrangian,
 # dummy index. Oracles: brute-force enumeration of groupings and of partitions into groups of at
 # most one report per source, the dense full-tensor MILP, scipy.stats.chi2 and explicit pair loops
-# for the gate, and chapter 04's non_assignment_cost with associate_joint for m = 2.
+# for the gate, and chapter 04's non_assignment_cost with the 2-D solve_2d for m = 2.
 from radarfusion_ref import association  # noqa: E402
+from radarfusion_ref.engine.assignment import solve_2d  # noqa: E402
 
 
 def geometric_scene(m, n, seed, noise=0.25):
@@ -961,7 +962,7 @@ def test_dummy_index_m2_is_chapter_04_assignment_with_non_assignment_cost():
                                          false_density2=rf2, object_density=rt,
                                          innovation_cov=c1 + c2)
     kappa = pair_kappa_loop(x1, np.broadcast_to(c1, (5, 2, 2)), x2, np.broadcast_to(c2, (6, 2, 2)))
-    ref = association.associate_joint(kappa, miss_cost=c0)
+    ref = solve_2d(kappa, miss_cost=c0)
     r = grouping.group_sd([x1, x2], [c1, c2], p_detect=[pd1, pd2], false_density=[rf1, rf2],
                           object_density=rt)
     pairs = {tuple(g) for g in r.groups.tolist() if min(g) >= 0}

@@ -42,7 +42,7 @@ MUTATIONS = {
                 return np.asarray(f(*a, **k)) * 1.01
             return g
         """),
-    "book/04_association": ("radarfusion_ref.association", "associate_joint", """
+    "book/04_association": ("radarfusion_ref.engine.assignment", "solve_2d", """
         def wrap(f):
             @functools.wraps(f)
             def g(cost, *a, **k):

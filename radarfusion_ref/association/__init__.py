@@ -13,17 +13,20 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   :math:`n^2` pairwise hypotheses :math:`G_k`, accept the first one whose
   :math:`\kappa` is below the gate, remove both reports, go on
   (``order="scan"``); or the greedy best-first variant (``order="best_first"``);
-* :func:`associate_joint` — the joint maximum-likelihood hypothesis
-  :math:`H_n`: the complete pairing with the smallest summed cost, a linear
-  assignment problem solved exactly in :math:`O(n^3)` by
-  :func:`scipy.optimize.linear_sum_assignment`; rectangular matrices, gating
-  and a per-report non-assignment cost (missed detections, false reports) are
-  supported;
-* the same optimum by enumerating every joint hypothesis (the :math:`n!` route,
-  small :math:`n` only) and Murty's ranking of the :math:`k` best joint
-  hypotheses are the engine's solvers, called directly:
-  :func:`radarfusion_ref.engine.assignment.solve_2d_bruteforce` and
-  :func:`radarfusion_ref.engine.assignment.k_best_2d`;
+* the joint maximum-likelihood hypothesis :math:`H_n` — the complete pairing
+  with the smallest summed cost — is a linear (2-D) assignment problem: the
+  chapter builds its cost (:func:`proximity_matrix`, the gate, the
+  non-assignment cost) and hands it to the engine's solvers,
+  :func:`radarfusion_ref.engine.assignment.solve_2d` (exact, :math:`O(n^3)`;
+  rectangular matrices, gating and a per-report non-assignment cost),
+  :func:`radarfusion_ref.engine.assignment.solve_2d_bruteforce` (the same
+  optimum by enumerating every joint hypothesis, the :math:`n!` route, small
+  :math:`n` only) and :func:`radarfusion_ref.engine.assignment.k_best_2d`
+  (Murty's ranking of the :math:`k` best joint hypotheses); their results,
+  :class:`radarfusion_ref.engine.assignment.Association` and
+  :class:`radarfusion_ref.engine.assignment.KBestAssignments`, share the
+  vocabulary ``cost``, ``lower_bound``, ``gap``, ``history``, ``exact`` with
+  the decisions in ``row_to_col``;
 * :func:`association_probabilities` — the chapter's hypothesis likelihood
   :math:`e^{-C(\pi)}` turned into marginal association probabilities, exact
   (enumeration) or approximated from the :math:`k` best;
@@ -39,15 +42,9 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   puts a rule at a given false-accept or false-reject rate (the fair
   comparison of the rules at the same error rate).
 
-The solvers themselves live in :mod:`radarfusion_ref.engine.assignment` (the home of
-the 2-D and S-D assignment solvers; this module adds the chapter's costs, gates,
-hypothesis likelihood and decision rules): :func:`associate_joint` is
-:func:`radarfusion_ref.engine.assignment.solve_2d` under the chapter's name, with its
-arguments documented here. The results,
-:class:`radarfusion_ref.engine.assignment.Association` and
-:class:`radarfusion_ref.engine.assignment.KBestAssignments` (import them from there),
-share the vocabulary ``cost``, ``lower_bound``, ``gap``, ``history``, ``exact``
-with the decisions in ``row_to_col``.
+The module adds the chapter's meaning — its costs, its gates, its hypothesis
+likelihood and its decision rules — and does not rename a solver: the 2-D
+assignment has one home, :mod:`radarfusion_ref.engine.assignment`.
 
 .. rubric:: References
 
@@ -75,7 +72,6 @@ from ._decisions import (
     outcome_by_gate,
 )
 from ._rules import (
-    associate_joint,
     associate_pointwise,
     association_probabilities,
 )
@@ -84,7 +80,6 @@ __all__ = [
     "DecisionComparison",
     "DecisionOutcome",
     "all_correct",
-    "associate_joint",
     "associate_pointwise",
     "association_probabilities",
     "calibrate_gate",

@@ -7,6 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..engine import assignment
 from ..engine._validation import (
     _describe,
     as_choice,
@@ -19,7 +20,7 @@ from ..engine.assignment._checks import (
     _as_threshold,
 )
 from ..engine.montecarlo import Proportion, proportion
-from ._rules import _as_decisions, associate_joint, associate_pointwise
+from ._rules import _as_decisions, associate_pointwise
 
 
 # --------------------------------------------------------------------------- Monte Carlo
@@ -66,7 +67,8 @@ class DecisionComparison:
     greedy : Proportion
         Greedy best-first with the same gate.
     joint : Proportion
-        Joint ML (:func:`associate_joint`), followed by the paper's joint
+        Joint ML (the 2-D assignment of
+        :func:`~radarfusion_ref.engine.assignment.solve_2d`), followed by the paper's joint
         test (:math:`\kappa_n^* < \gamma_n`, the :math:`\chi^2_n` gate; rejection counts as
         a wrong decision).
     joint_ml : Proportion
@@ -104,8 +106,8 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     Raises
     ------
     ValueError
-        For an invalid `kappa` (see :func:`associate_joint`), a `truth` of the
-        wrong shape or with indices out of range, or a threshold <= 0.
+        For an invalid `kappa` (see :func:`~radarfusion_ref.engine.assignment.solve_2d`), a
+        `truth` of the wrong shape or with indices out of range, or a threshold <= 0.
     TypeError
         For a non-integer `truth`.
 
@@ -123,7 +125,7 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     jth = _as_threshold(joint_threshold, "joint_threshold")
     pw = associate_pointwise(c, th, order="scan")
     gr = associate_pointwise(c, th, order="best_first")
-    jt = associate_joint(c)
+    jt = assignment.solve_2d(c)
     ok_j = all_correct(jt.row_to_col, truth)
     passed = np.asarray(jt.cost) < jth
     return DecisionComparison(
@@ -202,7 +204,7 @@ def outcome_by_gate(kappa, truth, rule: str):
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
     if rule == "joint":
-        res = _named(associate_joint, c)
+        res = _named(assignment.solve_2d, c)
         right = all_correct(res.row_to_col, t)
         wrong = _wrong_pair(res.row_to_col, t)
         total = np.asarray(res.cost)
@@ -253,7 +255,8 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
     rule : {"scan", "greedy", "joint"}
         The paper's pointwise scan (:func:`associate_pointwise`,
         ``order="scan"``), greedy best-first (``order="best_first"``), or
-        joint ML (:func:`associate_joint`) followed by the joint test.
+        joint ML (:func:`~radarfusion_ref.engine.assignment.solve_2d`) followed by the
+        joint test.
     gate : float
         The per-pair gate :math:`\gamma` of a pointwise rule, or the gate
         :math:`\gamma_n` of the joint test on the chosen pairing's summed
@@ -383,7 +386,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
         raise ValueError("`gates` must be given for `rule` = 'scan': its error rates need not be "
                          "monotone in the gate, so only a scored grid is exact")
     if rule == "joint":
-        stat = np.asarray(associate_joint(c).cost, dtype=float).ravel()
+        stat = np.asarray(assignment.solve_2d(c).cost, dtype=float).ravel()
     else:
         stat = c[np.isfinite(c)]
     vals = np.unique(stat[np.isfinite(stat)])

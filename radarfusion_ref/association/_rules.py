@@ -1,4 +1,5 @@
-"""The association rules: pointwise, joint (exact), and the marginal association probabilities."""
+"""The association rules of the chapter: the paper's pointwise rule, and the marginal
+association probabilities of the joint hypotheses."""
 
 from __future__ import annotations
 
@@ -62,7 +63,8 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
     threshold : float or None
         The gate :math:`\gamma > 0` (the paper's :math:`\kappa_{\text{th}}`):
         a pair is acceptable only if its cost is strictly below it. None or
-        ``+inf``: no gate (the same meaning as in :func:`associate_joint`).
+        ``+inf``: no gate (the same meaning as in
+        :func:`~radarfusion_ref.engine.assignment.solve_2d`).
     order : {"scan", "best_first"}, optional
         ``"scan"`` (the paper's rule as written): go through the hypotheses in
         list order — radar-1 report 0 against radar-2 reports 0, 1, ..., then
@@ -90,7 +92,7 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
     measurements and continuing the check". The result depends on the order
     of the lists, which carries no information; ``"best_first"`` removes that
     arbitrariness. Neither is the joint maximum-likelihood decision
-    (:func:`associate_joint`).
+    (:func:`~radarfusion_ref.engine.assignment.solve_2d`).
 
     References
     ----------
@@ -135,112 +137,6 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
             view[b, i, :] = np.inf
             view[b, :, j] = np.inf
     return _make_result(c, row_to_col.reshape(*batch, n1), None)
-
-
-# --------------------------------------------------------------------------- joint (exact)
-def associate_joint(cost, *, threshold=None, miss_cost=None) -> Association:
-    r"""The joint maximum-likelihood association: an exact linear assignment.
-
-    The engine's 2-D solver, :func:`radarfusion_ref.engine.assignment.solve_2d`,
-    applied to the chapter's cost matrix; its arguments, result and errors are
-    documented here.
-
-    Parameters
-    ----------
-    cost : array_like, shape (..., n1, n2), or scipy.sparse matrix (n1, n2)
-        Pair costs (proximity measures :math:`\kappa_{ij}` or negative
-        log-likelihoods); ``+inf`` forbids a pair; rectangular allowed.
-        Leading axes are a batch (solved one matrix at a time). A
-        ``scipy.sparse`` array or matrix holds the *gated* pairs only: a stored
-        entry (an explicit 0 included) is an allowed pair, a missing entry a
-        forbidden one (what ``+inf`` is in a dense matrix); it is solved by a
-        sparse assignment (see Notes), in memory and time that grow with the
-        stored pairs instead of :math:`n_1 n_2`
-        (:func:`radarfusion_ref.gating.gate_sparse_2d` builds such a matrix).
-    threshold : float, optional
-        Gate :math:`\gamma > 0`: a pair is allowed only if its cost is
-        strictly below it, as in :func:`associate_pointwise` and
-        :func:`radarfusion_ref.gating.in_gate`. None or ``+inf``: no gate.
-    miss_cost : float, optional
-        Cost charged for *each* report left unassigned, row or column alike
-        (the convention of MATLAB's ``assignmunkres(cost, costOfNonAssignment)``);
-        a pair is then used only if its cost is below ``2 * miss_cost``.
-        ``+inf`` is the same as None.
-
-    Returns
-    -------
-    Association
-
-    Raises
-    ------
-    ValueError
-        For NaN or ``-inf`` costs, an empty matrix, a threshold ≤ 0, a NaN
-        / ``-inf`` miss cost, or a total cost beyond the float range (costs up
-        to the float maximum are solved exactly; only a *sum* that cannot be
-        represented is refused); for a sparse `cost`, also a stored NaN or
-        infinite entry (leave a forbidden pair out instead) or a matrix that
-        is not 2-D.
-    TypeError
-        For a sparse `cost` that does not hold real numbers.
-
-    Notes
-    -----
-    By eqs. (5)–(6) the likelihood of a joint hypothesis :math:`H` (a pairing
-    :math:`\pi`) is the product of the pointwise likelihood measures, so its
-    negative logarithm is :math:`\tfrac12\sum_j \kappa_{j\pi(j)}` plus a constant,
-    and the ML hypothesis solves
-
-    .. math::
-
-        \hat\pi = \arg\min_{\pi} \sum_{i} c_{i\pi(i)},
-
-    a linear assignment problem (:func:`scipy.optimize.linear_sum_assignment`,
-    :math:`O(n^3)`, instead of enumerating :math:`n!` hypotheses).
-
-    * No `threshold`, no `miss_cost`: a complete assignment of
-      :math:`\min(n_1, n_2)` pairs of smallest total cost.
-    * `threshold` only: the largest number of pairs within the gate, and among
-      those the smallest total cost (the :math:`\text{miss\_cost}\to\infty`
-      limit). All pairs gated out: no pairs, no error.
-    * `miss_cost` :math:`c_0`: the partial assignment minimising
-      :math:`\sum_{\text{pairs}} c_{ij} + c_0\,(\#\text{unassigned rows} +
-      \#\text{unassigned columns})`. This equals the standard augmented
-      :math:`(n_1+n_2)` square problem with dummy rows and columns; it is
-      solved exactly, without the augmentation, as one rectangular assignment
-      of :math:`\min(c_{ij} - 2c_0, 0)`.
-    * Sparse `cost`: the same three problems on the stored pairs, as one
-      full matching of the :math:`n_1` rows into the :math:`n_2` columns plus
-      one private "unassigned" column per row — pair weight
-      :math:`c_{ij} - 2c_0` (pairs with :math:`c_{ij} \ge 2c_0` are left out),
-      unassigned weight 0; without `miss_cost`, an unassigned weight larger than
-      any saving among pairs, so the largest number of pairs comes first — by
-      :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching` (LAPJVsp).
-      Decisions equal the dense solver's on the same problem (``+inf`` where
-      nothing is stored); gating plus assignment of :math:`10^4` reports per
-      radar takes well under a second (``benchmarks/bench_association.py``).
-
-    References
-    ----------
-    Grachov & Korneev (2010), eqs. (5)–(6) and the joint proximity measure
-    :math:`\kappa_n^* = \sum_j \kappa_j^*`; Crouse (2016).
-
-    Examples
-    --------
-    >>> c = [[0.5, 0.1], [0.2, 3.0]]
-    >>> r = associate_joint(c)
-    >>> r.pairs.tolist(), r.cost
-    ([[0, 1], [1, 0]], 0.30000000000000004)
-    >>> r = associate_joint([[1.0, 9.0], [9.0, 9.0]], miss_cost=2.0)
-    >>> r.pairs.tolist(), r.unassigned_rows.tolist(), r.unassigned_cols.tolist(), r.cost
-    ([[0, 0]], [1], [1], 5.0)
-    >>> associate_joint([[5.0, 6.0]], threshold=1.0).n_assigned
-    0
-    >>> from scipy import sparse
-    >>> gated = sparse.csr_array(([0.5, 0.1, 0.2], ([0, 0, 1], [0, 1, 0])), shape=(2, 3))
-    >>> associate_joint(gated).pairs.tolist()
-    [[0, 1], [1, 0]]
-    """
-    return assignment.solve_2d(cost, threshold=threshold, miss_cost=miss_cost)
 
 
 # --------------------------------------------------------------------------- marginals

@@ -76,7 +76,7 @@ def _not_upper(s: int) -> np.ndarray:
 
 
 def k_best_2d(cost, k) -> KBestAssignments:
-    """Rank the `k` best complete assignments (joint hypotheses): Murty's algorithm.
+    r"""Rank the `k` best complete assignments (joint hypotheses): Murty's algorithm.
 
     Parameters
     ----------
@@ -93,10 +93,42 @@ def k_best_2d(cost, k) -> KBestAssignments:
 
     Raises
     ------
-    ValueError, TypeError
-        As :func:`radarfusion_ref.association.k_best_assignments`, which also
-        documents the algorithm (Murty's partitioning with the Miller, Stone & Cox
-        bound).
+    ValueError
+        For NaN or ``-inf`` costs, an empty matrix, ``k < 1``, ``k >``
+        :data:`~radarfusion_ref.engine.assignment.MAX_K_BEST`, a planned working memory (about ``_MURTY_BYTES_PER_NODE
+        * k * n**2`` bytes) above ``MEMORY_LIMIT``, or a hypothesis total
+        beyond the float range.
+    TypeError
+        If `k` is not an integer.
+
+    Notes
+    -----
+    Murty's partitioning: after the best remaining solution :math:`\pi` of a
+    sub-problem (some pairs fixed, some forbidden) is output, its free rows
+    :math:`r_1, \dots, r_q` give :math:`q` disjoint children — child
+    :math:`t` fixes :math:`r_1 \dots r_{t-1}` to their columns in
+    :math:`\pi` and forbids :math:`(r_t, \pi(r_t))`. Their union is every
+    solution of the parent apart from :math:`\pi`, so taking the best child
+    solution overall, repeatedly, ranks all assignments exactly.
+
+    Work is saved as in Miller, Stone & Cox (1997): with dual potentials of
+    the parent's optimum (reduced costs :math:`\bar c \ge 0`), child
+    :math:`t` costs at least
+
+    .. math::
+
+        C(\pi) + \min_{j \ne \pi(r_t)} \bar c_{r_t j}
+               + \min_{i \ne r_t} \bar c_{i \pi(r_t)},
+
+    so children enter the queue with this bound and are solved
+    (:func:`scipy.optimize.linear_sum_assignment` on the child's reduced
+    matrix) only when the bound reaches the front. A rectangular problem is
+    padded with zero-cost dummy rows, and only real rows are partitioned, so
+    every assignment of the real rows appears once.
+
+    References
+    ----------
+    Murty (1968); Miller, Stone & Cox (1997).
 
     Examples
     --------
@@ -115,7 +147,7 @@ def k_best_2d(cost, k) -> KBestAssignments:
     _limit(_MURTY_BYTES_PER_NODE * k * b0 * b0, MEMORY_LIMIT, name="k",
            what=f"bytes of Murty sub-problems (about {_MURTY_BYTES_PER_NODE} k n^2 for k = {k}, "
                 f"n = {b0})",
-           alternative="a smaller `k`, or associate_joint for the best hypothesis alone")
+           alternative="a smaller `k`, or solve_2d for the best hypothesis alone")
     transpose = n1 > n2
     e = int(_exponents(c))
     work = _scaled(c.T if transpose else c, e)             # exact power-of-two scaling

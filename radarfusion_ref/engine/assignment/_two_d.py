@@ -211,18 +211,103 @@ def _associate_sparse(cost, threshold, miss_cost) -> Association:
 
 
 def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
-    r"""The joint ML association :math:`\hat\pi`.
+    r"""The joint maximum-likelihood association: an exact linear assignment.
 
-    :math:`\hat\pi = \arg\min_\pi \sum_i c_{i\pi(i)}`. The solver behind
-    :func:`radarfusion_ref.association.associate_joint`, which documents the
-    arguments (`cost` dense ``(..., n1, n2)`` or ``scipy.sparse``, the gate
-    `threshold`, the non-assignment cost `miss_cost`), the result and the
-    errors: they are the same here.
+    Parameters
+    ----------
+    cost : array_like, shape (..., n1, n2), or scipy.sparse matrix (n1, n2)
+        Pair costs (proximity measures :math:`\kappa_{ij}` or negative
+        log-likelihoods); ``+inf`` forbids a pair; rectangular allowed.
+        Leading axes are a batch (solved one matrix at a time). A
+        ``scipy.sparse`` array or matrix holds the *gated* pairs only: a stored
+        entry (an explicit 0 included) is an allowed pair, a missing entry a
+        forbidden one (what ``+inf`` is in a dense matrix); it is solved by a
+        sparse assignment (see Notes), in memory and time that grow with the
+        stored pairs instead of :math:`n_1 n_2`
+        (:func:`radarfusion_ref.gating.gate_sparse_2d` builds such a matrix).
+    threshold : float, optional
+        Gate :math:`\gamma > 0`: a pair is allowed only if its cost is
+        strictly below it, as in
+        :func:`radarfusion_ref.association.associate_pointwise` and
+        :func:`radarfusion_ref.gating.in_gate`. None or ``+inf``: no gate.
+    miss_cost : float, optional
+        Cost charged for *each* report left unassigned, row or column alike
+        (the convention of MATLAB's ``assignmunkres(cost, costOfNonAssignment)``);
+        a pair is then used only if its cost is below ``2 * miss_cost``.
+        ``+inf`` is the same as None.
+
+    Returns
+    -------
+    Association
+
+    Raises
+    ------
+    ValueError
+        For NaN or ``-inf`` costs, an empty matrix, a threshold ≤ 0, a NaN
+        / ``-inf`` miss cost, or a total cost beyond the float range (costs up
+        to the float maximum are solved exactly; only a *sum* that cannot be
+        represented is refused); for a sparse `cost`, also a stored NaN or
+        infinite entry (leave a forbidden pair out instead) or a matrix that
+        is not 2-D.
+    TypeError
+        For a sparse `cost` that does not hold real numbers.
+
+    Notes
+    -----
+    By eqs. (5)–(6) the likelihood of a joint hypothesis :math:`H` (a pairing
+    :math:`\pi`) is the product of the pointwise likelihood measures, so its
+    negative logarithm is :math:`\tfrac12\sum_j \kappa_{j\pi(j)}` plus a constant,
+    and the ML hypothesis solves
+
+    .. math::
+
+        \hat\pi = \arg\min_{\pi} \sum_{i} c_{i\pi(i)},
+
+    a linear assignment problem (:func:`scipy.optimize.linear_sum_assignment`,
+    :math:`O(n^3)`, instead of enumerating :math:`n!` hypotheses).
+
+    * No `threshold`, no `miss_cost`: a complete assignment of
+      :math:`\min(n_1, n_2)` pairs of smallest total cost.
+    * `threshold` only: the largest number of pairs within the gate, and among
+      those the smallest total cost (the :math:`\text{miss\_cost}\to\infty`
+      limit). All pairs gated out: no pairs, no error.
+    * `miss_cost` :math:`c_0`: the partial assignment minimising
+      :math:`\sum_{\text{pairs}} c_{ij} + c_0\,(\#\text{unassigned rows} +
+      \#\text{unassigned columns})`. This equals the standard augmented
+      :math:`(n_1+n_2)` square problem with dummy rows and columns; it is
+      solved exactly, without the augmentation, as one rectangular assignment
+      of :math:`\min(c_{ij} - 2c_0, 0)`.
+    * Sparse `cost`: the same three problems on the stored pairs, as one
+      full matching of the :math:`n_1` rows into the :math:`n_2` columns plus
+      one private "unassigned" column per row — pair weight
+      :math:`c_{ij} - 2c_0` (pairs with :math:`c_{ij} \ge 2c_0` are left out),
+      unassigned weight 0; without `miss_cost`, an unassigned weight larger than
+      any saving among pairs, so the largest number of pairs comes first — by
+      :func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching` (LAPJVsp).
+      Decisions equal the dense solver's on the same problem (``+inf`` where
+      nothing is stored); gating plus assignment of :math:`10^4` reports per
+      radar takes well under a second (``benchmarks/bench_association.py``).
+
+    References
+    ----------
+    Grachov & Korneev (2010), eqs. (5)–(6) and the joint proximity measure
+    :math:`\kappa_n^* = \sum_j \kappa_j^*`; Crouse (2016).
 
     Examples
     --------
-    >>> solve_2d([[0.5, 0.1], [0.2, 3.0]]).row_to_col
-    array([1, 0])
+    >>> c = [[0.5, 0.1], [0.2, 3.0]]
+    >>> r = solve_2d(c)
+    >>> r.pairs.tolist(), r.cost
+    ([[0, 1], [1, 0]], 0.30000000000000004)
+    >>> r = solve_2d([[1.0, 9.0], [9.0, 9.0]], miss_cost=2.0)
+    >>> r.pairs.tolist(), r.unassigned_rows.tolist(), r.unassigned_cols.tolist(), r.cost
+    ([[0, 0]], [1], [1], 5.0)
+    >>> solve_2d([[5.0, 6.0]], threshold=1.0).n_assigned
+    0
+    >>> from scipy import sparse
+    >>> gated = sparse.csr_array(([0.5, 0.1, 0.2], ([0, 0, 1], [0, 1, 0])), shape=(2, 3))
+    >>> solve_2d(gated).pairs.tolist()
+    [[0, 1], [1, 0]]
     """
     if sparse.issparse(cost):
         # gated, scipy.sparse
@@ -291,7 +376,7 @@ def _n_partial(n1: int, n2: int) -> int:
 
 
 def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
-    """The joint ML association by enumerating every joint hypothesis.
+    r"""The joint ML association by enumerating every joint hypothesis.
 
     The reference route for :func:`solve_2d`: the same problem (same
     arguments, same meaning), solved by scoring every hypothesis. Square
@@ -311,9 +396,22 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
 
     Raises
     ------
-    ValueError, TypeError
-        As :func:`radarfusion_ref.association.associate_bruteforce`, which also gives
-        the enumeration limits.
+    ValueError
+        As :func:`solve_2d`; and, before anything is allocated, if
+        there are more than
+        :data:`~radarfusion_ref.engine.assignment.MAX_HYPOTHESES` complete
+        hypotheses (:math:`n > 10`), more than
+        :data:`~radarfusion_ref.engine.assignment.MAX_PARTIAL_MATCHINGS` partial
+        ones (gate / miss cost / forbidden pairs, e.g. :math:`8 \times 8`), or
+        more than :data:`~radarfusion_ref.engine.assignment.MAX_SCORED_HYPOTHESES`
+        over the whole batch. The message names
+        the scalable alternative, :func:`solve_2d`.
+
+    Notes
+    -----
+    Grachov & Korneev's "optimal algorithm": full enumeration of the
+    hypotheses :math:`H_n` and choice of the most plausible one, eq. (6).
+    Among hypotheses of equal cost the first enumerated is returned.
 
     Examples
     --------
@@ -336,14 +434,14 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
         a, b = min(n1, n2), max(n1, n2)
         count = _limit(math.perm(b, a), MAX_HYPOTHESES, name="cost",
                        what=f"joint hypotheses (n!-type count for a {n1} x {n2} matrix)",
-                       alternative="solve_2d (associate_joint: exact linear assignment, O(n^3))")
+                       alternative="solve_2d (exact linear assignment, O(n^3))")
     else:
         count = _limit(_n_partial(n1, n2), MAX_PARTIAL_MATCHINGS, name="cost",
                        what=f"partial matchings (gated or with a miss cost, {n1} x {n2} matrix)",
-                       alternative="solve_2d (associate_joint: exact linear assignment, O(n^3))")
+                       alternative="solve_2d (exact linear assignment, O(n^3))")
     _limit(nb * count, MAX_SCORED_HYPOTHESES, name="cost",
            what=f"hypotheses to score over a batch of {nb} matrices",
-           alternative="solve_2d (associate_joint: exact linear assignment, O(n^3))")
+           alternative="solve_2d (exact linear assignment, O(n^3))")
     e = _exponents(flat, *(() if miss is None else (miss,)))
     scaled = _scaled(flat, e)                         # exact; sums of n entries cannot overflow
     if simple:
