@@ -339,3 +339,32 @@ def test_tuned_settings_are_the_tuning_tables_choice():
         assert (float(row["q"]), float(row["p_false_reject"])) == (s.q, s.p_false_reject)
     assert bool(int(chosen["ours"]["relink"])) == TrackerSettings().relink
     assert float(chosen["ours"]["p_relink"]) == TrackerSettings().p_relink
+
+
+def test_the_benchmarks_last_line_has_the_exact_format():
+    """benchmarks/bench_tracking.py ends with the line the tracking goals are read from:
+    ``tracking hour: ours <s> s GOSPA <m> m tracks/aircraft <r> | Stone Soup <s> s GOSPA
+    <m> m tracks/aircraft <r>`` (checked on two evaluated histories, not a run of the hour)."""
+    import importlib.util
+    import re
+    from pathlib import Path
+
+    from radarfusion_ref import capstone as cp
+    from radarfusion_ref.tracking import evaluate_tracks_over_time
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_tracking.py"
+    spec = importlib.util.spec_from_file_location("bench_tracking", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    traffic, radars = cp.load_traffic(), cp.realistic_radars()
+    det = cp.simulate_detections(traffic, radars, duration=120.0, rng=3)
+    pos, cov = cp.to_common(det, radars)
+    h = track_reports(det.time, pos, cov, det.radar, det.scan)
+    m = evaluate_tracks_over_time(h, traffic, times=np.arange(60.0, 120.0, 10.0))
+    assert np.isfinite(m.mean_gospa) and np.isfinite(m.tracks_per_aircraft)
+    line = bench.last_line(2.21, m, 124.66, m)
+    num = r"\d+\.\d+"
+    pattern = (rf"tracking hour: ours {num} s GOSPA \d+ m tracks/aircraft {num} \| "
+               rf"Stone Soup {num} s GOSPA \d+ m tracks/aircraft {num}")
+    assert re.fullmatch(pattern, line), line
+    assert line.startswith("tracking hour: ours 2.2 s GOSPA ") and " | Stone Soup 124.7 s " in line
