@@ -129,10 +129,28 @@ def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = 
         else:
             os.environ[CHECK_LOG_ENV] = saved
     seconds = time.perf_counter() - start
+    shown = _shown_errors(nb)
+    if shown:
+        raise ChapterExecutionError(
+            f"chapter {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path} "
+            f"shows an error the kernel did not raise (e.g. a figure that fails to draw): "
+            f"{shown}")
     if cache_dir is not None:
         _store_in_cache(nb, path, seconds, cache_dir)
         EXECUTED.add(str(path))
     return nb, seconds
+
+
+def _shown_errors(nb) -> list[str]:
+    """Error outputs of cells not tagged ``raises-exception``, as "cell N: Name: value"."""
+    out = []
+    for n, cell in enumerate(nb.cells):
+        if cell.cell_type != "code" or "raises-exception" in cell.metadata.get("tags", []):
+            continue
+        for o in cell.get("outputs", []):
+            if o.get("output_type") == "error":
+                out.append(f"cell {n}: {o.get('ename')}: {str(o.get('evalue'))[:200]}")
+    return out
 
 
 def html_pages(root: Path = ROOT) -> list[Path]:

@@ -108,6 +108,18 @@ def test_broken_chapter_fails_the_test_command(tmp_path):
 
 
 @pytest.mark.notebook
+def test_an_error_the_kernel_only_shows_fails_the_test_command(tmp_path):
+    """A display that fails (a figure that cannot be drawn) is shown as an error output
+    while the cell itself succeeds: the chapter test fails on it all the same."""
+    cell = ("class Figure:\n    def _repr_html_(self):\n"
+            "        raise RuntimeError('cannot draw')\n\n\nFigure()")
+    proc = run_chapter_tests(make_book(tmp_path, cell))
+    assert proc.returncode == 1, proc.stdout[-2000:]
+    assert "shows an error the kernel did not raise" in proc.stdout
+    assert "cannot draw" in proc.stdout
+
+
+@pytest.mark.notebook
 def test_working_chapter_passes_the_test_command(tmp_path):
     """The control for the test above: the same book with a working cell passes."""
     proc = run_chapter_tests(make_book(tmp_path, "x = 1 / 2"))
