@@ -556,8 +556,8 @@ def _scaled_informations(cov):
     _, k = np.frexp(np.max(np.diagonal(cov, axis1=-2, axis2=-1), axis=-1))
     c_i = np.ldexp(1.0, k - 1)                                       # (..., m), exact
     c = np.min(c_i, axis=-1)                                         # (...)
-    eye = np.eye(cov.shape[-1])
-    try:
+    eye = np.broadcast_to(np.eye(cov.shape[-1]), cov.shape)   # a stack: NumPy 1 would read
+    try:                                                       # a lone (d, d) as d vectors
         chol = np.linalg.cholesky(cov / c_i[..., None, None])
     except np.linalg.LinAlgError:
         raise ValueError("`cov` is numerically singular: a covariance is too ill-conditioned "
@@ -575,7 +575,8 @@ def _unit_reports(x):
 def _spd_inverse(a):
     """The inverse of symmetric positive definite matrices through their Cholesky factor."""
     try:
-        r_inv = np.linalg.solve(np.linalg.cholesky(a), np.eye(a.shape[-1]))
+        r_inv = np.linalg.solve(np.linalg.cholesky(a), np.broadcast_to(np.eye(a.shape[-1]),
+                                                                         a.shape))
     except np.linalg.LinAlgError:
         raise ValueError("`cov` is numerically singular: a covariance is too ill-conditioned "
                          "for floating point; rescale the coordinates") from None

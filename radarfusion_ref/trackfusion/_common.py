@@ -226,6 +226,8 @@ def _pair_iv(x1, P1, x2, P2, P12=None):
 
 def _solve(a, b, name: str):
     """Batched solve of a x = b for matrix b (..., d, k); `name` is the public argument behind `a`."""
+    # b as a full stack: NumPy 1 reads a b of one dimension fewer than `a` as vectors
+    b = np.broadcast_to(b, (*np.broadcast_shapes(a.shape[:-2], b.shape[:-2]), *b.shape[-2:]))
     try:
         return np.linalg.solve(a, b)
     except np.linalg.LinAlgError:
