@@ -360,7 +360,7 @@ class _Tracker:
             drop = (tent & (lv.score <= st.lower)) | (
                 lv.confirmed & (lv.peak - lv.score >= st.upper - st.lower))
         else:
-            ones = np.bitwise_count(lv.bits)
+            ones = ((lv.bits[:, None] >> np.arange(st.n)) & 1).sum(axis=1)   # hits in the window
             window = np.minimum(lv.scored, st.n)
             promote = tent & (ones >= st.m)
             drop = (tent & (ones + (st.n - window) < st.m)) | (
