@@ -7,6 +7,7 @@ from scipy import sparse
 from scipy.optimize import linear_sum_assignment
 
 from ._milp import _milp_tuples, _report_nodes
+from ._sparse import int32_indices
 
 # --------------------------------------------------------------------------- S-D: explicit candidate groups
 #: What a caller of the grouping chapter can change when no grouping exists.
@@ -50,7 +51,7 @@ def _check_cover(T, counts, dummy, why, name="x", hint=None):
     first = nodes[np.arange(T.shape[0]), np.argmax(T >= 0, axis=1)]
     rows = np.concatenate([first[nodes[:, i] >= 0] for i in range(m)])
     cols = np.concatenate([nodes[nodes[:, i] >= 0, i] for i in range(m)])
-    graph = sparse.coo_array((np.ones(rows.size), (rows, cols)), shape=(N, N))
+    graph = int32_indices(sparse.coo_array((np.ones(rows.size), (rows, cols)), shape=(N, N)))
     ncomp, label = connected_components(graph, directed=False)
     if not dummy:
         per = np.stack([np.bincount(label[offsets[i]:offsets[i + 1]], minlength=ncomp)
@@ -118,7 +119,7 @@ def _assign(R, C, r, c, w, drow=None, dcol=None):
     if wts.size == 0 or not np.all(np.isfinite(wts)):
         return None
     lo = float(wts.min())
-    graph = sparse.csr_array((wts - lo + 1.0, (rows, cols)), shape=(N, N))
+    graph = int32_indices(sparse.coo_array((wts - lo + 1.0, (rows, cols)), shape=(N, N)))
     try:
         ri, ci = min_weight_full_bipartite_matching(graph)
     except ValueError:

@@ -10,6 +10,7 @@ from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
 from .._validation import as_int
 from ._checks import _limit
+from ._sparse import int32_indices
 
 __all__ = ["MAX_SD_TUPLES", "sd_constraint_matrix"]
 
@@ -111,7 +112,7 @@ def _sd_solve_once(c, m, n, *, relaxation=True, time_limit=None):
         options = {"mip_rel_gap": 0.0, "presolve": False}
         if time_limit is not None:
             options["time_limit"] = time_limit
-        res = milp(c, constraints=LinearConstraint(A, 1, 1), integrality=np.ones(n**m),
+        res = milp(c, constraints=LinearConstraint(int32_indices(A, "csc"), 1, 1), integrality=np.ones(n**m),
                    bounds=Bounds(0, 1), options=options)
         if res.status != 0 or res.x is None:
             raise RuntimeError(
@@ -173,7 +174,7 @@ def _milp_tuples(T, c, counts, *, time_limit=None, upper=None):
     options = {"mip_rel_gap": 0.0}
     if time_limit is not None:
         options["time_limit"] = time_limit
-    res = milp(cc * scale, constraints=LinearConstraint(A, 1, 1), integrality=np.ones(K),
+    res = milp(cc * scale, constraints=LinearConstraint(int32_indices(A, "csc"), 1, 1), integrality=np.ones(K),
                bounds=Bounds(0, 1), options=options)
     if res.status == 2:                                              # infeasible
         return None

@@ -22,6 +22,7 @@ from ._checks import (
     _scaled,
 )
 from ._results import Association
+from ._sparse import int32_indices
 
 __all__ = [
     "MAX_HYPOTHESES",
@@ -174,10 +175,10 @@ def _solve_sparse(csr, th: float, miss: float | None) -> np.ndarray:
         lo, hi = float(np.min(c)), float(np.max(c))
         w_pair = c - lo + 1.0                  # in [1, 3)
         w_dummy = 2.0 * (min(n1, n2) + 1) * (hi - lo + 1.0) + 1.0
-    graph = sparse.csr_array(
+    graph = int32_indices(sparse.coo_array(
         (np.concatenate([w_pair, np.full(n1, w_dummy)]),
          (np.concatenate([rows, np.arange(n1)]), np.concatenate([cols, n2 + np.arange(n1)]))),
-        shape=(n1, n1 + n2))
+        shape=(n1, n1 + n2)))
     r, col = min_weight_full_bipartite_matching(graph)
     real = col < n2
     out[r[real]] = col[real]
