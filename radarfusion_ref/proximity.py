@@ -70,6 +70,10 @@ _KINDS = ("profile", "marginal")
 _LOG_2PI = float(np.log(2 * np.pi))
 #: Below this, scipy's noncentral chi-square density is re-evaluated in the log domain.
 _PDF_FLOOR = 1e-200
+#: Above this noncentrality the density is the log-domain Bessel form (2e-14 from mpmath
+#: there): scipy 1.11's ncx2 drifts from lambda ~ 1e9 and is wrong by O(1) from ~ 3e10
+#: without returning NaN.
+_NCX2_SCIPY_MAX = 1e6
 
 
 def _scalar_iv(x1, x2, var1, var2, names=("x1", "x2", "var1", "var2")):
@@ -486,9 +490,10 @@ def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
           e^{-\sqrt{\lambda\kappa}},
 
     evaluated with :mod:`scipy.stats` (``chi2`` at :math:`\lambda = 0`, ``ncx2``
-    otherwise). Where scipy returns NaN (very large :math:`\lambda`), a value
-    below 1e-200 (where it may have underflowed) or the wrong limit at
-    :math:`\kappa = 0`, the Bessel form on the right is evaluated in the log
+    otherwise). Above :math:`\lambda = 10^6` (where scipy's ``ncx2`` returns NaN,
+    or in scipy 1.11 a wrong finite value, as :math:`\lambda` grows), for a value
+    below 1e-200 (where it may have underflowed) and at :math:`\kappa = 0`, the
+    Bessel form on the right is evaluated in the log
     domain (exponentially scaled Bessel function, or its uniform asymptotic
     expansion). The two curves for :math:`\lambda = 0` and :math:`\lambda > 0`
     are the paper's Fig. 1.
@@ -507,7 +512,8 @@ def proximity_pdf(kappa, *, dof=1, noncentrality=0.0):
     with np.errstate(all="ignore"):
         central = stats.chi2.pdf(k, nu)
         out = np.where(v > 0, stats.ncx2.pdf(k, nu, np.where(v > 0, v, 1.0)), central)
-        redo = (v > 0) & (k > 0) & ~(np.isfinite(out) & (out > _PDF_FLOOR))
+        redo = (v > 0) & (k > 0) & (~(np.isfinite(out) & (out > _PDF_FLOOR))
+                                    | (v > _NCX2_SCIPY_MAX))
         if np.any(redo):
             out = np.where(redo, np.exp(_log_ncx2_pdf(np.where(redo, k, 1.0), nu,
                                                       np.where(redo, v, 1.0))), out)
