@@ -181,8 +181,8 @@ def test_page_summary_counts_this_kernels_checks_and_folds_their_list(monkeypatc
 
 def test_page_summary_shows_the_fold_in_html_and_the_line_alone_in_print(monkeypatch):
     """What Jupyter stores and which of it the book's builders pick (myst-nb's priorities)."""
-    from IPython.core.interactiveshell import InteractiveShell
-    from myst_nb.core.render import get_mime_priority
+    InteractiveShell = pytest.importorskip("IPython.core.interactiveshell").InteractiveShell
+    get_mime_priority = pytest.importorskip("myst_nb.core.render").get_mime_priority
 
     monkeypatch.setattr(checks, "_LEDGER", [("numeric", "two routes"), ("property", "p")])
     data, _ = InteractiveShell.instance().display_formatter.format(checks.page_summary())

@@ -137,6 +137,7 @@ def test_too_few_frames_warn():
 
 
 def test_slider_updates_on_release():
+    pytest.importorskip("ipywidgets")                       # the `widgets` extra
     s = slider(0.3, 0.0, 1.0, 0.1, description="sigma")
     assert s.continuous_update is False and s.value == 0.3
     assert slider(3, 1, 5, 1, integer=True).value == 3
@@ -181,6 +182,7 @@ _anything = st.one_of(st.none(), st.booleans(), st.text(max_size=3),
 
 @given(value=_anything, lo=_anything, hi=_anything, step=_anything)
 def test_fuzz_slider_accepts_or_names_the_argument(value, lo, hi, step):
+    pytest.importorskip("ipywidgets")
     try:
         s = slider(value, lo, hi, step)
     except (TypeError, ValueError) as exc:
@@ -218,7 +220,7 @@ def test_player_degrades_to_its_default_frame_in_print():
     """HTML pages keep the player; the LaTeX builder gets the first frame as a PNG."""
     import io
 
-    from IPython.core.formatters import DisplayFormatter
+    DisplayFormatter = pytest.importorskip("IPython.core.formatters").DisplayFormatter
 
     colours = ["#ff0000", "#00ff00", "#0000ff"]
 

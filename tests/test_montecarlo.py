@@ -435,6 +435,7 @@ def test_sweep_bad_arguments(kwargs, error, match):
 
 
 def test_sweep_progress_bar_only_when_asked(capsys, monkeypatch):
+    pytest.importorskip("tqdm")                              # the `progress` extra
     monkeypatch.delenv(montecarlo.PROGRESS_ENV, raising=False)
     monkeypatch.delenv("JPY_SESSION_NAME", raising=False)
     sweep(coin, {"p": [0.5]}, trials=2048, rng=1, block=SEED_BLOCK)
@@ -462,6 +463,7 @@ def test_sweep_progress_default_is_on_in_a_live_notebook_kernel(monkeypatch):
     class ZMQInteractiveShell:                 # the class name ipykernel's shell has
         pass
 
+    pytest.importorskip("tqdm")                              # the `progress` extra
     fake = types.SimpleNamespace(get_ipython=lambda: ZMQInteractiveShell())
     monkeypatch.delenv(montecarlo.PROGRESS_ENV, raising=False)
     monkeypatch.setitem(sys.modules, "IPython", fake)
@@ -472,3 +474,49 @@ def test_sweep_progress_default_is_on_in_a_live_notebook_kernel(monkeypatch):
     monkeypatch.setenv(montecarlo.PROGRESS_ENV, "0")
     assert montecarlo._want_progress(None) is False            # forced off
     assert montecarlo._want_progress(True) is True
+
+
+def test_sweep_without_tqdm_the_default_runs_and_asking_names_the_extra(capsys, monkeypatch):
+    """tqdm not installed (the `progress` extra left out): in a live notebook kernel the
+    default runs the sweep without a bar; progress=True, or the variable at "1", refuses
+    with an ImportError naming the extra, before any task runs."""
+    import sys
+    import types
+
+    class ZMQInteractiveShell:
+        pass
+
+    calls = []
+
+    def counted(params, n, rng):
+        calls.append(n)
+        return coin(params, n, rng)
+
+    monkeypatch.setitem(sys.modules, "IPython",
+                        types.SimpleNamespace(get_ipython=lambda: ZMQInteractiveShell()))
+    monkeypatch.setenv("JPY_SESSION_NAME", "/home/reader/montecarlo.ipynb")
+    monkeypatch.delenv(montecarlo.PROGRESS_ENV, raising=False)
+    for name in [m for m in sys.modules if m == "tqdm" or m.startswith("tqdm.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "tqdm", None)            # import tqdm now fails
+    res = sweep(counted, {"p": [0.5]}, trials=2048, rng=1, block=SEED_BLOCK)
+    assert capsys.readouterr().err == ""
+    assert res.value.shape == (1, 2048) and len(calls) == 2 and res.tasks == 2
+    expected = r"sweep's progress bar needs tqdm.*pip install 'radarfusion-ref\[progress\]'"
+    for env in (None, "1"):
+        if env is not None:
+            monkeypatch.setenv(montecarlo.PROGRESS_ENV, env)
+        calls.clear()
+        with pytest.raises(ImportError, match=expected):
+            sweep(counted, {"p": [0.5]}, trials=2048, rng=1, block=SEED_BLOCK,
+                  progress=True if env is None else None)
+        assert calls == []
+
+
+def test_sweep_client_without_dask_names_the_extra(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ImportError,
+                       match=r"sweep\(client=\.\.\.\) needs distributed.*radarfusion-ref\[dask\]"):
+        sweep(coin, {"p": [0.5]}, trials=10, rng=1, client=object())

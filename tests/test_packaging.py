@@ -14,6 +14,7 @@ import gzip
 import io
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -104,3 +105,56 @@ def test_installed_copy_loads_the_capstone_traffic(installed):
         "tr = capstone.load_traffic()\n"
         "print(json.dumps({'records': int(tr.t.size), 'aircraft': len(tr.icao24)}))\n"))
     assert got == {"records": len(rows), "aircraft": n_aircraft}
+
+
+#: Optional packages: the extras of pyproject.toml (README "Use the package").
+OPTIONAL = ("sympy", "matplotlib", "tqdm", "dask", "distributed", "stonesoup", "ipywidgets",
+            "IPython")
+
+
+def test_plain_install_imports_engine_and_chapter_modules_without_any_extra(installed):
+    """With every optional package blocked (``sys.modules[name] = None``: importing it raises),
+    the installed engine and every chapter module import; the kit refuses naming its extra."""
+    got = _run(installed, (
+        "import importlib, json, pkgutil, sys\n"
+        f"for name in {OPTIONAL!r}:\n"
+        "    sys.modules[name] = None\n"
+        "import radarfusion_ref\n"
+        "mods = []\n"
+        "for info in pkgutil.walk_packages(radarfusion_ref.__path__, 'radarfusion_ref.'):\n"
+        "    if not info.name.startswith('radarfusion_ref.kit'):\n"
+        "        importlib.import_module(info.name)\n"
+        "        mods.append(info.name)\n"
+        "try:\n"
+        "    importlib.import_module('radarfusion_ref.kit.checks')\n"
+        "    kit = None\n"
+        "except ImportError as exc:\n"
+        "    kit = str(exc)\n"
+        "print(json.dumps({'file': radarfusion_ref.__file__, 'modules': mods, 'kit': kit}))\n"))
+    site, _ = installed
+    assert got["file"].startswith(str(site)), got["file"]
+    for name in ("radarfusion_ref.engine.montecarlo", "radarfusion_ref.engine.assignment",
+                 "radarfusion_ref.fusion", "radarfusion_ref.capstone",
+                 "radarfusion_ref.tracking.stonesoup", "radarfusion_ref.trackfusion"):
+        assert name in got["modules"], name
+    assert got["kit"] == ("the book kit (radarfusion_ref.kit) needs matplotlib, which is not "
+                          "installed: pip install 'radarfusion-ref[book]'")
+
+
+def test_every_optional_package_names_a_declared_extra_that_installs_it():
+    tomllib = pytest.importorskip("tomllib")
+    from radarfusion_ref.engine._optional import EXTRAS
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    extras = project["optional-dependencies"]
+    assert set(EXTRAS) == set(OPTIONAL)
+    # what installs each top-level package: its distribution, or the one that brings it
+    brings = {"distributed": "dask[distributed]", "IPython": "ipykernel"}
+    for top, extra in EXTRAS.items():
+        names = [re.split(r"[<>=,;\s]", s, maxsplit=1)[0] for s in extras[extra]]
+        names += [n.split("[")[0] for n in names]                   # dask[distributed] is dask
+        assert brings.get(top, top) in names, (top, extra, names)
+    assert {"book", "dask", "progress", "stonesoup", "widgets"} <= set(extras)
+    assert extras["all"] == ["radarfusion-ref[book,dask,progress,stonesoup,widgets]"]
+    assert {re.split(r"[<>=\[]", s, maxsplit=1)[0] for s in project["dependencies"]} == \
+        {"numpy", "scipy"}

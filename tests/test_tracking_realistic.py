@@ -512,7 +512,8 @@ def test_stonesoup_bad_input_and_missing_package(monkeypatch):
     with pytest.raises(ValueError, match="`scan`"):
         tk.stonesoup_track(t, x, P, r, [0.5, 1.5])
     monkeypatch.setitem(__import__("sys").modules, "stonesoup", None)
-    with pytest.raises(ImportError, match=r"needs Stone Soup.*pip install stonesoup"):
+    with pytest.raises(ImportError,
+                       match=r"stonesoup_track needs stonesoup.*'radarfusion-ref\[stonesoup\]'"):
         tk.stonesoup_track(t, x, P, r, r)
 
 

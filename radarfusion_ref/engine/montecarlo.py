@@ -38,6 +38,7 @@ from types import MappingProxyType
 import numpy as np
 from scipy import stats
 
+from ._optional import available, require
 from ._validation import (
     MEMORY_LIMIT,
     _describe,
@@ -674,12 +675,17 @@ def _live_notebook() -> bool:
 
 
 def _want_progress(progress) -> bool:
+    """Whether to draw the bar; asked for (True, or the variable at "1") it needs tqdm."""
     if progress is None:
         env = os.environ.get(PROGRESS_ENV, "").strip()
         if env in ("0", "1"):
-            return env == "1"
-        return _live_notebook()
-    return as_bool(progress, "progress")
+            progress = env == "1"
+        else:                        # automatic: never fails for want of the progress extra
+            return _live_notebook() and available("tqdm.auto")
+    if as_bool(progress, "progress"):
+        require("tqdm.auto", feature="sweep's progress bar")
+        return True
+    return False
 
 
 class _NoBar:
@@ -693,18 +699,13 @@ class _NoBar:
 def _bar(show: bool, total: int, backend: str):
     if not show:
         return _NoBar()
-    from tqdm.auto import tqdm
-
+    tqdm = require("tqdm.auto", feature="sweep's progress bar").tqdm
     return tqdm(total=total, desc=f"sweep ({backend})", unit="task")
 
 
 def _as_client(client):
     """A running ``distributed.Client`` with at least one worker, and its worker count."""
-    try:
-        from distributed import Client
-    except ImportError:  # pragma: no cover - dask is a declared dependency
-        raise TypeError("`client` needs dask.distributed (pip install 'dask[distributed]'); "
-                        f"received {_describe(client)}") from None
+    Client = require("distributed", feature="sweep(client=...)").Client
     if not isinstance(client, Client):
         raise TypeError("`client` must be None (run here) or a distributed.Client; received "
                         f"{_describe(client)}")
@@ -781,11 +782,13 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
         ``distributed.Client`` runs one task per (grid point, block) on its
         cluster and gathers the results in grid and trial order.
     progress : bool or None, optional
-        Show a tqdm progress bar (``tqdm.auto``: a notebook bar in a kernel).
-        ``None`` (default): on only in a live notebook — a kernel started by a
-        Jupyter server for an open notebook (``JPY_SESSION_NAME`` is set) —
-        never in a book build, nbclient run or test; the environment variable
-        :data:`PROGRESS_ENV` set to ``"1"`` or ``"0"`` overrides this.
+        Show a tqdm progress bar (``tqdm.auto``: a notebook bar in a kernel;
+        ``True`` needs the ``progress`` extra). ``None`` (default): on only in a
+        live notebook — a kernel started by a Jupyter server for an open notebook
+        (``JPY_SESSION_NAME`` is set) — and only if tqdm is installed; never in a
+        book build, nbclient run or test. The environment variable
+        :data:`PROGRESS_ENV` set to ``"1"`` or ``"0"`` overrides this as
+        ``True`` or ``False`` would.
 
     Returns
     -------
@@ -810,6 +813,9 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
         per trial, known after the first task) would exceed
         :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` — refused before they
         are allocated.
+    ImportError
+        If `progress` asks for the bar and tqdm is not installed, or `client` is
+        given and dask.distributed is not (the message names the extra to install).
     SweepError
         If the experiment raises, or returns something other than the per-trial
         arrays described above, at some grid point and block: the message names

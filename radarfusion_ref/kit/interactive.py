@@ -33,6 +33,7 @@ import matplotlib as mpl
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..engine._optional import require
 from ..engine._validation import _describe, as_float, as_float_array, as_int
 from ..engine.errors import RadarFusionWarning
 
@@ -141,8 +142,6 @@ def slider(value: float, lo: float, hi: float, step: float | None = None, *,
         For non-finite numbers, ``lo >= hi``, a `value` outside ``[lo, hi]`` or
         a `step` <= 0.
     """
-    import ipywidgets as widgets
-
     integer = _as_bool(integer, "integer")
     if not isinstance(description, str):
         raise TypeError(f"`description` must be a string; received {_describe(description)}")
@@ -157,6 +156,7 @@ def slider(value: float, lo: float, hi: float, step: float | None = None, *,
         raise ValueError(f"`lo` must be below `hi`; received lo = {lo}, hi = {hi}")
     if not lo <= value <= hi:
         raise ValueError(f"`value` must lie in [lo, hi] = [{lo}, {hi}]; received {value}")
+    widgets = require("ipywidgets", feature="slider")
     cls = widgets.IntSlider if integer else widgets.FloatSlider
     kw = {} if step is None else {"step": step}
     return cls(value=value, min=lo, max=hi, description=description,
@@ -176,11 +176,10 @@ def controls(view: Callable, **widgets_or_values):
     TypeError
         If `view` is not callable.
     """
-    import ipywidgets as widgets
-    from IPython.display import display
-
     if not callable(view):
         raise TypeError(f"`view` must be callable; received {_describe(view)}")
+    widgets = require("ipywidgets", feature="controls")
+    display = require("IPython.display", feature="controls").display
     for w in widgets_or_values.values():
         if hasattr(w, "continuous_update"):
             w.continuous_update = False

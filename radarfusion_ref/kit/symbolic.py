@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..engine._optional import require
 from .checks import CheckError, _check_close, _record
 
 __all__ = ["show", "check_zero", "check_numeric_agreement", "SymbolicCheckError"]
@@ -33,10 +34,11 @@ def show(lhs: str, expr) -> None:
         The right-hand side (a string is used as LaTeX as it is).
     """
     import sympy as sp
-    from IPython.display import Math, display
 
     if not isinstance(lhs, str):
         raise TypeError(f"`lhs` must be a LaTeX string; received {type(lhs).__name__}")
+    ipy = require("IPython.display", feature="show")
+    Math, display = ipy.Math, ipy.display
     rhs = expr if isinstance(expr, str) else sp.latex(expr)
     display(Math(f"{lhs} = {rhs}"))
 

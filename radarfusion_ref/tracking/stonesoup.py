@@ -18,13 +18,13 @@ from __future__ import annotations
 
 import datetime as dt
 import functools
-import importlib.util
 import itertools
 import math
 import time as _time
 
 import numpy as np
 
+from ..engine._optional import require
 from ..engine._validation import _describe, as_bool, as_choice, as_float_array
 from ._settings import TrackerSettings, TrackHistory
 
@@ -40,10 +40,7 @@ _EPOCH = dt.datetime(2018, 8, 1, 11, 0, 0)
 
 
 def _import():
-    if importlib.util.find_spec("stonesoup") is None:
-        raise ImportError("stonesoup_track needs Stone Soup (`pip install stonesoup`, a test "
-                          "dependency of this package); track_reports needs nothing "
-                          "extra")
+    require("stonesoup", feature="stonesoup_track")
 
 
 def _inputs_iv(time, position, covariance, radar, scan):
@@ -182,7 +179,15 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     seconds without an update — the closest of Stone Soup's initiators and deleters to
     the book's M-of-N start and coasting limit.
     """
-    _import()
+    t, x, P, radar, scan = _inputs_iv(time, position, covariance, radar, scan)
+    tracker = as_choice(tracker, "tracker", STONESOUP_TRACKERS)
+    if settings is None:
+        settings = TrackerSettings()
+    if not isinstance(settings, TrackerSettings):
+        raise TypeError(f"`settings` must be a TrackerSettings or None; received "
+                        f"{_describe(settings)}")
+    pregate = as_bool(pregate, "pregate")
+    _import()                                     # bad input is refused first, by name
     from scipy import stats
     from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
     from stonesoup.dataassociator.probability import JPDA, JPDAwithEHM2
@@ -204,13 +209,6 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     from stonesoup.types.update import Update
     from stonesoup.updater.kalman import KalmanUpdater
 
-    t, x, P, radar, scan = _inputs_iv(time, position, covariance, radar, scan)
-    tracker = as_choice(tracker, "tracker", STONESOUP_TRACKERS)
-    if settings is None:
-        settings = TrackerSettings()
-    if not isinstance(settings, TrackerSettings):
-        raise TypeError(f"`settings` must be a TrackerSettings or None; received "
-                        f"{_describe(settings)}")
     t0 = _time.perf_counter()
     cv = ConstantVelocity(settings.q)
     transition = CombinedLinearGaussianTransitionModel([cv, cv, cv])
@@ -220,7 +218,6 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     updater = KalmanUpdater(measurement_model=None, use_joseph_cov=True,
                             force_symmetric_covariance=True)
     gate = math.sqrt(float(stats.chi2.isf(settings.p_false_reject, 3)))
-    pregate = as_bool(pregate, "pregate")
 
     def gated(hypothesiser):
         if not pregate:
