@@ -21,8 +21,6 @@ import threading
 import time
 from pathlib import Path
 
-import nbformat
-
 ROOT = Path(__file__).resolve().parents[1]
 if __name__ == "__main__":  # run as a script: the package of this checkout
     sys.path.insert(0, str(ROOT))
@@ -100,6 +98,7 @@ def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = 
         Naming the chapter, with the failing cell's error.
     """
     import jupytext
+    import nbformat
     from nbclient import NotebookClient
     from nbclient.exceptions import CellExecutionError, CellTimeoutError
 
