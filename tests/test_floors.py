@@ -241,3 +241,22 @@ def test_readme_example_prints_the_same_at_the_floors(floor_env):
     here, floor = out
     assert len(here.splitlines()) == 3 and all(here.splitlines()), here   # three fused pairs
     assert floor == here
+
+
+def test_without_the_package_index_skipped_locally_failed_under_ci(monkeypatch, tmp_path):
+    """No cached environment and pip cannot reach its index (an index on a closed port)."""
+    monkeypatch.setattr(sys.modules[__name__], "CACHE", tmp_path / "cache")
+    monkeypatch.setenv("PIP_CONFIG_FILE", os.devnull)          # no configured extra index
+    for name in ("PIP_FIND_LINKS", "PIP_EXTRA_INDEX_URL", "PIP_NO_INDEX"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("PIP_INDEX_URL", "http://127.0.0.1:9/simple")
+    monkeypatch.setenv("PIP_RETRIES", "0")
+    monkeypatch.setenv("PIP_TIMEOUT", "2")
+    assert not _index_reachable(sys.executable)
+    monkeypatch.delenv("CI", raising=False)
+    with pytest.raises(pytest.skip.Exception, match="cannot reach the package index"):
+        _build_venv(floors())
+    monkeypatch.setenv("CI", "true")
+    with pytest.raises(pytest.fail.Exception, match="under CI=true"):
+        _build_venv(floors())
+    assert not (tmp_path / "cache").exists()                  # nothing half-built is left
