@@ -3,7 +3,6 @@ r"""Architectures (b) and (c): fuse the scans then track, or track per radar the
 from __future__ import annotations
 
 import itertools
-import time as _time
 
 import numpy as np
 
@@ -95,7 +94,6 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     (:func:`radarfusion_ref.fusion.fuse_gaussian`) of its inflated reports at the
     window's last report instant. The objects feed one tracker as scans of one source.
     """
-    t0 = _time.perf_counter()
     settings = TrackerSettings() if settings is None else settings
     t, z, R, rad, _ = _reports_iv(time, position, covariance, radar, scan, settings)
     w = as_float(as_positive(window, "window"), "window")
@@ -133,10 +131,8 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
         out_R.append(fR)
         out_k.append(np.full(len(members), k[a]))
     ft, fk = np.concatenate(out_t), np.concatenate(out_k)
-    h = track_reports(ft, np.concatenate(out_z), np.concatenate(out_R),
-                      np.zeros(ft.size, np.int64), fk, settings=settings)
-    return TrackHistory(h.track, h.time, h.state, h.covariance, h.confirmed,
-                        _time.perf_counter() - t0, h.initiated)
+    return track_reports(ft, np.concatenate(out_z), np.concatenate(out_R),
+                         np.zeros(ft.size, np.int64), fk, settings=settings)
 
 
 def _fused(z, R, members):
@@ -396,7 +392,6 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     instants. Exact for linear Kalman updates with one report (GNN); the mixture
     update of JPDA is not of this form and is refused.
     """
-    t0 = _time.perf_counter()
     settings = TrackerSettings() if settings is None else settings
     t, z, R, rad, sc = _reports_iv(time, position, covariance, radar, scan, settings)
     dt_out = as_float(as_positive(period, "period"), "period")
@@ -433,5 +428,4 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
         return empty
     ids, tt, xs, Ps = (np.concatenate(c) for c in zip(*out, strict=True))
     o = np.lexsort((ids, tt))
-    return TrackHistory(ids[o], tt[o], xs[o], Ps[o], np.ones(ids.size, bool),
-                        _time.perf_counter() - t0, next_id)
+    return TrackHistory(ids[o], tt[o], xs[o], Ps[o], np.ones(ids.size, bool), next_id)

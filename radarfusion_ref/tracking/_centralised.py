@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import time as _time
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -84,10 +83,10 @@ class _Rows:
         rest = ~(up | gone)
         self.pending = [tuple(c[rest] for c in cols)] if rest.any() else []
 
-    def history(self, seconds, initiated, alias=None):
+    def history(self, initiated, alias=None):
         if not self.out:
             return TrackHistory(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
-                                np.zeros((0, 6, 6)), np.zeros(0, bool), seconds, initiated)
+                                np.zeros((0, 6, 6)), np.zeros(0, bool), initiated)
         ids, t, x, P, c = (np.concatenate(v) for v in zip(*self.out, strict=True))
         if alias:                                        # a relinked track takes its old id
             u, inv = np.unique(ids, return_inverse=True)
@@ -97,7 +96,7 @@ class _Rows:
                 u[n] = i
             ids = u[inv]
         o = np.lexsort((ids, t))
-        return TrackHistory(ids[o], t[o], x[o], P[o], c[o], seconds, initiated)
+        return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated)
 
 
 def _reports_iv(time, position, covariance, radar, scan, settings):
@@ -144,7 +143,7 @@ def track_reports(time, position, covariance, radar, scan, *,
     covariance : array_like, shape (N, 3, 3)
         Each report's own error covariance (m²), positive definite.
     radar : array_like of int, shape (N,)
-        The radar of each report (≥ 0).
+        The radar of each report: any integers (≥ 0), only compared with each other.
     scan : array_like of int, shape (N,)
         The radar's own scan number of each report: the reports of one radar at one
         instant form a scan, processed together.
@@ -209,11 +208,11 @@ def track_reports(time, position, covariance, radar, scan, *,
     >>> int(h.n_confirmed), bool(h.confirmed[-1]), round(float(h.state[-1, 3]))
     (1, True, 100)
     """
-    t0 = _time.perf_counter()
     settings = TrackerSettings() if settings is None else settings
     t, z, R, radar, scan = _reports_iv(time, position, covariance, radar, scan, settings)
     if not t.size:
-        return _Rows().history(_time.perf_counter() - t0, 0)
+        return _Rows().history(0)
+    radar = np.unique(radar, return_inverse=True)[1].reshape(-1)    # ids 0..n_radars-1
     order = np.lexsort((z[:, 2], z[:, 1], z[:, 0], radar, t))   # time, radar, then position
     t, z, R, radar, scan = t[order], z[order], R[order], radar[order], scan[order]
     new_group = np.r_[True, (np.diff(t) != 0) | (np.diff(radar) != 0)]
@@ -222,7 +221,7 @@ def track_reports(time, position, covariance, radar, scan, *,
     state = _Tracker(settings, int(radar.max()) + 1)
     for a, b in zip(starts, ends, strict=True):
         state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
-    return state.rows.history(_time.perf_counter() - t0, state.next_id, state.alias)
+    return state.rows.history(state.next_id, state.alias)
 
 
 class _Tracker:

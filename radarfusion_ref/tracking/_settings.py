@@ -13,6 +13,8 @@ from ..engine._validation import as_bool, as_choice, as_float, as_int, as_positi
 ASSOCIATIONS = ("gnn", "jpda")
 #: Confirmation logics of the tracker.
 CONFIRMATIONS = ("sprt", "m_of_n")
+#: Names of the six state components of a track (:meth:`TrackHistory.to_dict`).
+STATE_NAMES = ("x", "y", "z", "vx", "vy", "vz")
 
 
 @dataclass(frozen=True)
@@ -134,7 +136,7 @@ class TrackerSettings:
         put("upper", math.log((1 - self.beta) / self.alpha))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class TrackHistory:
     """Tracks over time: one row per (track, update instant), sorted by (time, track).
 
@@ -145,15 +147,19 @@ class TrackHistory:
     time : numpy.ndarray, shape (K,)
         Instant of the update (s).
     state : numpy.ndarray, shape (K, 6)
-        ``[x, y, z, vx, vy, vz]`` in the common east-north-up frame (m, m/s).
+        ``[x, y, z, vx, vy, vz]`` in the common east-north-up frame (the reports' length
+        unit, and that unit per second).
     covariance : numpy.ndarray, shape (K, 6, 6)
     confirmed : numpy.ndarray of bool, shape (K,)
         The row is of a confirmed track (False: still tentative at that instant; the
         rows of a tentative track are kept only if it is confirmed later).
-    seconds : float
-        Wall time of the tracking (s).
     initiated : int
         Tracks started, confirmed or not.
+
+    Notes
+    -----
+    The history holds data only: time a run with :func:`time.perf_counter` around the
+    call. Its repr is one line of counts; :meth:`to_dict` gives plain columns.
     """
 
     track: np.ndarray
@@ -161,16 +167,48 @@ class TrackHistory:
     state: np.ndarray
     covariance: np.ndarray
     confirmed: np.ndarray
-    seconds: float = 0.0
     initiated: int = 0
 
     def __len__(self) -> int:
         return int(self.track.size)
 
+    def __repr__(self) -> str:
+        span = (f", time {float(self.time.min()):g} to {float(self.time.max()):g} s"
+                if self.time.size else "")
+        return (f"TrackHistory({len(self)} rows, {np.unique(self.track).size} tracks, "
+                f"{self.n_confirmed} confirmed, {self.initiated} initiated{span})")
+
     @property
     def n_confirmed(self) -> int:
         """Number of distinct tracks that were ever confirmed."""
         return int(np.unique(self.track[self.confirmed]).size)
+
+    def to_dict(self) -> dict[str, np.ndarray]:
+        """The rows as plain one-dimensional columns of equal length (K,).
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``track``, ``time``, ``confirmed``, the state ``x``, ``y``, ``z``, ``vx``,
+            ``vy``, ``vz``, and the covariance's upper triangle ``cov_<a>_<b>`` (21
+            columns, ``cov_x_x`` to ``cov_vz_vz``): ready for ``pandas.DataFrame``, which
+            this package does not need.
+
+        Examples
+        --------
+        >>> h = TrackHistory(np.array([4]), np.array([5.0]), np.arange(6.0)[None],
+        ...                  np.eye(6)[None], np.array([True]))
+        >>> d = h.to_dict()
+        >>> len(d), d["vx"].tolist(), d["cov_y_y"].tolist(), d["cov_x_y"].tolist()
+        (30, [3.0], [1.0], [0.0])
+        """
+        out = {"track": self.track.copy(), "time": self.time.copy(),
+               "confirmed": self.confirmed.copy()}
+        for i, name in enumerate(STATE_NAMES):
+            out[name] = self.state[:, i].copy()
+        for i, j in zip(*np.triu_indices(6), strict=True):
+            out[f"cov_{STATE_NAMES[i]}_{STATE_NAMES[j]}"] = self.covariance[:, i, j].copy()
+        return out
 
 
 #: Stone Soup's settings tuned on the tuning hour (``capstone.load_traffic(hour="tuning")``,

@@ -21,7 +21,6 @@ import functools
 import importlib.util
 import itertools
 import math
-import time as _time
 
 import numpy as np
 
@@ -152,8 +151,8 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     -------
     TrackHistory
         One row per (track, update), sorted by (time, track), covariances symmetrised;
-        `confirmed` from the update at which Stone Soup's initiator released the track; `seconds` the wall time of the
-        run; `initiated` the tracks started (held ones included).
+        `confirmed` from the update at which Stone Soup's initiator released the track;
+        `initiated` the tracks started (held ones included).
 
     Raises
     ------
@@ -211,7 +210,6 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     if not isinstance(settings, TrackerSettings):
         raise TypeError(f"`settings` must be a TrackerSettings or None; received "
                         f"{_describe(settings)}")
-    t0 = _time.perf_counter()
     cv = ConstantVelocity(settings.q)
     transition = CombinedLinearGaussianTransitionModel([cv, cv, cv])
     predictor = KalmanPredictor(transition)
@@ -268,11 +266,10 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     every = set()
     for _, tracks in run:
         every |= tracks
-    seconds = _time.perf_counter() - t0
-    return _history(every, settings.m, seconds, started[0], Update)
+    return _history(every, settings.m, started[0], Update)
 
 
-def _history(tracks, min_points, seconds, initiated, Update):
+def _history(tracks, min_points, initiated, Update):
     rows = []
     def first(tr):                    # identities in order of birth, then of place (no uuid)
         s0 = tr.states[0]
@@ -292,11 +289,11 @@ def _history(tracks, min_points, seconds, initiated, Update):
     if not rows:
         return TrackHistory(track=np.zeros(0, dtype=np.int64), time=np.zeros(0),
                             state=np.zeros((0, 6)), covariance=np.zeros((0, 6, 6)),
-                            confirmed=np.zeros(0, dtype=bool), seconds=seconds,
+                            confirmed=np.zeros(0, dtype=bool),
                             initiated=initiated)
     rows.sort(key=lambda r: (r[0], r[1]))
     sec, ident, sv, cv, conf = zip(*rows, strict=True)
     return TrackHistory(track=np.array(ident, dtype=np.int64), time=np.array(sec),
                         state=np.stack(sv), covariance=np.stack(cv),
-                        confirmed=np.array(conf, dtype=bool), seconds=seconds,
+                        confirmed=np.array(conf, dtype=bool),
                         initiated=initiated)
