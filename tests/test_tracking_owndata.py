@@ -8,14 +8,19 @@ closed forms or brute force typed in here, never from the function under test.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import tracemalloc
+import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from radarfusion_ref import tracking as trk
+from radarfusion_ref.engine.errors import RadarFusionWarning
 
 SIGMA = np.array([50.0, 50.0, 100.0])                     # m, each report's error
 BOX = np.array([[-3e4, 3e4], [-3e4, 3e4], [0.0, 1.2e4]])  # m, where clutter falls
@@ -252,3 +257,62 @@ def test_evaluate_tracks_interpolates_and_refuses_by_name():
             trk.evaluate_tracks(h, **{**good, **kw})
     with pytest.raises(TypeError, match="`history`"):
         trk.evaluate_tracks(None, **good)
+
+
+# --------------------------------------------------------------------------- units
+def _in_km(rep):
+    t, z, R, radar, scan = rep
+    return t, z / 1000.0, R / 1e6, radar, scan
+
+
+SI_FIELDS = {"clutter_density": -3, "q": 2, "speed_max": 1}   # power of the metre
+
+
+@given(seed=st.integers(0, 10**6), clutter=st.sampled_from([0.0, 2.0, 8.0]),
+       association=st.sampled_from(trk.ASSOCIATIONS),
+       confirmation=st.sampled_from(trk.CONFIRMATIONS))
+def test_metres_and_kilometres_give_the_same_tracks(seed, clutter, association,
+                                                    confirmation):
+    """The same scene in m and in km gives the same rows, identities and decisions, the
+    states scaled: with `length_unit` = 1000, and with every dimensional setting
+    converted by hand (which checks that no constant in metres hides in the tracker)."""
+    rep, _ = own_scene(rng=seed, duration=80.0, clutter=clutter)
+    si = trk.TrackerSettings(clutter_density=CLUTTER_DENSITY, association=association,
+                             confirmation=confirmation)
+    h_m = trk.track_reports(*rep, settings=si)
+    km = _in_km(rep)
+    h_km = trk.track_reports(*km, settings=dataclasses.replace(si, length_unit=1000.0))
+    _same_history(h_m, h_km, scale=1000.0)
+    by_hand = dataclasses.replace(si, **{f: getattr(si, f) * 1000.0 ** -e
+                                         for f, e in SI_FIELDS.items()})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RadarFusionWarning)   # 0.05 "m" reports
+        _same_history(h_m, trk.track_reports(*km, settings=by_hand), scale=1000.0)
+
+
+def test_other_architectures_in_kilometres():
+    rep, _ = own_scene(rng=4, duration=100.0)
+    si = trk.TrackerSettings(clutter_density=CLUTTER_DENSITY)
+    km, s_km = _in_km(rep), dataclasses.replace(si, length_unit=1000.0)
+    for run in (lambda r, s: trk.fuse_then_track(*r, window=5.0, settings=s),
+                lambda r, s: trk.track_then_fuse(*r, period=5.0, settings=s),
+                lambda r, s: trk.track_then_fuse(*r, period=5.0, settings=s,
+                                                 rule="bar_shalom_campo")):
+        _same_history(run(rep, si), run(km, s_km), scale=1000.0)
+
+
+def test_kilometres_without_a_unit_are_warned_of():
+    rep, _ = own_scene(rng=1, duration=40.0)
+    with pytest.warns(RadarFusionWarning, match=r"0\.0[57].* m.*`length_unit`"):
+        trk.track_reports(*_in_km(rep))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RadarFusionWarning)
+        trk.track_reports(*rep)                                     # metres: silent
+        trk.track_reports(*_in_km(rep), settings=trk.TrackerSettings(length_unit=1e3))
+
+
+def test_length_unit_refused_by_name():
+    for bad, exc in ((0.0, ValueError), (-1.0, ValueError), (np.inf, ValueError),
+                     ("km", TypeError)):
+        with pytest.raises(exc, match="`length_unit`"):
+            trk.TrackerSettings(length_unit=bad)

@@ -100,6 +100,7 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     if not t.size:
         return track_reports(t, z, R, rad, rad, settings=settings)
     gamma = _gamma(settings)
+    v_max = settings.speed_max / settings.length_unit      # in the reports' unit per s
     k = np.floor((t - t.min()) / w).astype(np.int64)
     order = np.lexsort((rad, t, k))
     t, z, R, rad, k = t[order], z[order], R[order], rad[order], k[order]
@@ -109,7 +110,7 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     for a, b in itertools.pairwise(cut):
         tw, zw, Rw, rw = t[a:b], z[a:b], R[a:b], rad[a:b]
         t_end = tw.max()
-        Ri = Rw + ((settings.speed_max * (t_end - tw)) ** 2)[:, None, None] * eye
+        Ri = Rw + ((v_max * (t_end - tw)) ** 2)[:, None, None] * eye
         members: list[list[int]] = []
         for r in np.unique(rw):
             idx = np.flatnonzero(rw == r)
@@ -291,7 +292,8 @@ def _fuse_at(loc, cross, tg, settings, rule, ident):
         rr = loc.latest(r, tg, settings.max_coast)
         if not rr.size:
             continue
-        p = kalman_predict(loc.x[rr], loc.P[rr], tg - loc.t[rr], settings.q)
+        p = kalman_predict(loc.x[rr], loc.P[rr], tg - loc.t[rr],
+                           settings.q / settings.length_unit**2)
         x, P = p.state, p.covariance
         loc.px[rr], loc.pP[rr] = x, P
         keys = [(r, int(i)) for i in loc.track[rr]]
@@ -409,8 +411,9 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     for r in np.unique(rad):
         s = rad == r
         hist[int(r)] = track_reports(t[s], z[s], R[s], rad[s], sc[s], settings=settings)
-    loc = _Local(hist, settings.q, gains=bsc)
-    cross = _Cross(loc, settings.q) if bsc else None
+    q = settings.q / settings.length_unit**2               # in the reports' unit
+    loc = _Local(hist, q, gains=bsc)
+    cross = _Cross(loc, q) if bsc else None
     ident: dict[tuple[int, int], int] = {}
     next_id = 0
     out = []

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -13,11 +14,12 @@ from scipy.spatial import cKDTree
 from .. import gating
 from ..engine import assignment
 from ..engine._validation import _describe, as_covariance, as_float_array
+from ..engine.errors import RadarFusionWarning
 from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
 from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
 from ..engine.tracker._kalman import predict_kernel, update_kernel
 from ..engine.tracker._score import increments_kernel
-from ._settings import TrackerSettings, TrackHistory
+from ._settings import TrackerSettings, TrackHistory, _in_unit
 
 #: Largest number of reports of one call (memory of the inputs and their sort).
 MAX_REPORTS = 50_000_000
@@ -139,9 +141,10 @@ def track_reports(time, position, covariance, radar, scan, *,
         **sorted** so (no report is dropped), as a fusion centre that buffers the window
         would; the result depends on the reports, not on their order.
     position : array_like, shape (N, 3)
-        Reports in the common east-north-up frame (m), finite.
+        Reports in the common east-north-up frame, finite, in units of
+        `settings.length_unit` metres (default: m).
     covariance : array_like, shape (N, 3, 3)
-        Each report's own error covariance (m²), positive definite.
+        Each report's own error covariance (that unit squared), positive definite.
     radar : array_like of int, shape (N,)
         The radar of each report: any integers (≥ 0), only compared with each other.
     scan : array_like of int, shape (N,)
@@ -153,7 +156,15 @@ def track_reports(time, position, covariance, radar, scan, *,
     Returns
     -------
     TrackHistory
-        One row per (track, update); tentative tracks that were deleted leave no row.
+        One row per (track, update), in the reports' unit; tentative tracks that were
+        deleted leave no row.
+
+    Warns
+    -----
+    RadarFusionWarning
+        The reports' median standard deviation, in metres, is outside 1 m to 100 km
+        (``PLAUSIBLE_SIGMA``): positions likely in another unit than
+        `settings.length_unit` says.
 
     Raises
     ------
@@ -212,6 +223,9 @@ def track_reports(time, position, covariance, radar, scan, *,
     t, z, R, radar, scan = _reports_iv(time, position, covariance, radar, scan, settings)
     if not t.size:
         return _Rows().history(0)
+    u = settings.length_unit
+    z, R = z * u, R * u**2                                   # metres, as the settings
+    _warn_scale(R)
     radar = np.unique(radar, return_inverse=True)[1].reshape(-1)    # ids 0..n_radars-1
     order = np.lexsort((z[:, 2], z[:, 1], z[:, 0], radar, t))   # time, radar, then position
     t, z, R, radar, scan = t[order], z[order], R[order], radar[order], scan[order]
@@ -221,7 +235,23 @@ def track_reports(time, position, covariance, radar, scan, *,
     state = _Tracker(settings, int(radar.max()) + 1)
     for a, b in zip(starts, ends, strict=True):
         state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
-    return state.rows.history(state.next_id, state.alias)
+    return _in_unit(state.rows.history(state.next_id, state.alias), u)
+
+
+#: Plausible standard deviations of a report (m): outside, the unit was likely not stated.
+PLAUSIBLE_SIGMA = (1.0, 1e5)
+
+
+def _warn_scale(R):
+    """Warn when the reports' median standard deviation (m) is implausible."""
+    sigma = float(np.sqrt(np.median(np.trace(R, axis1=1, axis2=2)) / 3))
+    lo, hi = PLAUSIBLE_SIGMA
+    if not lo <= sigma <= hi:
+        warnings.warn(f"the reports' median standard deviation is {sigma:.3g} m, outside "
+                      f"[{lo:g}, {hi:g}] m: if the positions are not in metres, state "
+                      "`length_unit` (metres per unit, 1000 for km) in TrackerSettings; the "
+                      "settings' clutter density, process noise and speeds are in SI units",
+                      RadarFusionWarning, stacklevel=3)
 
 
 class _Tracker:

@@ -26,13 +26,22 @@ class TrackerSettings:
     scored hour; the grid and its scores are in benchmarks/data/tracking_tuning.csv). The
     others are stated design values.
 
+    Units: every dimensional setting is in SI units (m, s and their products, whatever
+    the unit of the reports), and `length_unit` says how many metres one unit of the
+    reports' positions is. The trackers convert the reports to metres at the door and
+    return the tracks in the reports' unit, so their decisions (gates, scores,
+    confirmations, identities) do not depend on the unit. The defaults describe the
+    capstone's airspace (airliners, about ten false reports per scan in 220 km of
+    coverage): state `clutter_density`, `q` and `speed_max` for another scene.
+
     Attributes
     ----------
     p_detection : float
         :math:`P_D`, probability that a radar reports a target it covers (default 0.9).
     clutter_density : float
         :math:`\lambda`, false reports per m³ per radar scan (default 1e-14: about ten
-        false reports per scan in a radar's 220 km coverage below 15 km).
+        false reports per scan in a radar's 220 km coverage below 15 km; the number of
+        false reports per scan over the volume they fall in).
     alpha, beta : float
         Design rates of the sequential test: false confirmation :math:`\alpha`
         (default 1e-3) and false deletion :math:`\beta` (default 0.01),
@@ -58,7 +67,7 @@ class TrackerSettings:
     speed_max : float
         Standard deviation of each velocity component of a new track (m/s, default 250).
     max_coast : float
-        Seconds without an update after which a track is deleted (default 40, > 0).
+        Seconds without an update after which a track is deleted (s, default 40, > 0).
     miss_scans : int
         A radar's missed detection lowers a track's score only while that radar has
         reported the track within its last `miss_scans` scans (default 3, ≥ 1): a radar
@@ -77,6 +86,11 @@ class TrackerSettings:
         positions (default 1e-20, tuned on the tuning hour; :math:`d^2 < 96`: wider than
         the report gate, because a manoeuvre that broke the track moved the aircraft off
         the old track's line).
+    length_unit : float
+        Metres per unit of the reports' positions (> 0; default 1: positions in m, 1000:
+        in km). Reports whose standard deviations come out below 1 m or above 100 km in
+        metres are warned of (:class:`~radarfusion_ref.engine.errors.RadarFusionWarning`):
+        usually a `length_unit` not stated.
 
     Raises
     ------
@@ -105,6 +119,7 @@ class TrackerSettings:
     miss_scans: int = 3
     relink: bool = True
     p_relink: float = 1e-20
+    length_unit: float = 1.0
     lower: float = field(init=False, repr=False)
     upper: float = field(init=False, repr=False)
 
@@ -114,7 +129,7 @@ class TrackerSettings:
 
         for name in ("p_detection", "alpha", "beta", "p_false_reject", "p_relink"):
             put(name, as_float(as_probability(getattr(self, name), name), name))
-        for name in ("clutter_density", "q", "speed_max", "max_coast"):
+        for name in ("clutter_density", "q", "speed_max", "max_coast", "length_unit"):
             put(name, as_float(as_positive(getattr(self, name), name), name))
         if self.alpha + self.beta >= 1:
             raise ValueError(f"`alpha` + `beta` must be < 1, else the deletion threshold "
@@ -209,6 +224,14 @@ class TrackHistory:
         for i, j in zip(*np.triu_indices(6), strict=True):
             out[f"cov_{STATE_NAMES[i]}_{STATE_NAMES[j]}"] = self.covariance[:, i, j].copy()
         return out
+
+
+def _in_unit(history, unit):
+    """`history` (in metres) in the reports' unit, `unit` metres each."""
+    if unit == 1.0:
+        return history
+    return TrackHistory(history.track, history.time, history.state / unit,
+                        history.covariance / unit**2, history.confirmed, history.initiated)
 
 
 #: Stone Soup's settings tuned on the tuning hour (``capstone.load_traffic(hour="tuning")``,

@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from ..engine._validation import _describe, as_bool, as_choice, as_float_array
-from ._settings import TrackerSettings, TrackHistory
+from ._settings import TrackerSettings, TrackHistory, _in_unit
 
 __all__ = ["STONESOUP_TRACKERS", "stonesoup_track"]
 
@@ -210,6 +210,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     if not isinstance(settings, TrackerSettings):
         raise TypeError(f"`settings` must be a TrackerSettings or None; received "
                         f"{_describe(settings)}")
+    x, P = x * settings.length_unit, P * settings.length_unit**2     # metres
     cv = ConstantVelocity(settings.q)
     transition = CombinedLinearGaussianTransitionModel([cv, cv, cv])
     predictor = KalmanPredictor(transition)
@@ -266,7 +267,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     every = set()
     for _, tracks in run:
         every |= tracks
-    return _history(every, settings.m, started[0], Update)
+    return _in_unit(_history(every, settings.m, started[0], Update), settings.length_unit)
 
 
 def _history(tracks, min_points, initiated, Update):
