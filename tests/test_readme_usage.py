@@ -69,6 +69,15 @@ def test_examples_use_public_names_only():
         assert "radarfusion_ref" in code
 
 
+def test_howto_tracking_uses_public_names_only():
+    """The how-to page's code (every cell, hidden ones too) names nothing private."""
+    page = (ROOT / "book" / "howto_tracking.md").read_text(encoding="utf-8")
+    cells = re.findall(r"```\{code-cell\}[^\n]*\n(.*?)\n```", page, flags=re.S)
+    assert len(cells) >= 5 and any("trk.track_reports(" in c for c in cells)
+    found = [n for c in cells for n in private_names(c)]
+    assert not found, f"private names on the how-to page: {found}"
+
+
 def test_the_private_name_rule_can_fail():
     assert private_names("from radarfusion_ref.tracking._evaluation import x")
     assert private_names("h = trk._tracks_at(h, t, 1.0)")
