@@ -316,3 +316,26 @@ def test_length_unit_refused_by_name():
                      ("km", TypeError)):
         with pytest.raises(exc, match="`length_unit`"):
             trk.TrackerSettings(length_unit=bad)
+
+
+# --------------------------------------------------------------------------- one M-of-N
+@pytest.mark.parametrize(("m", "n", "pattern"), [
+    (3, 4, [1, 0, 1, 1, 1, 1]), (2, 3, [1, 0, 0, 1, 1, 1]), (3, 5, [1, 1, 0, 0, 1, 1]),
+    (4, 4, [1, 1, 1, 0, 1, 1, 1, 1, 1])])
+def test_tracker_confirms_at_the_m_of_n_scan(m, n, pattern):
+    """A lone aircraft seen at the scans of `pattern` by one radar, which reports one far
+    decoy in every scan that misses it (a scan without reports is no scan): the aircraft's
+    track is confirmed at the first update with m hits among the last n scans (a plain
+    loop), and no decoy is."""
+    scans = np.arange(len(pattern))
+    hit = np.array(pattern, bool)
+    t = 5.0 * scans
+    z = np.c_[100.0 * t, np.zeros(scans.size), np.full(scans.size, 9000.0)]
+    z[~hit] = np.c_[-5e4 - 1e4 * scans[~hit], np.full((~hit).sum(), 5e4), np.full((~hit).sum(), 9e3)]
+    R = np.tile(np.eye(3) * 100.0, (scans.size, 1, 1))
+    h = trk.track_reports(t, z, R, np.zeros(scans.size, np.int64), scans,
+                          settings=trk.TrackerSettings(confirmation="m_of_n", m=m, n=n,
+                                                       max_coast=100.0))
+    first = next(k for k in scans if sum(pattern[max(0, k - n + 1):k + 1]) >= m)
+    assert h.n_confirmed == 1 and np.unique(h.track).size == 1
+    assert h.time[np.argmax(h.confirmed)] == 5.0 * first

@@ -18,7 +18,7 @@ from ..engine.errors import RadarFusionWarning
 from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
 from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
 from ..engine.tracker._kalman import predict_kernel, update_kernel
-from ..engine.tracker._score import increments_kernel
+from ..engine.tracker._score import increments_kernel, window_kernel
 from ._settings import TrackerSettings, TrackHistory, _in_unit
 
 #: Largest number of reports of one call (memory of the inputs and their sort).
@@ -28,10 +28,10 @@ MAX_REPORTS = 50_000_000
 class _Live:
     """The live tracks, as parallel arrays (one row per track)."""
 
-    FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "bits", "scored",
+    FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "recent", "scored",
               "last_seen", "born")
 
-    def __init__(self, n_radars):
+    def __init__(self, n_radars, n_window):
         self.x = np.zeros((0, 6))
         self.P = np.zeros((0, 6, 6))
         self.t = np.zeros(0)
@@ -40,7 +40,7 @@ class _Live:
         self.peak = np.zeros(0)
         self.confirmed = np.zeros(0, dtype=bool)
         self.ids = np.zeros(0, dtype=np.int64)
-        self.bits = np.zeros(0, dtype=np.int64)
+        self.recent = np.zeros((0, n_window), dtype=bool)     # M-of-N: last n scored scans
         self.scored = np.zeros(0, dtype=np.int64)
         self.last_seen = np.zeros((0, n_radars), dtype=np.int64)
         self.born = np.zeros(0)
@@ -259,13 +259,12 @@ class _Tracker:
 
     def __init__(self, s: TrackerSettings, n_radars: int):
         self.s = s
-        self.live = _Live(n_radars)
+        self.live = _Live(n_radars, s.n)
         self.rows = _Rows()
         self.next_id = 0
         self.gamma = float(gating.gate_threshold(s.p_false_reject, 3))
         self.p_gate = 1.0 - s.p_false_reject
         self.miss_inc = math.log(1.0 - s.p_detection)
-        self.mask = (1 << s.n) - 1
         self.alias: dict[int, int] = {}
         self.gamma_relink = float(gating.gate_threshold(s.p_relink, 3))
         # confirmed tracks lost within max_coast, for relinking: ids, x, P, t, t_hit
@@ -381,7 +380,7 @@ class _Tracker:
         lv, st = self.live, self.s
         counted = hit | scored
         lv.score += inc
-        lv.bits = np.where(counted, ((lv.bits << 1) | hit) & self.mask, lv.bits)
+        lv.recent = window_kernel(lv.recent, hit, counted)
         lv.scored += counted
         tent = ~lv.confirmed
         if st.confirmation == "sprt":
@@ -389,7 +388,7 @@ class _Tracker:
             drop = (tent & (lv.score <= st.lower)) | (
                 lv.confirmed & (lv.peak - lv.score >= st.upper - st.lower))
         else:
-            ones = np.bitwise_count(lv.bits)
+            ones = np.count_nonzero(lv.recent, axis=1)
             window = np.minimum(lv.scored, st.n)
             promote = tent & (ones >= st.m)
             drop = (tent & (ones + (st.n - window) < st.m)) | (
@@ -486,10 +485,12 @@ class _Tracker:
         seen = np.full((n, self.live.last_seen.shape[1]), -(1 << 40), dtype=np.int64)
         seen[:, r] = s
         ids = self.next_id + np.arange(n, dtype=np.int64)
+        recent = np.zeros((n, self.s.n), dtype=bool)
+        recent[:, -1] = True                                  # the report that started it
         self.next_id += n
         self.live.extend(x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
-                         bits=np.ones(n, np.int64), scored=np.ones(n, np.int64), last_seen=seen,
+                         recent=recent, scored=np.ones(n, np.int64), last_seen=seen,
                          born=np.full(n, t))
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
 

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..engine._validation import as_bool, as_choice, as_float, as_int, as_positive, as_probability
+from ..engine.tracker import sprt_thresholds
 
 #: Association rules of the tracker.
 ASSOCIATIONS = ("gnn", "jpda")
@@ -46,6 +46,9 @@ class TrackerSettings:
         Design rates of the sequential test: false confirmation :math:`\alpha`
         (default 1e-3) and false deletion :math:`\beta` (default 0.01),
         :math:`\alpha + \beta < 1` (:func:`radarfusion_ref.engine.tracker.sprt_thresholds`).
+    lower, upper : float
+        Wald's deletion and confirmation thresholds of the score, computed from `alpha` and
+        `beta` by :func:`radarfusion_ref.engine.tracker.sprt_thresholds` (not arguments).
     confirmation : {"sprt", "m_of_n"}
         Confirm by the score's sequential test (default) or by M-of-N logic.
     m, n : int
@@ -131,11 +134,7 @@ class TrackerSettings:
             put(name, as_float(as_probability(getattr(self, name), name), name))
         for name in ("clutter_density", "q", "speed_max", "max_coast", "length_unit"):
             put(name, as_float(as_positive(getattr(self, name), name), name))
-        if self.alpha + self.beta >= 1:
-            raise ValueError(f"`alpha` + `beta` must be < 1, else the deletion threshold "
-                             f"ln(beta/(1-alpha)) is not below the confirmation threshold "
-                             f"ln((1-beta)/alpha); received alpha={self.alpha!r}, "
-                             f"beta={self.beta!r}")
+        sprt = sprt_thresholds(self.alpha, self.beta)      # refuses alpha + beta >= 1
         put("confirmation", as_choice(self.confirmation, "confirmation", CONFIRMATIONS))
         put("association", as_choice(self.association, "association", ASSOCIATIONS))
         put("n", as_int(self.n, "n", minimum=1, maximum=62))
@@ -147,8 +146,8 @@ class TrackerSettings:
         put("max_events", as_int(self.max_events, "max_events", minimum=1))
         put("miss_scans", as_int(self.miss_scans, "miss_scans", minimum=1))
         put("relink", as_bool(self.relink, "relink"))
-        put("lower", math.log(self.beta / (1 - self.alpha)))
-        put("upper", math.log((1 - self.beta) / self.alpha))
+        put("lower", sprt.lower)
+        put("upper", sprt.upper)
 
 
 @dataclass(frozen=True, repr=False)
