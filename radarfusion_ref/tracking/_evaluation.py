@@ -375,9 +375,10 @@ def evaluate_tracks(history, truth_time, truth_position, truth_id, *, c, p=2.0, 
     >>> m.gospa.tolist(), m.switches, m.false_tracks, m.truth_id.tolist()
     ([1.0, 1.0, 1.0], 0, 0, [41])
     """
+    _history_iv(history)
     tt, pos, ident = _truth_iv(truth_time, truth_position, truth_id)
+    c, p, t, max_age = _evaluate_iv(history, c, p, times, max_age, np.unique(ident).size)
     samples = _Samples(tt, pos, ident)
-    c, p, t, max_age = _evaluate_iv(history, c, p, times, max_age, samples.ids.size)
     truth, valid = samples(t)
     return _score(history, t, truth, valid, samples.ids.astype(np.int64), samples, c, p,
                   max_age)
