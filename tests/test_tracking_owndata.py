@@ -339,3 +339,16 @@ def test_tracker_confirms_at_the_m_of_n_scan(m, n, pattern):
     first = next(k for k in scans if sum(pattern[max(0, k - n + 1):k + 1]) >= m)
     assert h.n_confirmed == 1 and np.unique(h.track).size == 1
     assert h.time[np.argmax(h.confirmed)] == 5.0 * first
+
+
+def test_stonesoup_in_kilometres():
+    """Stone Soup's tracker takes the same `length_unit`: the same tracks, scaled."""
+    pytest.importorskip("stonesoup")
+    rep, _ = own_scene(rng=5, duration=60.0, clutter=1.0)
+    o = np.lexsort((rep[3], rep[0]))                      # in time order, as it needs
+    rep = tuple(a[o] for a in rep)
+    si = trk.TrackerSettings(clutter_density=CLUTTER_DENSITY)
+    h_m = trk.stonesoup_track(*rep, settings=si)
+    h_km = trk.stonesoup_track(*_in_km(rep), settings=dataclasses.replace(si, length_unit=1e3))
+    assert h_m.n_confirmed >= 3
+    _same_history(h_m, h_km, scale=1000.0)
