@@ -265,6 +265,11 @@ def _evaluate_iv(history, c, p, times, max_age, n_truth):
                what=f"bytes of track and truth states ({n_tracks} tracks, "
                     f"{n_truth} targets x {t.size} `times`)",
                alternative="fewer `times` (a coarser grid, or windows)")
+    n_rows = np.unique(history.time[history.confirmed]).size       # NEES: truth at rows
+    check_size(8 * 4 * n_truth * n_rows, MEMORY_LIMIT,
+               what=f"bytes of the truth at the rows' instants ({n_truth} targets x "
+                    f"{n_rows} instants of `history`)",
+               alternative="scoring the history in windows of time")
     return c, p, t, max_age
 
 
