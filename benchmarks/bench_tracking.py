@@ -103,9 +103,9 @@ def main(quick: bool = False, jpda: bool = True, seeds: int = 5, stonesoup_seeds
           f"{time.perf_counter() - t0:.1f} s")
     times = np.arange(60.0, duration, STEP)
 
-    def score(h, n):
+    def score(h):
         return trk.evaluate_tracks_over_time(h, traffic, c=C_CUT, p=P_ORDER, times=times,
-                                             radars=radars, scans=n)
+                                             radars=radars)
 
     out = {}
     head = (f"{'run':<32}{'s':>7}{'GOSPA':>7}{'loc':>6}{'miss':>6}{'false':>6}{'trk/ac':>8}"
@@ -115,7 +115,7 @@ def main(quick: bool = False, jpda: bool = True, seeds: int = 5, stonesoup_seeds
         t1 = time.perf_counter()
         h = run()
         seconds = time.perf_counter() - t1
-        m = score(h, n_scans)
+        m = score(h)
         out[name] = (seconds, m)
         parts = [np.sqrt(np.mean(v)) for v in (m.localisation, m.missed, m.false)]
         nees = m.nees.mean if m.nees is not None else float("nan")
@@ -128,9 +128,9 @@ def main(quick: bool = False, jpda: bool = True, seeds: int = 5, stonesoup_seeds
     if seeds >= 2:
         replicated: dict[str, list] = {}
         for k in range(1, seeds + 1):
-            _, rep_k, n_k = _detections(traffic, radars, duration, SEED + k)
+            _, rep_k, _ = _detections(traffic, radars, duration, SEED + k)
             for name, run in _runs(rep_k, settings, stonesoup, jpda, stonesoup_seeds).items():
-                replicated.setdefault(name, []).append(score(run(), n_k))
+                replicated.setdefault(name, []).append(score(run()))
         print(f"\nover {seeds} more seeds ({SEED + 1}..{SEED + seeds}; mean, 95 % Student-t "
               f"interval):")
         keys = list(trk.summarise_runs(next(iter(replicated.values()))))

@@ -97,7 +97,7 @@ def _run(job):
     seconds = time.perf_counter() - t0
     m = trk.evaluate_tracks_over_time(h, d["traffic"], c=C_CUT, p=P_ORDER,
                                       times=np.arange(60.0, WINDOW, STEP),
-                                      radars=d["radars"], scans=d["n_scans"])
+                                      radars=d["radars"])
     parts = [float(np.sqrt(np.mean(v))) for v in (m.localisation, m.missed, m.false)]
     return {"tracker": tracker, "q": q, "p_false_reject": gate,
             "relink": int(tracker == "ours" and p_relink is not None),

@@ -1,8 +1,10 @@
-"""The README's "Use the package" example runs and prints the right pairs and fused estimates.
+"""The README's "Use the package" examples run and print the right results.
 
-The oracle is independent of the package: squared Mahalanobis distances and the inverse-
-covariance weighted (BLUE) fusion computed with numpy, the chi-square gate with scipy, and the
-best one-to-one pairing by enumerating every pairing.
+The oracles are independent of the package. The fusion example: squared Mahalanobis
+distances and the inverse-covariance weighted (BLUE) fusion computed with numpy, the
+chi-square gate with scipy, and the best one-to-one pairing by enumerating every pairing.
+The tracking example: a constant-velocity Kalman filter written out here, run on each
+aircraft's reports in time order.
 """
 
 from __future__ import annotations
@@ -26,12 +28,14 @@ def _section() -> str:
     return readme.split(SECTION, 1)[1].split("\n## ", 1)[0]
 
 
-@pytest.fixture(scope="module")
-def run():
-    """Execute the section's one python block in a fresh namespace; return (namespace, stdout)."""
+def _blocks():
     blocks = re.findall(r"```python\n(.*?)\n```", _section(), flags=re.S)
-    assert len(blocks) == 1, "one example"
-    code = blocks[0]
+    assert len(blocks) == 2, "two examples: fusion, then tracking"
+    return blocks
+
+
+def _execute(code):
+    """Execute `code` in a fresh namespace; return (namespace, stdout)."""
     assert len(code.splitlines()) <= 25, "a short example"
     namespace: dict = {"__name__": "__readme__"}
     out = io.StringIO()
@@ -40,14 +44,44 @@ def run():
     return namespace, out.getvalue()
 
 
+@pytest.fixture(scope="module")
+def run():
+    return _execute(_blocks()[0])
+
+
+@pytest.fixture(scope="module")
+def run_tracking():
+    return _execute(_blocks()[1])
+
+
 def test_section_installs_the_package_plainly():
     assert re.search(r"```bash\npip install \.\n```", _section())
 
 
-def test_example_uses_public_names_only():
-    code = re.findall(r"```python\n(.*?)\n```", _section(), flags=re.S)[0]
-    assert not re.search(r"\b_[a-z]", code.replace("__name__", "")), "no private names"
-    assert "radarfusion_ref" in code
+def private_names(code):
+    """Names starting with an underscore in `code`: module paths and attributes alike."""
+    return re.findall(r"(?<![\w])_[A-Za-z]\w*", code.replace("__name__", ""))
+
+
+def test_examples_use_public_names_only():
+    for code in _blocks():
+        assert not private_names(code), "no private names"
+        assert "radarfusion_ref" in code
+
+
+def test_howto_tracking_uses_public_names_only():
+    """The how-to page's code (every cell, hidden ones too) names nothing private."""
+    page = (ROOT / "book" / "howto_tracking.md").read_text(encoding="utf-8")
+    cells = re.findall(r"```\{code-cell\}[^\n]*\n(.*?)\n```", page, flags=re.S)
+    assert len(cells) >= 5 and any("trk.track_reports(" in c for c in cells)
+    found = [n for c in cells for n in private_names(c)]
+    assert not found, f"private names on the how-to page: {found}"
+
+
+def test_the_private_name_rule_can_fail():
+    assert private_names("from radarfusion_ref.tracking._evaluation import x")
+    assert private_names("h = trk._tracks_at(h, t, 1.0)")
+    assert not private_names("history = tracking.track_reports(time, position)")
 
 
 def _blue(x, cov):
@@ -84,3 +118,44 @@ def test_example_scene_is_not_trivial(run):
     printed = [(int(i), int(j)) for i, j in re.findall(r"report (\d+) \+ radar 2 report (\d+)", out)]
     assert len(printed) == len(ns["x1"])
     assert any(i != j for i, j in printed)
+
+
+def _kalman(t, z, R, q, v_max):
+    """Constant-velocity Kalman filter (continuous white acceleration of intensity q) on
+    position reports in time order, started at the first report with velocity 0 ± v_max;
+    returns the last time and state."""
+    x = np.r_[z[0], 0.0, 0.0, 0.0]
+    P = np.zeros((6, 6))
+    P[:3, :3], P[3:, 3:] = R[0], v_max**2 * np.eye(3)
+    H = np.hstack([np.eye(3), np.zeros((3, 3))])
+    for k in range(1, len(t)):
+        dt = t[k] - t[k - 1]
+        F = np.eye(6) + np.diag([dt] * 3, 3)
+        Q = q * np.block([[dt**3 / 3 * np.eye(3), dt**2 / 2 * np.eye(3)],
+                          [dt**2 / 2 * np.eye(3), dt * np.eye(3)]])
+        x, P = F @ x, F @ P @ F.T + Q
+        K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R[k])
+        x, P = x + K @ (z[k] - H @ x), (np.eye(6) - K @ H) @ P
+    return t[-1], x
+
+
+def test_tracking_example_prints_each_aircraft_filtered(run_tracking):
+    ns, out = run_tracking
+    t, z, R = (np.asarray(ns[k], dtype=float) for k in ("time", "position", "covariance"))
+    radar, aircraft = np.asarray(ns["radar"]), np.asarray(ns["aircraft"])
+    assert "length_unit=1000.0" in _section(), "positions in km, settings in SI"
+    q_km, v_km = 50.0 / 1e6, 250.0 / 1e3           # the defaults' m²/s³ and m/s, in km
+    printed = re.findall(r"track (\d+): at \[([^\]]*)\] km, moving \[([^\]]*)\] km/s", out)
+    assert len(printed) == 2, out
+    assert re.search(r"TrackHistory\(\d+ rows, 2 tracks, 2 confirmed", out), out
+    at = 120.0
+    for a in (0, 1):
+        mine = np.flatnonzero(aircraft == a)
+        mine = mine[np.lexsort((radar[mine], t[mine]))]      # time, then radar
+        t_last, x = _kalman(t[mine], z[mine], R[mine], q_km, v_km)
+        want = np.r_[x[:3] + (at - t_last) * x[3:], x[3:]]
+        got = [np.r_[np.array(p.split(), float), np.array(v.split(), float)]
+               for _, p, v in printed]
+        best = min(got, key=lambda g: np.linalg.norm(g[:3] - want[:3]))
+        np.testing.assert_allclose(best[:3], want[:3], atol=0.0051)
+        np.testing.assert_allclose(best[3:], want[3:], atol=0.00051)

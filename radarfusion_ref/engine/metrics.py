@@ -53,6 +53,9 @@ class GospaResult:
         :math:`d(x, y)^p` over assigned pairs closer than `c`, :math:`c^p/2` per missed
         truth, :math:`c^p/2` per false estimate.
     n_assigned, n_missed, n_false : int
+    pairs : numpy.ndarray of int, shape (n_assigned, 2)
+        The assigned pairs ``(i, j)``: truth ``x[i]`` with estimate ``y[j]``, closer than
+        `c`, in increasing ``i``.
     """
 
     total: float
@@ -62,6 +65,7 @@ class GospaResult:
     n_assigned: int
     n_missed: int
     n_false: int
+    pairs: np.ndarray
 
 
 def _points(value, name):
@@ -181,12 +185,14 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0, parts=True) -> GospaResult:
     x, y, c, p = _gospa_iv(x, y, c, p, alpha, parts)
     n, k = x.shape[0], y.shape[0]
     loc, assigned = 0.0, 0                                            # in units of c**p
+    pairs = np.zeros((0, 2), dtype=np.int64)
     if n and k:
         u = _scaled_distances(x, y, c)                                # d / c
         ri, ci = linear_sum_assignment(np.minimum(u, 1.0) ** p)       # min over gamma
         close = u[ri, ci] < 1.0                                       # pairs kept in gamma
         assigned = int(close.sum())
         loc = float(np.sum(u[ri, ci][close] ** p))
+        pairs = np.stack([ri[close], ci[close]], axis=-1).astype(np.int64)
     missed, false = (n - assigned) / 2.0, (k - assigned) / 2.0
     with np.errstate(over="ignore"):
         total = float(c * (loc + missed + false) ** (1.0 / p))
@@ -196,7 +202,7 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0, parts=True) -> GospaResult:
     cp = (c**p if n or k else 0.0) if parts else np.nan             # c**p checked at the door
     return GospaResult(total=total, localisation=loc * cp, missed=missed * cp,
                        false=false * cp, n_assigned=assigned,
-                       n_missed=n - assigned, n_false=k - assigned)
+                       n_missed=n - assigned, n_false=k - assigned, pairs=pairs)
 
 
 # ----------------------------------------------------------------------------- NEES

@@ -11,9 +11,11 @@ r"""From reports to tracks: one tracker over the radars' reports, and three arch
   fusion (covariance intersection, naive or Bar-Shalom–Campo);
 * :func:`~radarfusion_ref.tracking.stonesoup.stonesoup_track` — Stone Soup's GNN and JPDA
   trackers on the same reports, for comparison (Stone Soup imported when called);
-* :func:`evaluate_tracks_over_time` — GOSPA over time, track switches against the ADS-B
-  identities, tracks per aircraft, false tracks per hour, confirmation latency and NEES;
-  :func:`summarise_runs` their means over seeds with intervals.
+* :func:`tracks_at` — the confirmed tracks of a history at any instants;
+* :func:`evaluate_tracks` — GOSPA over time, track switches against the true identities,
+  tracks per target, false tracks per hour, confirmation latency and NEES, against a
+  truth given as arrays (time, position, id); :func:`evaluate_tracks_over_time` the same
+  against the ADS-B truth; :func:`summarise_runs` their means over seeds with intervals.
 
 The formulas (Kalman filter, track score, JPDA probabilities) live in
 :mod:`radarfusion_ref.engine.tracker`.
@@ -28,7 +30,14 @@ The formulas (Kalman filter, track score, JPDA probabilities) live in
 
 from ._architectures import T2T_RULES, fuse_then_track, track_then_fuse
 from ._centralised import MAX_REPORTS, track_reports
-from ._evaluation import TrackingMetrics, evaluate_tracks_over_time, gospa_pairs, summarise_runs
+from ._evaluation import (
+    TrackingMetrics,
+    TrackStates,
+    evaluate_tracks,
+    evaluate_tracks_over_time,
+    summarise_runs,
+    tracks_at,
+)
 from ._settings import (
     ASSOCIATIONS,
     CONFIRMATIONS,
@@ -47,12 +56,14 @@ __all__ = [
     "T2T_RULES",
     "TrackHistory",
     "TrackerSettings",
+    "TrackStates",
     "TrackingMetrics",
+    "evaluate_tracks",
     "evaluate_tracks_over_time",
     "fuse_then_track",
-    "gospa_pairs",
     "stonesoup_track",
     "summarise_runs",
     "track_reports",
     "track_then_fuse",
+    "tracks_at",
 ]

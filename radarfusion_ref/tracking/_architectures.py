@@ -3,7 +3,6 @@ r"""Architectures (b) and (c): fuse the scans then track, or track per radar the
 from __future__ import annotations
 
 import itertools
-import time as _time
 
 import numpy as np
 
@@ -95,13 +94,13 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     (:func:`radarfusion_ref.fusion.fuse_gaussian`) of its inflated reports at the
     window's last report instant. The objects feed one tracker as scans of one source.
     """
-    t0 = _time.perf_counter()
     settings = TrackerSettings() if settings is None else settings
     t, z, R, rad, _ = _reports_iv(time, position, covariance, radar, scan, settings)
     w = as_float(as_positive(window, "window"), "window")
     if not t.size:
         return track_reports(t, z, R, rad, rad, settings=settings)
     gamma = _gamma(settings)
+    v_max = settings.speed_max / settings.length_unit      # in the reports' unit per s
     k = np.floor((t - t.min()) / w).astype(np.int64)
     order = np.lexsort((rad, t, k))
     t, z, R, rad, k = t[order], z[order], R[order], rad[order], k[order]
@@ -111,7 +110,7 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     for a, b in itertools.pairwise(cut):
         tw, zw, Rw, rw = t[a:b], z[a:b], R[a:b], rad[a:b]
         t_end = tw.max()
-        Ri = Rw + ((settings.speed_max * (t_end - tw)) ** 2)[:, None, None] * eye
+        Ri = Rw + ((v_max * (t_end - tw)) ** 2)[:, None, None] * eye
         members: list[list[int]] = []
         for r in np.unique(rw):
             idx = np.flatnonzero(rw == r)
@@ -133,10 +132,8 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
         out_R.append(fR)
         out_k.append(np.full(len(members), k[a]))
     ft, fk = np.concatenate(out_t), np.concatenate(out_k)
-    h = track_reports(ft, np.concatenate(out_z), np.concatenate(out_R),
-                      np.zeros(ft.size, np.int64), fk, settings=settings)
-    return TrackHistory(h.track, h.time, h.state, h.covariance, h.confirmed,
-                        _time.perf_counter() - t0, h.initiated)
+    return track_reports(ft, np.concatenate(out_z), np.concatenate(out_R),
+                         np.zeros(ft.size, np.int64), fk, settings=settings)
 
 
 def _fused(z, R, members):
@@ -295,7 +292,8 @@ def _fuse_at(loc, cross, tg, settings, rule, ident):
         rr = loc.latest(r, tg, settings.max_coast)
         if not rr.size:
             continue
-        p = kalman_predict(loc.x[rr], loc.P[rr], tg - loc.t[rr], settings.q)
+        p = kalman_predict(loc.x[rr], loc.P[rr], tg - loc.t[rr],
+                           settings.q / settings.length_unit**2)
         x, P = p.state, p.covariance
         loc.px[rr], loc.pP[rr] = x, P
         keys = [(r, int(i)) for i in loc.track[rr]]
@@ -396,7 +394,6 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     instants. Exact for linear Kalman updates with one report (GNN); the mixture
     update of JPDA is not of this form and is refused.
     """
-    t0 = _time.perf_counter()
     settings = TrackerSettings() if settings is None else settings
     t, z, R, rad, sc = _reports_iv(time, position, covariance, radar, scan, settings)
     dt_out = as_float(as_positive(period, "period"), "period")
@@ -414,8 +411,9 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     for r in np.unique(rad):
         s = rad == r
         hist[int(r)] = track_reports(t[s], z[s], R[s], rad[s], sc[s], settings=settings)
-    loc = _Local(hist, settings.q, gains=bsc)
-    cross = _Cross(loc, settings.q) if bsc else None
+    q = settings.q / settings.length_unit**2               # in the reports' unit
+    loc = _Local(hist, q, gains=bsc)
+    cross = _Cross(loc, q) if bsc else None
     ident: dict[tuple[int, int], int] = {}
     next_id = 0
     out = []
@@ -433,5 +431,4 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
         return empty
     ids, tt, xs, Ps = (np.concatenate(c) for c in zip(*out, strict=True))
     o = np.lexsort((ids, tt))
-    return TrackHistory(ids[o], tt[o], xs[o], Ps[o], np.ones(ids.size, bool),
-                        _time.perf_counter() - t0, next_id)
+    return TrackHistory(ids[o], tt[o], xs[o], Ps[o], np.ones(ids.size, bool), next_id)

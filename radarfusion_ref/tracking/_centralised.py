@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
-import time as _time
+import warnings
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -14,11 +14,12 @@ from scipy.spatial import cKDTree
 from .. import gating
 from ..engine import assignment
 from ..engine._validation import _describe, as_covariance, as_float_array
+from ..engine.errors import RadarFusionWarning
 from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
 from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
 from ..engine.tracker._kalman import predict_kernel, update_kernel
-from ..engine.tracker._score import increments_kernel
-from ._settings import TrackerSettings, TrackHistory
+from ..engine.tracker._score import increments_kernel, window_kernel
+from ._settings import TrackerSettings, TrackHistory, _in_unit
 
 #: Largest number of reports of one call (memory of the inputs and their sort).
 MAX_REPORTS = 50_000_000
@@ -27,10 +28,10 @@ MAX_REPORTS = 50_000_000
 class _Live:
     """The live tracks, as parallel arrays (one row per track)."""
 
-    FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "bits", "scored",
+    FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "recent", "scored",
               "last_seen", "born")
 
-    def __init__(self, n_radars):
+    def __init__(self, n_radars, n_window):
         self.x = np.zeros((0, 6))
         self.P = np.zeros((0, 6, 6))
         self.t = np.zeros(0)
@@ -39,7 +40,7 @@ class _Live:
         self.peak = np.zeros(0)
         self.confirmed = np.zeros(0, dtype=bool)
         self.ids = np.zeros(0, dtype=np.int64)
-        self.bits = np.zeros(0, dtype=np.int64)
+        self.recent = np.zeros((0, n_window), dtype=bool)     # M-of-N: last n scored scans
         self.scored = np.zeros(0, dtype=np.int64)
         self.last_seen = np.zeros((0, n_radars), dtype=np.int64)
         self.born = np.zeros(0)
@@ -84,10 +85,10 @@ class _Rows:
         rest = ~(up | gone)
         self.pending = [tuple(c[rest] for c in cols)] if rest.any() else []
 
-    def history(self, seconds, initiated, alias=None):
+    def history(self, initiated, alias=None):
         if not self.out:
             return TrackHistory(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
-                                np.zeros((0, 6, 6)), np.zeros(0, bool), seconds, initiated)
+                                np.zeros((0, 6, 6)), np.zeros(0, bool), initiated)
         ids, t, x, P, c = (np.concatenate(v) for v in zip(*self.out, strict=True))
         if alias:                                        # a relinked track takes its old id
             u, inv = np.unique(ids, return_inverse=True)
@@ -97,7 +98,7 @@ class _Rows:
                 u[n] = i
             ids = u[inv]
         o = np.lexsort((ids, t))
-        return TrackHistory(ids[o], t[o], x[o], P[o], c[o], seconds, initiated)
+        return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated)
 
 
 def _reports_iv(time, position, covariance, radar, scan, settings):
@@ -140,11 +141,12 @@ def track_reports(time, position, covariance, radar, scan, *,
         **sorted** so (no report is dropped), as a fusion centre that buffers the window
         would; the result depends on the reports, not on their order.
     position : array_like, shape (N, 3)
-        Reports in the common east-north-up frame (m), finite.
+        Reports in the common east-north-up frame, finite, in units of
+        `settings.length_unit` metres (default: m).
     covariance : array_like, shape (N, 3, 3)
-        Each report's own error covariance (m²), positive definite.
+        Each report's own error covariance (that unit squared), positive definite.
     radar : array_like of int, shape (N,)
-        The radar of each report (≥ 0).
+        The radar of each report: any integers (≥ 0), only compared with each other.
     scan : array_like of int, shape (N,)
         The radar's own scan number of each report: the reports of one radar at one
         instant form a scan, processed together.
@@ -154,7 +156,15 @@ def track_reports(time, position, covariance, radar, scan, *,
     Returns
     -------
     TrackHistory
-        One row per (track, update); tentative tracks that were deleted leave no row.
+        One row per (track, update), in the reports' unit; tentative tracks that were
+        deleted leave no row.
+
+    Warns
+    -----
+    RadarFusionWarning
+        The reports' median standard deviation, in metres, is outside 1 m to 100 km
+        (``PLAUSIBLE_SIGMA``): positions likely in another unit than
+        `settings.length_unit` says.
 
     Raises
     ------
@@ -209,11 +219,14 @@ def track_reports(time, position, covariance, radar, scan, *,
     >>> int(h.n_confirmed), bool(h.confirmed[-1]), round(float(h.state[-1, 3]))
     (1, True, 100)
     """
-    t0 = _time.perf_counter()
     settings = TrackerSettings() if settings is None else settings
     t, z, R, radar, scan = _reports_iv(time, position, covariance, radar, scan, settings)
     if not t.size:
-        return _Rows().history(_time.perf_counter() - t0, 0)
+        return _Rows().history(0)
+    u = settings.length_unit
+    z, R = z * u, R * u**2                                   # metres, as the settings
+    _warn_scale(R)
+    radar = np.unique(radar, return_inverse=True)[1].reshape(-1)    # ids 0..n_radars-1
     order = np.lexsort((z[:, 2], z[:, 1], z[:, 0], radar, t))   # time, radar, then position
     t, z, R, radar, scan = t[order], z[order], R[order], radar[order], scan[order]
     new_group = np.r_[True, (np.diff(t) != 0) | (np.diff(radar) != 0)]
@@ -222,7 +235,23 @@ def track_reports(time, position, covariance, radar, scan, *,
     state = _Tracker(settings, int(radar.max()) + 1)
     for a, b in zip(starts, ends, strict=True):
         state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
-    return state.rows.history(_time.perf_counter() - t0, state.next_id, state.alias)
+    return _in_unit(state.rows.history(state.next_id, state.alias), u)
+
+
+#: Plausible standard deviations of a report (m): outside, the unit was likely not stated.
+PLAUSIBLE_SIGMA = (1.0, 1e5)
+
+
+def _warn_scale(R):
+    """Warn when the reports' median standard deviation (m) is implausible."""
+    sigma = float(np.sqrt(np.median(np.trace(R, axis1=1, axis2=2)) / 3))
+    lo, hi = PLAUSIBLE_SIGMA
+    if not lo <= sigma <= hi:
+        warnings.warn(f"the reports' median standard deviation is {sigma:.3g} m, outside "
+                      f"[{lo:g}, {hi:g}] m: if the positions are not in metres, state "
+                      "`length_unit` (metres per unit, 1000 for km) in TrackerSettings; the "
+                      "settings' clutter density, process noise and speeds are in SI units",
+                      RadarFusionWarning, stacklevel=3)
 
 
 class _Tracker:
@@ -230,13 +259,12 @@ class _Tracker:
 
     def __init__(self, s: TrackerSettings, n_radars: int):
         self.s = s
-        self.live = _Live(n_radars)
+        self.live = _Live(n_radars, s.n)
         self.rows = _Rows()
         self.next_id = 0
         self.gamma = float(gating.gate_threshold(s.p_false_reject, 3))
         self.p_gate = 1.0 - s.p_false_reject
         self.miss_inc = math.log(1.0 - s.p_detection)
-        self.mask = (1 << s.n) - 1
         self.alias: dict[int, int] = {}
         self.gamma_relink = float(gating.gate_threshold(s.p_relink, 3))
         # confirmed tracks lost within max_coast, for relinking: ids, x, P, t, t_hit
@@ -352,7 +380,7 @@ class _Tracker:
         lv, st = self.live, self.s
         counted = hit | scored
         lv.score += inc
-        lv.bits = np.where(counted, ((lv.bits << 1) | hit) & self.mask, lv.bits)
+        lv.recent = window_kernel(lv.recent, hit, counted)
         lv.scored += counted
         tent = ~lv.confirmed
         if st.confirmation == "sprt":
@@ -360,7 +388,7 @@ class _Tracker:
             drop = (tent & (lv.score <= st.lower)) | (
                 lv.confirmed & (lv.peak - lv.score >= st.upper - st.lower))
         else:
-            ones = ((lv.bits[:, None] >> np.arange(st.n)) & 1).sum(axis=1)   # hits in the window
+            ones = np.count_nonzero(lv.recent, axis=1)
             window = np.minimum(lv.scored, st.n)
             promote = tent & (ones >= st.m)
             drop = (tent & (ones + (st.n - window) < st.m)) | (
@@ -457,10 +485,12 @@ class _Tracker:
         seen = np.full((n, self.live.last_seen.shape[1]), -(1 << 40), dtype=np.int64)
         seen[:, r] = s
         ids = self.next_id + np.arange(n, dtype=np.int64)
+        recent = np.zeros((n, self.s.n), dtype=bool)
+        recent[:, -1] = True                                  # the report that started it
         self.next_id += n
         self.live.extend(x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
-                         bits=np.ones(n, np.int64), scored=np.ones(n, np.int64), last_seen=seen,
+                         recent=recent, scored=np.ones(n, np.int64), last_seen=seen,
                          born=np.full(n, t))
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
 

@@ -1,8 +1,9 @@
-r"""Tracks against the ADS-B truth over time: GOSPA, identity, fragmentation, latency, NEES.
+r"""Tracks against the truth over time: GOSPA, identity, fragmentation, latency, NEES.
 
-:func:`evaluate_tracks_over_time` scores a :class:`~radarfusion_ref.tracking.TrackHistory`
-(the book's tracker or Stone Soup's) against the interpolated truth
-(:func:`radarfusion_ref.capstone.truth_at`) at chosen instants;
+:func:`tracks_at` reads a :class:`~radarfusion_ref.tracking.TrackHistory` at any
+instants; :func:`evaluate_tracks` scores it against a truth given as arrays (time,
+position, identity), and :func:`evaluate_tracks_over_time` against the ADS-B truth
+(:func:`radarfusion_ref.capstone.truth_at`), by the same scoring;
 :func:`summarise_runs` gives each metric's mean over seeds with its Student-t interval.
 """
 
@@ -11,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from ..capstone.evaluation import gospa_parameters
 from ..capstone.radars import as_radars, coverage_count
@@ -29,7 +29,8 @@ from ..engine.metrics import NeesResult, gospa, nees
 from ..engine.montecarlo import MeanEstimate, mean
 from ._settings import TrackHistory
 
-__all__ = ["TrackingMetrics", "evaluate_tracks_over_time", "gospa_pairs", "summarise_runs"]
+__all__ = ["TrackStates", "TrackingMetrics", "evaluate_tracks", "evaluate_tracks_over_time",
+           "summarise_runs", "tracks_at"]
 
 
 @dataclass(frozen=True)
@@ -39,12 +40,17 @@ class TrackingMetrics:
     Attributes
     ----------
     times : numpy.ndarray, shape (T,)
+    truth_id : numpy.ndarray of int, shape (A,)
+        The identity of each true target, in the order of the rows of `track_of` and
+        `latency` (:func:`evaluate_tracks`: the sorted distinct `truth_id`;
+        :func:`evaluate_tracks_over_time`: the index into ``traffic.icao24``).
     gospa, localisation, missed, false : numpy.ndarray, shape (T,)
-        GOSPA (m) at each instant and its three parts (m^p; they sum to ``gospa**p``).
+        GOSPA at each instant (the positions' unit) and its three parts (that unit to the
+        power p; they sum to ``gospa**p``).
     c, p : float
-        GOSPA cut-off (m) and order; :math:`\alpha = 2`.
+        GOSPA cut-off (the positions' unit) and order; :math:`\alpha = 2`.
     track_of : numpy.ndarray of int, shape (A, T)
-        The confirmed track GOSPA's assignment pairs with aircraft ``a`` at ``times[j]``
+        The confirmed track GOSPA's assignment pairs with target ``a`` at ``times[j]``
         (closer than `c`), -1 for none.
     switches : int
         Track switches: the times an aircraft's paired track differs from the track it
@@ -65,11 +71,10 @@ class TrackingMetrics:
         Position NEES (3 dof) of the confirmed rows of paired tracks, each row against the
         truth of the aircraft its track is paired with most often, at the row's own time
         (None without such rows).
-    seconds_per_scan : float or None
-        The run's wall time over `scans`, when given.
     """
 
     times: np.ndarray
+    truth_id: np.ndarray = field(repr=False)
     gospa: np.ndarray
     localisation: np.ndarray
     missed: np.ndarray
@@ -84,7 +89,6 @@ class TrackingMetrics:
     false_tracks_per_hour: float
     latency: np.ndarray = field(repr=False)
     nees: NeesResult | None
-    seconds_per_scan: float | None
 
     @property
     def mean_gospa(self) -> float:
@@ -98,104 +102,300 @@ class TrackingMetrics:
         return float(np.mean(self.latency[ok])) if ok.any() else float("nan")
 
 
-def gospa_pairs(x, y, *, c, p=2.0):
-    r"""The pairs of an optimal GOSPA assignment (:math:`\alpha = 2`) closer than `c`.
+@dataclass(frozen=True, repr=False)
+class TrackStates:
+    """Confirmed tracks read at chosen instants (:func:`tracks_at`).
+
+    Attributes
+    ----------
+    track : numpy.ndarray of int, shape (K,)
+        The identities of the tracks with a confirmed row, increasing.
+    times : numpy.ndarray, shape (T,)
+        The instants.
+    state : numpy.ndarray, shape (K, T, 6)
+        Track ``k`` at ``times[j]``: its latest confirmed row at most `max_age` before,
+        the position moved on at the row's velocity; NaN where the track is not present.
+    """
+
+    track: np.ndarray
+    times: np.ndarray
+    state: np.ndarray
+
+    @property
+    def present(self) -> np.ndarray:
+        """numpy.ndarray of bool, shape (K, T): track ``k`` is present at ``times[j]``."""
+        return np.isfinite(self.state[..., 0])
+
+    def __repr__(self) -> str:
+        return (f"TrackStates({self.track.size} tracks x {self.times.size} times, "
+                f"{int(self.present.sum())} present)")
+
+
+def _history_iv(history):
+    if not isinstance(history, TrackHistory):
+        raise TypeError(f"`history` must be a TrackHistory (from track_reports or "
+                        f"stonesoup_track); received {_describe(history)}")
+
+
+def _times_iv(times, least):
+    t = as_float_array(times, "times")
+    if t.ndim != 1 or t.size < least or np.any(np.diff(t) <= 0):
+        raise ValueError(f"`times` must be at least {least} increasing instants (s); received "
+                         f"{_describe(times)}")
+    return t
+
+
+def _tracks_at_iv(history, times, max_age):
+    _history_iv(history)
+    t = _times_iv(times, 1)
+    max_age = as_float(as_positive(max_age, "max_age"), "max_age")
+    n_tracks = np.unique(history.track).size
+    check_size(8 * 6 * n_tracks * t.size, MEMORY_LIMIT,
+               what=f"bytes of track states ({n_tracks} tracks x {t.size} `times`)",
+               alternative="fewer `times` (a coarser grid, or windows)")
+    return t, max_age
+
+
+def tracks_at(history, times, *, max_age=15.0) -> TrackStates:
+    r"""The confirmed tracks of a history at chosen instants.
 
     Parameters
     ----------
-    x, y : array_like, shape (n, d) and (k, d)
-        Truth and estimated points.
-    c : float
-        Cut-off (> 0).
-    p : float, optional
-        Order (>= 1, default 2).
+    history : TrackHistory
+        A tracking run (:func:`~radarfusion_ref.tracking.track_reports`, ...).
+    times : array_like, shape (T,)
+        Increasing instants (s), at least one.
+    max_age : float, optional
+        A track is present at an instant if its latest confirmed row at or before it is
+        at most this old (s, > 0, default 15: longer than a slow radar's revisit).
 
     Returns
     -------
-    numpy.ndarray of int, shape (n,)
-        For each truth point, the estimate it is paired with, -1 for none.
+    TrackStates
+        Each track's state there: the row's position moved on at its velocity,
+        :math:`\mathbf p + (t - t_k)\mathbf v`, and its velocity; NaN where absent.
 
     Raises
     ------
-    ValueError, TypeError
-        As :func:`radarfusion_ref.engine.metrics.gospa`.
-
-    Notes
-    -----
-    With :math:`\alpha = 2` a pair at distance :math:`d \ge c` costs as much as leaving
-    both points out (:math:`c^p/2 + c^p/2`), so the optimal assignment minimises
-    :math:`\sum \min(d, c)^p` over complete matchings and keeps its pairs with
-    :math:`d < c`; their :math:`d^p` plus :math:`c^p/2` per point left out is
-    ``gospa(x, y).total ** p``.
+    TypeError
+        `history` not a :class:`~radarfusion_ref.tracking.TrackHistory`.
+    ValueError
+        `times` not increasing finite instants, `max_age` not > 0, tracks x times beyond
+        the memory limit.
 
     Examples
     --------
-    >>> gospa_pairs([[0.0, 0.0], [10.0, 0.0]], [[9.0, 0.0]], c=5.0).tolist()
-    [-1, 0]
+    >>> h = TrackHistory(np.array([7, 7]), np.array([0.0, 10.0]),
+    ...                  np.array([[0.0, 0, 0, 1, 0, 0], [10.0, 0, 0, 2, 0, 0]]),
+    ...                  np.tile(np.eye(6), (2, 1, 1)), np.array([True, True]))
+    >>> s = tracks_at(h, [5.0, 12.0, 40.0], max_age=15.0)
+    >>> s.track.tolist(), s.state[0, :2, 0].tolist(), s.present.tolist()
+    ([7], [5.0, 14.0], [[True, True, False]])
     """
-    g = gospa(x, y, c=c, p=p)                 # validates, and refuses oversize sets
-    x = np.asarray(x, dtype=float).reshape(len(x), -1) if len(x) else np.zeros((0, 1))
-    y = np.asarray(y, dtype=float).reshape(len(y), -1) if len(y) else np.zeros((0, 1))
-    out = np.full(x.shape[0], -1, dtype=np.int64)
-    if not (x.shape[0] and y.shape[0]) or g.n_assigned == 0:
-        return out
-    d = np.linalg.norm(x[:, None, :] - y[None, :, :], axis=-1) / c
-    cost = np.minimum(d, 1.0) ** p
-    rows, cols = linear_sum_assignment(cost)
-    keep = d[rows, cols] < 1.0
-    out[rows[keep]] = cols[keep]
-    return out
+    t, max_age = _tracks_at_iv(history, times, max_age)
+    return _tracks_at(history, t, max_age)
 
 
-def _estimates_at(history, times, max_age):
-    """Each confirmed track's position at each instant: its latest confirmed row at most
-    `max_age` s before, moved on at its velocity. Returns (tracks (K,), pos (K, T, 3))."""
+def _tracks_at(history, times, max_age):
+    """Kernel of :func:`tracks_at` (trusted input)."""
     conf = history.confirmed
     tr, tm, st = history.track[conf], history.time[conf], history.state[conf]
     order = np.lexsort((tm, tr))
     tr, tm, st = tr[order], tm[order], st[order]
     ids, first = np.unique(tr, return_index=True)
-    stops = np.append(first[1:], tr.size)[:ids.size]      # no confirmed row: no track
-    pos = np.full((ids.size, times.size, 3), np.nan)
+    stops = np.append(first[1:], tr.size)[:ids.size]
+    state = np.full((ids.size, times.size, 6), np.nan)
     for k, (a, b) in enumerate(zip(first, stops, strict=True)):
         j = np.searchsorted(tm[a:b], times, side="right") - 1
         ok = j >= 0
         jj = a + np.maximum(j, 0)
         age = times - tm[jj]
         ok &= age <= max_age
-        pos[k, ok] = st[jj[ok], :3] + age[ok, None] * st[jj[ok], 3:]
-    return ids, pos
+        state[k, ok, :3] = st[jj[ok], :3] + age[ok, None] * st[jj[ok], 3:]
+        state[k, ok, 3:] = st[jj[ok], 3:]
+    return TrackStates(track=ids.astype(np.int64), times=times, state=state)
 
 
-def _evaluate_iv(history, traffic, c, p, times, radars, min_radars, max_age, scans):
-    if not isinstance(history, TrackHistory):
-        raise TypeError(f"`history` must be a TrackHistory (from track_reports or "
-                        f"stonesoup_track); received {_describe(history)}")
-    if not isinstance(traffic, Traffic):
-        raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
-                        f"{_describe(traffic)}")
+# --------------------------------------------------------------------------- scoring
+def _score(history, t, truth, valid, truth_id, truth_rows, c, p, max_age):
+    """The scores of :class:`TrackingMetrics` at instants `t` against `truth` (A, T, 3)
+    present where `valid`; `truth_rows(times)` gives (truth, valid) at the history's row
+    instants, for NEES."""
+    states = _tracks_at(history, t, max_age)
+    ids, est = states.track, states.state[..., :3]
+    A, T = valid.shape
+    parts = np.zeros((T, 4))
+    track_of = np.full((A, T), -1, dtype=np.int64)
+    for j in range(T):
+        a_idx = np.flatnonzero(valid[:, j])
+        k_idx = np.flatnonzero(np.isfinite(est[:, j, 0]))
+        g = gospa(truth[a_idx, j], est[k_idx, j], c=c, p=p)
+        parts[j] = g.total, g.localisation, g.missed, g.false
+        track_of[a_idx[g.pairs[:, 0]], j] = ids[k_idx[g.pairs[:, 1]]]
+    switches, per_target, latency = 0, [], np.full(A, np.nan)
+    for a in range(A):
+        seq = track_of[a][track_of[a] >= 0]
+        if not seq.size:
+            continue
+        switches += int(np.sum(seq[1:] != seq[:-1]))
+        per_target.append(np.unique(seq).size)
+        first_seen = t[np.argmax(valid[a])]
+        latency[a] = t[np.argmax(track_of[a] >= 0)] - first_seen
+    present = np.isfinite(est[:, :, 0]).any(axis=1)
+    paired = np.isin(ids, track_of[track_of >= 0])
+    n_false = int(np.sum(present & ~paired))
+    hours = (t[-1] - t[0]) / 3600.0
+    return TrackingMetrics(
+        times=t, truth_id=truth_id, gospa=parts[:, 0], localisation=parts[:, 1],
+        missed=parts[:, 2], false=parts[:, 3], c=c, p=p, track_of=track_of,
+        switches=switches,
+        tracks_per_aircraft=float(np.mean(per_target)) if per_target else float("nan"),
+        n_tracks=int(present.sum()), false_tracks=n_false,
+        false_tracks_per_hour=n_false / hours, latency=latency,
+        nees=_nees(history, truth_rows, track_of))
+
+
+def _evaluate_iv(history, c, p, times, max_age, n_truth):
+    _history_iv(history)
     c, p = gospa_parameters(c, p)
-    t = as_float_array(times, "times")
-    if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
-        raise ValueError(f"`times` must be at least two increasing instants (s); received "
-                         f"{_describe(times)}")
-    if radars is not None:
-        radars = as_radars(radars)
-        min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))
+    t = _times_iv(times, 2)
     max_age = as_float(as_positive(max_age, "max_age"), "max_age")
-    if scans is not None:
-        scans = as_int(scans, "scans", minimum=1)
     n_tracks = np.unique(history.track).size
-    check_size(8 * 4 * max(n_tracks, len(traffic.icao24)) * t.size, MEMORY_LIMIT,
-               what=f"bytes of track and truth positions ({n_tracks} tracks, "
-                    f"{len(traffic.icao24)} aircraft x {t.size} `times`)",
+    check_size(8 * 6 * max(n_tracks, n_truth) * t.size, MEMORY_LIMIT,
+               what=f"bytes of track and truth states ({n_tracks} tracks, "
+                    f"{n_truth} targets x {t.size} `times`)",
                alternative="fewer `times` (a coarser grid, or windows)")
-    return c, p, t, radars, min_radars, max_age, scans
+    n_rows = np.unique(history.time[history.confirmed]).size       # NEES: truth at rows
+    check_size(8 * 4 * n_truth * n_rows, MEMORY_LIMIT,
+               what=f"bytes of the truth at the rows' instants ({n_truth} targets x "
+                    f"{n_rows} instants of `history`)",
+               alternative="scoring the history in windows of time")
+    return c, p, t, max_age
+
+
+def _truth_iv(truth_time, truth_position, truth_id):
+    tt = as_float_array(truth_time, "truth_time", ndim_min=1)
+    if tt.ndim != 1 or not tt.size:
+        raise ValueError(f"`truth_time` must have shape (N,), N >= 1; received "
+                         f"{_describe(truth_time)}")
+    n = tt.size
+    pos = as_float_array(truth_position, "truth_position", ndim_min=2, last_dims=(3,))
+    if pos.shape != (n, 3):
+        raise ValueError(f"`truth_position` must have shape ({n}, 3); received shape "
+                         f"{pos.shape}")
+    ident = (np.asarray(truth_id) if not isinstance(truth_id, (str, bytes))
+             and truth_id is not None else None)
+    if ident is None or ident.dtype.kind not in "iu" or ident.shape != (n,):
+        raise TypeError(f"`truth_id` must be an integer array of shape ({n},); received "
+                        f"{_describe(truth_id)}")
+    key = np.lexsort((tt, ident))
+    same = (np.diff(ident[key]) == 0) & (np.diff(tt[key]) == 0)
+    if same.any():
+        k = key[np.flatnonzero(same)[0]]
+        raise ValueError(f"`truth_id`, `truth_time`: target {int(ident[k])} has two positions "
+                         f"at time {float(tt[k])!r}; give one per (id, time)")
+    return tt, pos, ident
+
+
+class _Samples:
+    """Truth samples of each target, linearly interpolated between its own samples."""
+
+    def __init__(self, tt, pos, ident):
+        self.ids, inv = np.unique(ident, return_inverse=True)
+        order = np.lexsort((tt, inv))
+        self.inv, self.t, self.pos = inv[order], tt[order], pos[order]
+        self.bounds = np.searchsorted(self.inv, np.arange(self.ids.size + 1))
+
+    def __call__(self, times):
+        A = self.ids.size
+        out = np.full((A, times.size, 3), np.nan)
+        valid = np.zeros((A, times.size), bool)
+        for a in range(A):
+            lo, hi = self.bounds[a], self.bounds[a + 1]
+            ts, ps = self.t[lo:hi], self.pos[lo:hi]
+            ok = (times >= ts[0]) & (times <= ts[-1])
+            valid[a] = ok
+            for d in range(3):
+                out[a, ok, d] = np.interp(times[ok], ts, ps[:, d])
+        return out, valid
+
+
+def evaluate_tracks(history, truth_time, truth_position, truth_id, *, c, p=2.0, times,
+                    max_age=15.0) -> TrackingMetrics:
+    r"""Score confirmed tracks against a truth given as arrays, at the given instants.
+
+    Parameters
+    ----------
+    history : TrackHistory
+        A tracking run (:func:`~radarfusion_ref.tracking.track_reports`, ...).
+    truth_time : array_like, shape (N,)
+        Instants of the truth samples (s).
+    truth_position : array_like, shape (N, 3)
+        The true positions, in the unit and frame of the tracks.
+    truth_id : array_like of int, shape (N,)
+        The true target of each sample (any integers), one sample per (id, time).
+    c : float
+        GOSPA cut-off (> 0), in the positions' unit.
+    p : float, optional
+        GOSPA order (>= 1, default 2); :math:`\alpha = 2`.
+    times : array_like, shape (T,)
+        Increasing instants of evaluation (s), at least two.
+    max_age : float, optional
+        As :func:`tracks_at` (s, default 15).
+
+    Returns
+    -------
+    TrackingMetrics
+        `truth_id` holds the sorted distinct target ids (the rows of `track_of`).
+
+    Raises
+    ------
+    TypeError
+        `history` not a :class:`~radarfusion_ref.tracking.TrackHistory`, `truth_id` not
+        integers, non-numeric arrays.
+    ValueError
+        Shapes that disagree, non-finite entries, two samples of one target at one
+        instant, bad `c`, `p`, `times` or `max_age`, or sizes beyond the memory limit.
+
+    Notes
+    -----
+    A target is in the truth set at instant :math:`t` when :math:`t` lies between its
+    first and last samples; its position there is interpolated linearly between the
+    samples around :math:`t` (exact for constant velocity). At each instant the present
+    confirmed tracks (:func:`tracks_at`) are compared with the truth set by GOSPA
+    (:func:`radarfusion_ref.engine.metrics.gospa`), and its optimal assignment's pairs
+    give the identity metrics: a switch is a target paired with another track than at
+    its previous pairing; a false track is a confirmed track never paired; latency runs
+    from a target's first instant in the truth set to its first pairing. NEES is that of
+    each confirmed row of a paired track against the target its track is paired with
+    most often, at the row's own time.
+
+    Examples
+    --------
+    >>> h = TrackHistory(np.array([3, 3]), np.array([0.0, 10.0]),
+    ...                  np.array([[0.0, 0, 0, 1, 0, 0], [10.0, 0, 0, 1, 0, 0]]),
+    ...                  np.tile(np.eye(6), (2, 1, 1)), np.array([True, True]))
+    >>> m = evaluate_tracks(h, [0.0, 20.0], [[0.0, 1, 0], [20.0, 1, 0]], [41, 41],
+    ...                     c=5.0, times=[0.0, 10.0, 20.0])
+    >>> m.gospa.tolist(), m.switches, m.false_tracks, m.truth_id.tolist()
+    ([1.0, 1.0, 1.0], 0, 0, [41])
+    """
+    _history_iv(history)
+    tt, pos, ident = _truth_iv(truth_time, truth_position, truth_id)
+    c, p, t, max_age = _evaluate_iv(history, c, p, times, max_age, np.unique(ident).size)
+    samples = _Samples(tt, pos, ident)
+    truth, valid = samples(t)
+    return _score(history, t, truth, valid, samples.ids.astype(np.int64), samples, c, p,
+                  max_age)
 
 
 def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radars=None,
-                              min_radars=1, max_age=15.0, scans=None) -> TrackingMetrics:
+                              min_radars=1, max_age=15.0) -> TrackingMetrics:
     r"""Score confirmed tracks against the ADS-B truth at the given instants.
+
+    The ADS-B adapter of :func:`evaluate_tracks`: the truth is the traffic's aircraft,
+    interpolated by :func:`radarfusion_ref.capstone.truth_at`, optionally restricted to
+    the radars' coverage.
 
     Parameters
     ----------
@@ -203,8 +403,7 @@ def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radar
         A tracking run (:func:`~radarfusion_ref.tracking.track_reports`,
         :func:`~radarfusion_ref.tracking.stonesoup.stonesoup_track`, ...).
     traffic : Traffic
-        The truth (:func:`radarfusion_ref.capstone.load_traffic`), interpolated by
-        :func:`radarfusion_ref.capstone.truth_at`.
+        The truth (:func:`radarfusion_ref.capstone.load_traffic`).
     c, p : float, optional
         GOSPA cut-off (m, default 2000) and order (default 2); :math:`\alpha = 2`.
     times : array_like, shape (T,)
@@ -216,34 +415,28 @@ def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radar
     min_radars : int, optional
         Default 1.
     max_age : float, optional
-        A confirmed track is present at an instant if its latest confirmed row is at most
-        this old (s, default 15: longer than the slowest radar's revisit); its position
-        there is that row's moved on at the row's velocity.
-    scans : int, optional
-        Number of radar scans the run processed: `seconds_per_scan` is the history's wall
-        time over it.
+        As :func:`tracks_at` (s, default 15).
 
     Returns
     -------
     TrackingMetrics
+        `truth_id` is the index of each aircraft into ``traffic.icao24``.
 
     Raises
     ------
     TypeError
         Wrong types of `history`, `traffic` or `radars`.
     ValueError
-        Bad `c`, `p`, `times`, `min_radars`, `max_age` or `scans`, tracks x truth x times
-        beyond the memory limit, or confirmed rows whose position covariance is not
-        symmetric positive definite (named `history`).
+        Bad `c`, `p`, `times`, `min_radars` or `max_age`, tracks x truth x times beyond
+        the memory limit, or confirmed rows whose position covariance is not symmetric
+        positive definite (named `history`).
 
     Notes
     -----
-    At each instant the present confirmed tracks are compared with the truth by GOSPA
-    (:func:`radarfusion_ref.engine.metrics.gospa`) and paired by its optimal assignment
-    (:func:`gospa_pairs`). Identity metrics follow the pairs: a switch is an aircraft paired
-    with another track than at its previous pairing; a false track is a confirmed track
-    never paired; latency is from an aircraft's first instant in the truth set to its first
-    pairing (so it is resolved to the spacing of `times`).
+    Scored as :func:`evaluate_tracks` describes; the truth set at an instant is every
+    aircraft :func:`~radarfusion_ref.capstone.truth_at` knows then (inside the coverage,
+    with `radars`), and the NEES compares each row with the aircraft's interpolated
+    position at the row's own time.
 
     Examples
     --------
@@ -255,52 +448,25 @@ def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radar
     >>> m.n_tracks, m.false_tracks
     (0, 0)
     """
-    c, p, t, radars, min_radars, max_age, scans = _evaluate_iv(
-        history, traffic, c, p, times, radars, min_radars, max_age, scans)
+    _history_iv(history)
+    if not isinstance(traffic, Traffic):
+        raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
+                        f"{_describe(traffic)}")
+    c, p, t, max_age = _evaluate_iv(history, c, p, times, max_age, len(traffic.icao24))
+    if radars is not None:
+        radars = as_radars(radars)
+        min_radars = as_int(min_radars, "min_radars", minimum=1, maximum=len(radars))
     truth, valid = truth_at(traffic, t)
     if radars is not None:
         cov = np.zeros(valid.shape, dtype=bool)
         cov[valid] = coverage_count(truth[valid], radars) >= min_radars
         valid = cov
-    ids, est = _estimates_at(history, t, max_age)
-    A, T = valid.shape
-    parts = np.zeros((T, 4))
-    track_of = np.full((A, T), -1, dtype=np.int64)
-    for j in range(T):
-        a_idx = np.flatnonzero(valid[:, j])
-        k_idx = np.flatnonzero(np.isfinite(est[:, j, 0]))
-        x, y = truth[a_idx, j], est[k_idx, j]
-        g = gospa(x, y, c=c, p=p)
-        parts[j] = g.total, g.localisation, g.missed, g.false
-        if a_idx.size and k_idx.size:
-            pair = gospa_pairs(x, y, c=c, p=p)
-            hit = pair >= 0
-            track_of[a_idx[hit], j] = ids[k_idx[pair[hit]]]
-    switches, per_aircraft, latency = 0, [], np.full(A, np.nan)
-    for a in range(A):
-        seq = track_of[a][track_of[a] >= 0]
-        if not seq.size:
-            continue
-        switches += int(np.sum(seq[1:] != seq[:-1]))
-        per_aircraft.append(np.unique(seq).size)
-        first_seen = t[np.argmax(valid[a])]
-        latency[a] = t[np.argmax(track_of[a] >= 0)] - first_seen
-    present = np.isfinite(est[:, :, 0]).any(axis=1)
-    paired = np.isin(ids, track_of[track_of >= 0])
-    n_false = int(np.sum(present & ~paired))
-    hours = (t[-1] - t[0]) / 3600.0
-    return TrackingMetrics(
-        times=t, gospa=parts[:, 0], localisation=parts[:, 1], missed=parts[:, 2],
-        false=parts[:, 3], c=c, p=p, track_of=track_of, switches=switches,
-        tracks_per_aircraft=float(np.mean(per_aircraft)) if per_aircraft else float("nan"),
-        n_tracks=int(present.sum()), false_tracks=n_false,
-        false_tracks_per_hour=n_false / hours, latency=latency,
-        nees=_nees(history, traffic, track_of),
-        seconds_per_scan=None if scans is None else history.seconds / scans)
+    return _score(history, t, truth, valid, np.arange(valid.shape[0], dtype=np.int64),
+                  lambda at: truth_at(traffic, at), c, p, max_age)
 
 
-def _nees(history, traffic, track_of):
-    """Position NEES of the confirmed rows of paired tracks against their main aircraft."""
+def _nees(history, truth_rows, track_of):
+    """Position NEES of the confirmed rows of paired tracks against their main target."""
     pairs = np.stack(np.nonzero(track_of >= 0), axis=-1)
     if not pairs.size:
         return None
@@ -314,12 +480,12 @@ def _nees(history, traffic, track_of):
     if not rows.size:
         return None
     times, inv = np.unique(history.time[rows], return_inverse=True)
-    truth, valid = truth_at(traffic, times)
-    aircraft = np.array([main[int(k)] for k in history.track[rows]])
-    ok = valid[aircraft, inv]
+    truth, valid = truth_rows(times)
+    target = np.array([main[int(k)] for k in history.track[rows]])
+    ok = valid[target, inv]
     if not ok.any():
         return None
-    err = history.state[rows[ok], :3] - truth[aircraft[ok], inv[ok]]
+    err = history.state[rows[ok], :3] - truth[target[ok], inv[ok]]
     try:
         return nees(err, history.covariance[rows[ok], :3, :3])
     except ValueError as exc:           # the engine names its own argument; name ours
@@ -339,9 +505,8 @@ def summarise_runs(runs) -> dict[str, MeanEstimate]:
     -------
     dict of str to MeanEstimate
         ``mean_gospa``, ``switches``, ``tracks_per_aircraft``, ``false_tracks_per_hour``,
-        ``mean_latency``, ``nees`` (the runs' mean NEES; the interval the replication
-        supports) and, when every run has it, ``seconds_per_scan``
-        (:func:`radarfusion_ref.engine.montecarlo.mean`).
+        ``mean_latency`` and ``nees`` (the runs' mean NEES; the interval the replication
+        supports), by :func:`radarfusion_ref.engine.montecarlo.mean`.
 
     Raises
     ------
@@ -370,6 +535,4 @@ def summarise_runs(runs) -> dict[str, MeanEstimate]:
         "mean_gospa", "switches", "tracks_per_aircraft", "false_tracks_per_hour",
         "mean_latency")}
     out["nees"] = mean([r.nees.mean for r in runs])
-    if all(r.seconds_per_scan is not None for r in runs):
-        out["seconds_per_scan"] = mean([r.seconds_per_scan for r in runs])
     return out

@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..engine._validation import as_bool, as_choice, as_float, as_int, as_positive, as_probability
+from ..engine.tracker import sprt_thresholds
 
 #: Association rules of the tracker.
 ASSOCIATIONS = ("gnn", "jpda")
 #: Confirmation logics of the tracker.
 CONFIRMATIONS = ("sprt", "m_of_n")
+#: Names of the six state components of a track (:meth:`TrackHistory.to_dict`).
+STATE_NAMES = ("x", "y", "z", "vx", "vy", "vz")
 
 
 @dataclass(frozen=True)
@@ -24,17 +26,29 @@ class TrackerSettings:
     scored hour; the grid and its scores are in benchmarks/data/tracking_tuning.csv). The
     others are stated design values.
 
+    Units: every dimensional setting is in SI units (m, s and their products, whatever
+    the unit of the reports), and `length_unit` says how many metres one unit of the
+    reports' positions is. The trackers convert the reports to metres at the door and
+    return the tracks in the reports' unit, so their decisions (gates, scores,
+    confirmations, identities) do not depend on the unit. The defaults describe the
+    capstone's airspace (airliners, about ten false reports per scan in 220 km of
+    coverage): state `clutter_density`, `q` and `speed_max` for another scene.
+
     Attributes
     ----------
     p_detection : float
         :math:`P_D`, probability that a radar reports a target it covers (default 0.9).
     clutter_density : float
         :math:`\lambda`, false reports per m³ per radar scan (default 1e-14: about ten
-        false reports per scan in a radar's 220 km coverage below 15 km).
+        false reports per scan in a radar's 220 km coverage below 15 km; the number of
+        false reports per scan over the volume they fall in).
     alpha, beta : float
         Design rates of the sequential test: false confirmation :math:`\alpha`
         (default 1e-3) and false deletion :math:`\beta` (default 0.01),
         :math:`\alpha + \beta < 1` (:func:`radarfusion_ref.engine.tracker.sprt_thresholds`).
+    lower, upper : float
+        Wald's deletion and confirmation thresholds of the score, computed from `alpha` and
+        `beta` by :func:`radarfusion_ref.engine.tracker.sprt_thresholds` (not arguments).
     confirmation : {"sprt", "m_of_n"}
         Confirm by the score's sequential test (default) or by M-of-N logic.
     m, n : int
@@ -56,7 +70,7 @@ class TrackerSettings:
     speed_max : float
         Standard deviation of each velocity component of a new track (m/s, default 250).
     max_coast : float
-        Seconds without an update after which a track is deleted (default 40, > 0).
+        Seconds without an update after which a track is deleted (s, default 40, > 0).
     miss_scans : int
         A radar's missed detection lowers a track's score only while that radar has
         reported the track within its last `miss_scans` scans (default 3, ≥ 1): a radar
@@ -75,6 +89,11 @@ class TrackerSettings:
         positions (default 1e-20, tuned on the tuning hour; :math:`d^2 < 96`: wider than
         the report gate, because a manoeuvre that broke the track moved the aircraft off
         the old track's line).
+    length_unit : float
+        Metres per unit of the reports' positions (> 0; default 1: positions in m, 1000:
+        in km). Reports whose standard deviations come out below 1 m or above 100 km in
+        metres are warned of (:class:`~radarfusion_ref.engine.errors.RadarFusionWarning`):
+        usually a `length_unit` not stated.
 
     Raises
     ------
@@ -103,6 +122,7 @@ class TrackerSettings:
     miss_scans: int = 3
     relink: bool = True
     p_relink: float = 1e-20
+    length_unit: float = 1.0
     lower: float = field(init=False, repr=False)
     upper: float = field(init=False, repr=False)
 
@@ -112,13 +132,9 @@ class TrackerSettings:
 
         for name in ("p_detection", "alpha", "beta", "p_false_reject", "p_relink"):
             put(name, as_float(as_probability(getattr(self, name), name), name))
-        for name in ("clutter_density", "q", "speed_max", "max_coast"):
+        for name in ("clutter_density", "q", "speed_max", "max_coast", "length_unit"):
             put(name, as_float(as_positive(getattr(self, name), name), name))
-        if self.alpha + self.beta >= 1:
-            raise ValueError(f"`alpha` + `beta` must be < 1, else the deletion threshold "
-                             f"ln(beta/(1-alpha)) is not below the confirmation threshold "
-                             f"ln((1-beta)/alpha); received alpha={self.alpha!r}, "
-                             f"beta={self.beta!r}")
+        sprt = sprt_thresholds(self.alpha, self.beta)      # refuses alpha + beta >= 1
         put("confirmation", as_choice(self.confirmation, "confirmation", CONFIRMATIONS))
         put("association", as_choice(self.association, "association", ASSOCIATIONS))
         put("n", as_int(self.n, "n", minimum=1, maximum=62))
@@ -130,11 +146,11 @@ class TrackerSettings:
         put("max_events", as_int(self.max_events, "max_events", minimum=1))
         put("miss_scans", as_int(self.miss_scans, "miss_scans", minimum=1))
         put("relink", as_bool(self.relink, "relink"))
-        put("lower", math.log(self.beta / (1 - self.alpha)))
-        put("upper", math.log((1 - self.beta) / self.alpha))
+        put("lower", sprt.lower)
+        put("upper", sprt.upper)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class TrackHistory:
     """Tracks over time: one row per (track, update instant), sorted by (time, track).
 
@@ -145,15 +161,19 @@ class TrackHistory:
     time : numpy.ndarray, shape (K,)
         Instant of the update (s).
     state : numpy.ndarray, shape (K, 6)
-        ``[x, y, z, vx, vy, vz]`` in the common east-north-up frame (m, m/s).
+        ``[x, y, z, vx, vy, vz]`` in the common east-north-up frame (the reports' length
+        unit, and that unit per second).
     covariance : numpy.ndarray, shape (K, 6, 6)
     confirmed : numpy.ndarray of bool, shape (K,)
         The row is of a confirmed track (False: still tentative at that instant; the
         rows of a tentative track are kept only if it is confirmed later).
-    seconds : float
-        Wall time of the tracking (s).
     initiated : int
         Tracks started, confirmed or not.
+
+    Notes
+    -----
+    The history holds data only: time a run with :func:`time.perf_counter` around the
+    call. Its repr is one line of counts; :meth:`to_dict` gives plain columns.
     """
 
     track: np.ndarray
@@ -161,16 +181,56 @@ class TrackHistory:
     state: np.ndarray
     covariance: np.ndarray
     confirmed: np.ndarray
-    seconds: float = 0.0
     initiated: int = 0
 
     def __len__(self) -> int:
         return int(self.track.size)
 
+    def __repr__(self) -> str:
+        span = (f", time {float(self.time.min()):g} to {float(self.time.max()):g} s"
+                if self.time.size else "")
+        return (f"TrackHistory({len(self)} rows, {np.unique(self.track).size} tracks, "
+                f"{self.n_confirmed} confirmed, {self.initiated} initiated{span})")
+
     @property
     def n_confirmed(self) -> int:
         """Number of distinct tracks that were ever confirmed."""
         return int(np.unique(self.track[self.confirmed]).size)
+
+    def to_dict(self) -> dict[str, np.ndarray]:
+        """The rows as plain one-dimensional columns of equal length (K,).
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``track``, ``time``, ``confirmed``, the state ``x``, ``y``, ``z``, ``vx``,
+            ``vy``, ``vz``, and the covariance's upper triangle ``cov_<a>_<b>`` (21
+            columns, ``cov_x_x`` to ``cov_vz_vz``): ready for ``pandas.DataFrame``, which
+            this package does not need.
+
+        Examples
+        --------
+        >>> h = TrackHistory(np.array([4]), np.array([5.0]), np.arange(6.0)[None],
+        ...                  np.eye(6)[None], np.array([True]))
+        >>> d = h.to_dict()
+        >>> len(d), d["vx"].tolist(), d["cov_y_y"].tolist(), d["cov_x_y"].tolist()
+        (30, [3.0], [1.0], [0.0])
+        """
+        out = {"track": self.track.copy(), "time": self.time.copy(),
+               "confirmed": self.confirmed.copy()}
+        for i, name in enumerate(STATE_NAMES):
+            out[name] = self.state[:, i].copy()
+        for i, j in zip(*np.triu_indices(6), strict=True):
+            out[f"cov_{STATE_NAMES[i]}_{STATE_NAMES[j]}"] = self.covariance[:, i, j].copy()
+        return out
+
+
+def _in_unit(history, unit):
+    """`history` (in metres) in the reports' unit, `unit` metres each."""
+    if unit == 1.0:
+        return history
+    return TrackHistory(history.track, history.time, history.state / unit,
+                        history.covariance / unit**2, history.confirmed, history.initiated)
 
 
 #: Stone Soup's settings tuned on the tuning hour (``capstone.load_traffic(hour="tuning")``,

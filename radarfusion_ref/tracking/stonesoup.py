@@ -20,13 +20,12 @@ import datetime as dt
 import functools
 import itertools
 import math
-import time as _time
 
 import numpy as np
 
 from ..engine._optional import require
 from ..engine._validation import _describe, as_bool, as_choice, as_float_array
-from ._settings import TrackerSettings, TrackHistory
+from ._settings import TrackerSettings, TrackHistory, _in_unit
 
 __all__ = ["STONESOUP_TRACKERS", "stonesoup_track"]
 
@@ -149,8 +148,8 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     -------
     TrackHistory
         One row per (track, update), sorted by (time, track), covariances symmetrised;
-        `confirmed` from the update at which Stone Soup's initiator released the track; `seconds` the wall time of the
-        run; `initiated` the tracks started (held ones included).
+        `confirmed` from the update at which Stone Soup's initiator released the track;
+        `initiated` the tracks started (held ones included).
 
     Raises
     ------
@@ -209,7 +208,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     from stonesoup.types.update import Update
     from stonesoup.updater.kalman import KalmanUpdater
 
-    t0 = _time.perf_counter()
+    x, P = x * settings.length_unit, P * settings.length_unit**2     # metres
     cv = ConstantVelocity(settings.q)
     transition = CombinedLinearGaussianTransitionModel([cv, cv, cv])
     predictor = KalmanPredictor(transition)
@@ -265,11 +264,10 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     every = set()
     for _, tracks in run:
         every |= tracks
-    seconds = _time.perf_counter() - t0
-    return _history(every, settings.m, seconds, started[0], Update)
+    return _in_unit(_history(every, settings.m, started[0], Update), settings.length_unit)
 
 
-def _history(tracks, min_points, seconds, initiated, Update):
+def _history(tracks, min_points, initiated, Update):
     rows = []
     def first(tr):                    # identities in order of birth, then of place (no uuid)
         s0 = tr.states[0]
@@ -289,11 +287,11 @@ def _history(tracks, min_points, seconds, initiated, Update):
     if not rows:
         return TrackHistory(track=np.zeros(0, dtype=np.int64), time=np.zeros(0),
                             state=np.zeros((0, 6)), covariance=np.zeros((0, 6, 6)),
-                            confirmed=np.zeros(0, dtype=bool), seconds=seconds,
+                            confirmed=np.zeros(0, dtype=bool),
                             initiated=initiated)
     rows.sort(key=lambda r: (r[0], r[1]))
     sec, ident, sv, cv, conf = zip(*rows, strict=True)
     return TrackHistory(track=np.array(ident, dtype=np.int64), time=np.array(sec),
                         state=np.stack(sv), covariance=np.stack(cv),
-                        confirmed=np.array(conf, dtype=bool), seconds=seconds,
+                        confirmed=np.array(conf, dtype=bool),
                         initiated=initiated)

@@ -169,7 +169,19 @@ def m_of_n(hits, m, n):
                         f"{_describe(hits)}")
     n = as_int(n, "n", minimum=1)
     m = as_int(m, "m", minimum=1, maximum=n)
-    c = np.cumsum(h, axis=-1, dtype=np.int64)
-    lag = np.concatenate([np.zeros((*c.shape[:-1], n), np.int64), c], axis=-1)[..., :c.shape[-1]]
-    ok = (c - lag) >= m                                       # hits in the last n scans
-    return np.where(ok.any(axis=-1), np.argmax(ok, axis=-1), -1)
+    K = h.shape[-1]
+    recent = np.zeros((*h.shape[:-1], min(n, K)), dtype=bool)   # a window past K: all K
+    first = np.full(h.shape[:-1], -1, dtype=np.int64)
+    for k in range(K):
+        recent = window_kernel(recent, h[..., k], True)
+        first[(first < 0) & (np.count_nonzero(recent, axis=-1) >= m)] = k
+    return first
+
+
+def window_kernel(recent, hit, counted):
+    """Kernel of M-of-N (trusted input): the last n scored outcomes `recent` (..., n),
+    oldest first, moved on by one scan where `counted` (bool, broadcast), `hit` newest.
+    Their count of True is the number of hits in the last n scored scans; the tracker
+    and :func:`m_of_n` both keep their window with it."""
+    moved = np.concatenate([recent[..., 1:], np.asarray(hit)[..., None]], axis=-1)
+    return np.where(np.asarray(counted)[..., None], moved, recent)
