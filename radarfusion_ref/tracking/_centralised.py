@@ -18,6 +18,7 @@ from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
 from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
 from ..engine.tracker._kalman import predict_kernel, update_kernel
 from ..engine.tracker._score import increments_kernel
+from ._motion import axis_q, predict, velocity_sd
 from ._settings import TrackerSettings, TrackHistory
 
 #: Largest number of reports of one call (memory of the inputs and their sort).
@@ -184,7 +185,8 @@ def track_reports(time, position, covariance, radar, scan, *,
       probability-weighted hit increment, otherwise by a miss.
 
     A report no track takes (JPDA: total association probability below 1/2) starts a
-    tentative track at the report with velocity :math:`0 \pm` `speed_max` and score 0.
+    tentative track at the report with velocity :math:`0 \pm` `speed_max` (vertically
+    `speed_max_vertical`) and score 0.
     A radar's miss lowers a score only if that radar reported the track within its last
     `miss_scans` scans. With ``confirmation="sprt"`` a tentative track is confirmed when
     its score reaches :math:`\ln\frac{1-\beta}{\alpha}` and deleted at
@@ -269,7 +271,7 @@ class _Tracker:
     def scan(self, t, r, s, z, R):
         lv, st = self.live, self.s
         if lv.ids.size:
-            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - lv.t, st.q)
+            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - lv.t, axis_q(st), per_axis=True)
             lv.t[:] = t
         T, M = lv.ids.size, z.shape[0]
         scored = (s - lv.last_seen[:, r]) <= st.miss_scans
@@ -418,7 +420,7 @@ class _Tracker:
         old = np.flatnonzero(lv.confirmed & ~promote)
         ids, x, P, tt, th = self.lost
         fresh = (t - th) <= self.s.max_coast
-        xl, Pl = predict_kernel(x[fresh], P[fresh], t - tt[fresh], self.s.q)
+        xl, Pl = predict(x[fresh], P[fresh], t - tt[fresh], self.s)
         cand_x = np.concatenate([lv.x[old, :3], xl[:, :3]])
         if not cand_x.shape[0]:
             return []
@@ -453,7 +455,7 @@ class _Tracker:
         x[:, :3] = z
         P = np.zeros((n, 6, 6))
         P[:, :3, :3] = R
-        P[:, 3:, 3:] = self.s.speed_max ** 2 * np.eye(3)
+        P[:, 3:, 3:] = np.diag(velocity_sd(self.s) ** 2)
         seen = np.full((n, self.live.last_seen.shape[1]), -(1 << 40), dtype=np.int64)
         seen[:, r] = s
         ids = self.next_id + np.arange(n, dtype=np.int64)

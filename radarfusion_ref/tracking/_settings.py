@@ -7,12 +7,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import as_bool, as_choice, as_float, as_int, as_positive, as_probability
+from ..engine._validation import (
+    as_bool,
+    as_choice,
+    as_float,
+    as_float_array,
+    as_int,
+    as_positive,
+    as_probability,
+)
 
 #: Association rules of the tracker.
 ASSOCIATIONS = ("gnn", "jpda")
 #: Confirmation logics of the tracker.
 CONFIRMATIONS = ("sprt", "m_of_n")
+#: Motion models of the tracker.
+MOTIONS = ("cv", "imm")
 
 
 @dataclass(frozen=True)
@@ -75,13 +85,39 @@ class TrackerSettings:
         positions (default 1e-20, tuned on the tuning hour; :math:`d^2 < 96`: wider than
         the report gate, because a manoeuvre that broke the track moved the aircraft off
         the old track's line).
+    q_vertical : float or None
+        Process-noise intensity of the vertical coordinate (m²/s³, > 0); None (default):
+        the same as `q`. Aircraft change level far more gently than they turn.
+    speed_max_vertical : float or None
+        Standard deviation of the vertical velocity of a new track (m/s, > 0); None
+        (default): the same as `speed_max`.
+    motion : {"cv", "imm"}
+        The motion model: one constant-velocity filter (default) or the interacting
+        multiple model (:mod:`radarfusion_ref.engine.tracker`'s ``imm_*``) of constant-velocity
+        modes that differ by their process noise.
+    imm_q : tuple of float
+        IMM: the horizontal process-noise intensity of each mode (m²/s³, > 0; default
+        (5, 300): a quiet mode and a manoeuvre mode).
+    imm_q_vertical : tuple of float or None
+        IMM: the vertical intensity of each mode; None (default): `q_vertical` for every
+        mode if set, else each mode's `imm_q`.
+    imm_sojourn : tuple of float
+        IMM: mean time (s, > 0) spent in each mode before switching (default (120, 20)).
+        Over an interval :math:`\Delta t` the transition matrix is
+        :math:`\Pi(\Delta t) = e^{\Lambda\Delta t}`, :math:`\Lambda_{jj} = -1/s_j`, the
+        leaving rate spread evenly over the other modes: reports at irregular instants
+        switch modes at the same rate per second whatever the number of radars.
+    imm_probability : tuple of float
+        IMM: the mode probabilities of a new track, each in (0, 1], summing to 1
+        (default (0.8, 0.2)).
 
     Raises
     ------
     ValueError
         A probability outside (0, 1), :math:`\alpha + \beta \ge 1`, ``m > n``,
-        ``k < 1``, a non-positive period or intensity, an unknown choice; the message
-        names the attribute and shows the value.
+        ``k < 1``, a non-positive period or intensity, an unknown choice, IMM tuples of
+        different lengths or mode probabilities not summing to 1; the message names the
+        attribute and shows the value.
     TypeError
         A non-numeric value.
     """
@@ -103,6 +139,14 @@ class TrackerSettings:
     miss_scans: int = 3
     relink: bool = True
     p_relink: float = 1e-20
+    # the motion model: vertical noise and prior apart, and the IMM
+    q_vertical: float | None = None
+    speed_max_vertical: float | None = None
+    motion: str = "cv"
+    imm_q: tuple = (5.0, 300.0)
+    imm_q_vertical: tuple | None = None
+    imm_sojourn: tuple = (120.0, 20.0)
+    imm_probability: tuple = (0.8, 0.2)
     lower: float = field(init=False, repr=False)
     upper: float = field(init=False, repr=False)
 
@@ -130,8 +174,36 @@ class TrackerSettings:
         put("max_events", as_int(self.max_events, "max_events", minimum=1))
         put("miss_scans", as_int(self.miss_scans, "miss_scans", minimum=1))
         put("relink", as_bool(self.relink, "relink"))
+        self._motion_iv(put)
         put("lower", math.log(self.beta / (1 - self.alpha)))
         put("upper", math.log((1 - self.beta) / self.alpha))
+
+    def _motion_iv(self, put):
+        for name in ("q_vertical", "speed_max_vertical"):
+            if getattr(self, name) is not None:
+                put(name, as_float(as_positive(getattr(self, name), name), name))
+        put("motion", as_choice(self.motion, "motion", MOTIONS))
+        sizes = {}
+        for name in ("imm_q", "imm_q_vertical", "imm_sojourn", "imm_probability"):
+            v = getattr(self, name)
+            if v is None and name == "imm_q_vertical":
+                continue
+            a = as_float_array(v, name, ndim_min=1)
+            if a.ndim != 1 or not a.size:
+                raise ValueError(f"`{name}` must be a non-empty sequence of numbers (one per "
+                                 f"mode); received {v!r}")
+            a = (as_probability(a, name, open_interval=False) if name == "imm_probability"
+                 else as_positive(a, name))
+            put(name, tuple(float(e) for e in a))
+            sizes[name] = a.size
+        if len(set(sizes.values())) != 1:
+            raise ValueError(f"`imm_q`, `imm_q_vertical`, `imm_sojourn`, `imm_probability` "
+                             f"must have one entry per mode (the same length); received "
+                             f"lengths {sizes}")
+        p = self.imm_probability
+        if min(p) <= 0 or abs(sum(p) - 1) > 1e-9:
+            raise ValueError(f"`imm_probability` must hold mode probabilities in (0, 1] "
+                             f"summing to 1; received {p!r}")
 
 
 @dataclass(frozen=True)
