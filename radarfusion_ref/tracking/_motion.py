@@ -9,7 +9,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import expm
 
+from ..engine.linalg import mahalanobis_sq
+from ..engine.tracker._imm import (
+    combine_kernel,
+    imm_predict_kernel,
+    imm_update_kernel,
+)
 from ..engine.tracker._kalman import predict_kernel
+from ..engine.tracker._score import increments_kernel
 
 
 def axis_q(s) -> np.ndarray:
@@ -63,3 +70,59 @@ def transition(s, dt) -> np.ndarray:
     np.fill_diagonal(gen, -rate)
     dt = np.asarray(dt, float)
     return expm(dt[..., None, None] * gen)
+
+
+# ----------------------------------------------------------------------------- IMM tracks
+def imm_predict_live(lv, t, s, qm):
+    """Predict the live tracks' modes to `t` (mixing first); the combined estimate follows."""
+    dt = t - lv.t
+    cbar, lv.xm, lv.Pm = imm_predict_kernel(lv.mu, lv.xm, lv.Pm, transition(s, dt), dt, qm,
+                                            per_axis=True)
+    lv.mu = cbar
+    lv.x, lv.P = combine_kernel(cbar, lv.xm, lv.Pm)
+
+
+def imm_increments(lv, ti, rj, z, R, s):
+    r"""Score increments of gated pairs from the mixture of the mode likelihoods:
+    :math:`\ln\frac{P_D\sum_j\bar c_j\Lambda_j}{\lambda}`."""
+    nu = z[rj][:, None, :] - lv.xm[ti, :, :3]
+    d2, ld = mahalanobis_sq(nu, lv.Pm[ti, :, :3, :3] + R[rj][:, None], return_logdet=True)
+    with np.errstate(divide="ignore"):
+        a = np.log(lv.mu[ti]) + increments_kernel(np.reshape(d2, nu.shape[:2]),
+                                                  np.reshape(ld, nu.shape[:2]),
+                                                  s.p_detection, s.clutter_density)
+    top = a.max(1)
+    return top + np.log(np.exp(a - top[:, None]).sum(1))
+
+
+def imm_gnn_update(lv, i, z, R):
+    """Update tracks `i` with one report each: every mode, then the mode probabilities."""
+    xn, Pn, _, post = imm_update_kernel(lv.mu[i], lv.xm[i], lv.Pm[i], z, R)
+    lv.xm[i], lv.Pm[i], lv.mu[i] = xn, Pn, post
+    lv.x[i], lv.P[i] = combine_kernel(post, xn, Pn)
+
+
+def imm_jpda_update(lv, ti, rj, z, R, beta, b0):
+    r"""JPDA with IMM tracks: the moments, per mode, of the posterior mixture over (event,
+    mode). Given that report k is the track's, mode j has probability
+    :math:`\bar c_j\Lambda_{jk}/\sum_l\bar c_l\Lambda_{lk}`; given a miss, :math:`\bar c_j`."""
+    rows = np.unique(ti)
+    loc = np.searchsorted(rows, ti)
+    xu, Pu, _, post = imm_update_kernel(lv.mu[ti], lv.xm[ti], lv.Pm[ti], z[rj], R[rj])
+    w0 = b0[rows, None] * lv.mu[rows]                     # (rows, M): miss, then mode j
+    a = beta[:, None] * post                              # (pairs, M): report k, mode j
+    mu = w0.copy()
+    np.add.at(mu, loc, a)
+    safe = np.where(mu > 0, mu, 1.0)
+    x0, P0 = lv.xm[rows], lv.Pm[rows]
+    mean = w0[..., None] * x0
+    np.add.at(mean, loc, a[..., None] * xu)
+    mean = np.where(mu[..., None] > 0, mean / safe[..., None], x0)
+    d0 = x0 - mean
+    cov = w0[..., None, None] * (P0 + d0[..., :, None] * d0[..., None, :])
+    du = xu - mean[loc]
+    np.add.at(cov, loc, a[..., None, None] * (Pu + du[..., :, None] * du[..., None, :]))
+    cov = np.where(mu[..., None, None] > 0, cov / safe[..., None, None], P0)
+    mu = mu / mu.sum(1, keepdims=True)
+    lv.xm[rows], lv.Pm[rows], lv.mu[rows] = mean, 0.5 * (cov + np.swapaxes(cov, -1, -2)), mu
+    lv.x[rows], lv.P[rows] = combine_kernel(mu, lv.xm[rows], lv.Pm[rows])
