@@ -530,3 +530,22 @@ def test_imm_runs_in_the_other_architectures():
     assert track_then_fuse(*inputs, period=5.0, settings=s).n_confirmed == 2
     with pytest.raises(ValueError, match="`rule`"):
         track_then_fuse(*inputs, period=5.0, settings=s, rule="bar_shalom_campo")
+
+
+def test_imm_transition_over_an_interval_is_the_chain_s_matrix_exponential():
+    from scipy.linalg import expm
+
+    from radarfusion_ref.tracking._motion import transition
+    for soj in ((120.0, 20.0), (100.0, 30.0, 10.0)):
+        s = TrackerSettings(motion="imm", imm_sojourn=soj, imm_q=(1.0,) * len(soj),
+                            imm_probability=(1 / len(soj),) * len(soj))
+        rate = 1 / np.array(soj)
+        gen = np.repeat((rate / (len(soj) - 1))[:, None], len(soj), 1)
+        np.fill_diagonal(gen, -rate)
+        dt = np.array([0.0, 0.5, 3.0, 40.0, 1e4])
+        want = np.array([expm(gen * d) for d in dt])
+        np.testing.assert_allclose(transition(s, dt), want, rtol=0, atol=1e-13)
+    # two modes in closed form: leaving the first within dt, a/(a+b) (1 - e^{-(a+b) dt})
+    a, b = 1 / 120.0, 1 / 20.0
+    p = transition(TrackerSettings(), np.array(7.0))
+    assert p[0, 1] == pytest.approx(a / (a + b) * (1 - np.exp(-(a + b) * 7.0)), rel=1e-12)

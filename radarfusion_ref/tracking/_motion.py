@@ -6,8 +6,9 @@ that the architectures (a), (b), (c) and the Stone Soup adapter read it the same
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
-from scipy.linalg import expm
 
 from ..engine.linalg import mahalanobis_sq
 from ..engine.tracker._imm import (
@@ -61,15 +62,29 @@ def predict(x, P, dt, s):
 
 
 def transition(s, dt) -> np.ndarray:
-    r"""IMM: :math:`\Pi(\Delta t) = e^{\Lambda\Delta t}` for each interval, shape (..., M, M)."""
-    rate = 1.0 / np.asarray(s.imm_sojourn, float)
+    r"""IMM: :math:`\Pi(\Delta t) = e^{\Lambda\Delta t}` for each interval, shape (..., M, M).
+
+    Through the eigen-decomposition :math:`\Lambda = V\operatorname{diag}(\lambda)V^{-1}`
+    (one per settings): :math:`e^{\Lambda\Delta t} = V\operatorname{diag}(e^{\lambda\Delta t})
+    V^{-1}`, exact for the diagonalisable generators built here (eigenvalues 0 and
+    negative reals for two modes).
+    """
+    lam, V, Vinv = _generator(s.imm_sojourn)
+    e = np.exp(np.asarray(dt, float)[..., None] * lam)
+    out = np.real(np.einsum("ik,...k,kj->...ij", V, e, Vinv))
+    return np.clip(out, 0.0, 1.0)
+
+
+@functools.lru_cache(maxsize=16)
+def _generator(sojourn):
+    rate = 1.0 / np.asarray(sojourn, float)
     M = rate.size
     if M == 1:
-        return np.ones((*np.shape(dt), 1, 1))
+        return np.zeros(1), np.ones((1, 1)), np.ones((1, 1))
     gen = np.repeat((rate / (M - 1))[:, None], M, 1)
     np.fill_diagonal(gen, -rate)
-    dt = np.asarray(dt, float)
-    return expm(dt[..., None, None] * gen)
+    lam, V = np.linalg.eig(gen)
+    return lam, V, np.linalg.inv(V)
 
 
 # ----------------------------------------------------------------------------- IMM tracks
