@@ -415,6 +415,8 @@ def test_imm_vectorised_over_tracks_equals_one_at_a_time():
     ({"probability": [1.5, -0.5]}, "`probability`"),
     ({"probability": [0.5, 0.6]}, "`probability`"),
     ({"q": [1.0, -2.0]}, "`q`"),
+    ({"q": [1.0, 2.0, 3.0]}, "`q`"),
+    ({"dt": [1.0, 2.0, 3.0], "transition": np.array([PI, PI])}, "`transition`"),
     ({"dt": -1.0}, "`dt`"),
     ({"x": np.zeros((3, 2))}, "`x`"),
     ({"P": np.eye(2)}, "`P`"),

@@ -285,9 +285,13 @@ def imm_predict(probability, x, P, transition, dt, q, *, noise="continuous") -> 
     dt = as_positive(dt, "dt", strict=False)
     q = as_positive(q, "q", strict=False)
     noise = as_choice(noise, "noise", ("continuous", "discrete"))
+    try:
+        q_lead = np.broadcast_shapes(q.shape, (M,))[:-1]
+    except ValueError:
+        raise ValueError(f"`q` must broadcast against (..., {M}), one intensity per mode; "
+                         f"received shape {q.shape}") from None
     lead = _lead("`probability`, `x`, `P`, `transition`, `dt`, `q` (without the mode axis)",
-                 mu.shape[:-1], x.shape[:-2], P.shape[:-3], T.shape[:-2], dt.shape,
-                 np.broadcast_shapes(q.shape, (M,))[:-1])
+                 mu.shape[:-1], x.shape[:-2], P.shape[:-3], T.shape[:-2], dt.shape, q_lead)
     n = x.shape[-1]
     check_size(math.prod(lead) * M * n * n, MAX_BATCH, what="batch elements × modes × state "
                "entries", alternative="several calls on slices of the batch")
