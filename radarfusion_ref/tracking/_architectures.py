@@ -10,10 +10,10 @@ from .. import gating, trackfusion
 from ..engine import assignment
 from ..engine._validation import as_choice, as_float, as_positive
 from ..engine.linalg import mahalanobis_sq_pairwise
-from ..engine.tracker import kalman_predict
 from ..engine.tracker._kalman import cv_matrices, predict_kernel
 from ..fusion import fuse_gaussian
 from ._centralised import _reports_iv, track_reports
+from ._motion import axis_q, predict, velocity_sd
 from ._settings import TrackerSettings, TrackHistory
 
 #: Track-to-track fusion rules of :func:`track_then_fuse`.
@@ -88,7 +88,8 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     -----
     In each window the radars' reports join objects radar after radar by the gated 2-D
     assignment (chapter 4) on :math:`\kappa` with covariances **inflated** by
-    :math:`(v_{\max}\Delta t)^2 I`, :math:`\Delta t` the time between the report and
+    :math:`\operatorname{diag}(v_{\max}, v_{\max}, v_{z,\max})^2\Delta t^2` (`speed_max`,
+    `speed_max_vertical`), :math:`\Delta t` the time between the report and
     the window's last instant (without a track there is no velocity to align the
     reports with, chapter 10); each object is the maximum-likelihood fusion
     (:func:`radarfusion_ref.fusion.fuse_gaussian`) of its inflated reports at the
@@ -100,7 +101,6 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     if not t.size:
         return track_reports(t, z, R, rad, rad, settings=settings)
     gamma = _gamma(settings)
-    v_max = settings.speed_max / settings.length_unit      # in the reports' unit per s
     k = np.floor((t - t.min()) / w).astype(np.int64)
     order = np.lexsort((rad, t, k))
     t, z, R, rad, k = t[order], z[order], R[order], rad[order], k[order]
@@ -110,7 +110,8 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     for a, b in itertools.pairwise(cut):
         tw, zw, Rw, rw = t[a:b], z[a:b], R[a:b], rad[a:b]
         t_end = tw.max()
-        Ri = Rw + ((v_max * (t_end - tw)) ** 2)[:, None, None] * eye
+        Ri = Rw + ((velocity_sd(settings) / settings.length_unit
+                    * (t_end - tw)[:, None]) ** 2)[:, None, :] * eye
         members: list[list[int]] = []
         for r in np.unique(rw):
             idx = np.flatnonzero(rw == r)
@@ -184,7 +185,8 @@ class _Local:
 
     def _gains(self, first, q):
         k = np.flatnonzero(~first)                         # rows with a row before them
-        _, Pp = predict_kernel(self.x[k - 1], self.P[k - 1], self.t[k] - self.t[k - 1], q)
+        _, Pp = predict_kernel(self.x[k - 1], self.P[k - 1], self.t[k] - self.t[k - 1], q,
+                               per_axis=True)
         Pk = self.P[k]
         self.A = np.broadcast_to(np.eye(6), self.P.shape).copy()
         self.A[k] = _swap(np.linalg.solve(Pp, Pk))         # P_k Pp⁻¹ = I - K H
@@ -222,7 +224,7 @@ class _Cross:
         self.start = np.zeros((0, 2), np.int64)
 
     def _predict(self, P12, dt):
-        F, Q = cv_matrices(dt, self.q, 3)
+        F, Q = cv_matrices(dt, self.q, 3, per_axis=True)
         return F @ P12 @ _swap(F) + Q                      # common process noise
 
     def at(self, rows_a, rows_b, tg):
@@ -292,9 +294,8 @@ def _fuse_at(loc, cross, tg, settings, rule, ident):
         rr = loc.latest(r, tg, settings.max_coast)
         if not rr.size:
             continue
-        p = kalman_predict(loc.x[rr], loc.P[rr], tg - loc.t[rr],
-                           settings.q / settings.length_unit**2)
-        x, P = p.state, p.covariance
+        x, P = predict(loc.x[rr], loc.P[rr], tg - loc.t[rr], settings,
+                       unit=settings.length_unit)
         loc.px[rr], loc.pP[rr] = x, P
         keys = [(r, int(i)) for i in loc.track[rr]]
         if groups is None:
@@ -399,6 +400,10 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     dt_out = as_float(as_positive(period, "period"), "period")
     rule = as_choice(rule, "rule", T2T_RULES)
     bsc = rule == "bar_shalom_campo"
+    if bsc and settings.motion != "cv":
+        raise ValueError("`rule` 'bar_shalom_campo' needs local Kalman updates of one linear "
+                         "model (settings.motion='cv'); received `settings` with "
+                         f"motion={settings.motion!r}; use rule='ci'")
     if bsc and settings.association != "gnn":
         raise ValueError("`rule` 'bar_shalom_campo' needs local Kalman updates with one report "
                          "each (settings.association='gnn'); received `settings` with "
@@ -411,7 +416,7 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     for r in np.unique(rad):
         s = rad == r
         hist[int(r)] = track_reports(t[s], z[s], R[s], rad[s], sc[s], settings=settings)
-    q = settings.q / settings.length_unit**2               # in the reports' unit
+    q = axis_q(settings) / settings.length_unit**2         # in the reports' unit
     loc = _Local(hist, q, gains=bsc)
     cross = _Cross(loc, q) if bsc else None
     ident: dict[tuple[int, int], int] = {}

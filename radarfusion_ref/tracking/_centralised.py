@@ -19,6 +19,16 @@ from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
 from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
 from ..engine.tracker._kalman import predict_kernel, update_kernel
 from ..engine.tracker._score import increments_kernel, window_kernel
+from ._motion import (
+    axis_q,
+    imm_gnn_update,
+    imm_increments,
+    imm_jpda_update,
+    imm_predict_live,
+    mode_q,
+    predict,
+    velocity_sd,
+)
 from ._settings import TrackerSettings, TrackHistory, _in_unit
 
 #: Largest number of reports of one call (memory of the inputs and their sort).
@@ -29,9 +39,9 @@ class _Live:
     """The live tracks, as parallel arrays (one row per track)."""
 
     FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "recent", "scored",
-              "last_seen", "born")
+              "last_seen", "born", "mu", "xm", "Pm")
 
-    def __init__(self, n_radars, n_window):
+    def __init__(self, n_radars, n_window, modes=0):
         self.x = np.zeros((0, 6))
         self.P = np.zeros((0, 6, 6))
         self.t = np.zeros(0)
@@ -44,6 +54,9 @@ class _Live:
         self.scored = np.zeros(0, dtype=np.int64)
         self.last_seen = np.zeros((0, n_radars), dtype=np.int64)
         self.born = np.zeros(0)
+        self.mu = np.zeros((0, modes))               # IMM: mode probabilities, states, covs
+        self.xm = np.zeros((0, modes, 6))
+        self.Pm = np.zeros((0, modes, 6, 6))
 
     def keep(self, mask):
         for f in self.FIELDS:
@@ -194,7 +207,8 @@ def track_reports(time, position, covariance, radar, scan, *,
       probability-weighted hit increment, otherwise by a miss.
 
     A report no track takes (JPDA: total association probability below 1/2) starts a
-    tentative track at the report with velocity :math:`0 \pm` `speed_max` and score 0.
+    tentative track at the report with velocity :math:`0 \pm` `speed_max` (vertically
+    `speed_max_vertical`) and score 0.
     A radar's miss lowers a score only if that radar reported the track within its last
     `miss_scans` scans. With ``confirmation="sprt"`` a tentative track is confirmed when
     its score reaches :math:`\ln\frac{1-\beta}{\alpha}` and deleted at
@@ -205,6 +219,14 @@ def track_reports(time, position, covariance, radar, scan, *,
     seconds without a hit. With `settings.relink`, a track about to be confirmed that
     duplicates a confirmed track is deleted, and a newly confirmed track may continue the
     identity of one that lost its reports (see :class:`TrackerSettings`).
+
+    With ``motion="imm"`` each track carries the interacting multiple model's modes
+    (:func:`radarfusion_ref.engine.tracker.imm_predict` and ``imm_update``'s kernels): the
+    gate is on the combined prediction, a pair's increment is
+    :math:`\ln\frac{P_D\sum_j\bar c_j\Lambda_j}{\lambda}` (the mixture of the mode
+    likelihoods), GNN updates every mode with its report, and JPDA keeps per mode the
+    moments of the posterior mixture over (event, mode); the rows hold the combined
+    estimate.
 
     The memory is bounded by the live tracks and those lost within `max_coast`: a deleted
     tentative track's rows are forgotten, a confirmed track's rows are written out as they
@@ -259,7 +281,9 @@ class _Tracker:
 
     def __init__(self, s: TrackerSettings, n_radars: int):
         self.s = s
-        self.live = _Live(n_radars, s.n)
+        self.imm = s.motion == "imm"
+        self.qm = mode_q(s)
+        self.live = _Live(n_radars, s.n, self.qm.shape[0] if self.imm else 0)
         self.rows = _Rows()
         self.next_id = 0
         self.gamma = float(gating.gate_threshold(s.p_false_reject, 3))
@@ -296,13 +320,17 @@ class _Tracker:
     # ------------------------------------------------------------------ one scan
     def scan(self, t, r, s, z, R):
         lv, st = self.live, self.s
-        if lv.ids.size:
-            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - lv.t, st.q)
+        if lv.ids.size and self.imm:
+            imm_predict_live(lv, t, st, self.qm)
+            lv.t[:] = t
+        elif lv.ids.size:
+            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - lv.t, axis_q(st), per_axis=True)
             lv.t[:] = t
         T, M = lv.ids.size, z.shape[0]
         scored = (s - lv.last_seen[:, r]) <= st.miss_scans
         ti, rj, d2, ld = self._gate(z, R)
-        inc_pair = increments_kernel(d2, ld, st.p_detection, st.clutter_density)
+        inc_pair = (imm_increments(lv, ti, rj, z, R, st) if self.imm and ti.size
+                    else increments_kernel(d2, ld, st.p_detection, st.clutter_density))
         inc = np.where(scored, self.miss_inc, 0.0)       # a miss, unless a report is taken
         hit = np.zeros(T, dtype=bool)
         used = np.zeros(M)                               # total probability of each report
@@ -331,14 +359,18 @@ class _Tracker:
         _assign_clusters(np.flatnonzero(~first & ~taken[rj]), ti, rj, inc_pair, pair_lab, inc,
                          take)
         i, j = ti[take], rj[take]
-        lv.x[i], lv.P[i], _, _ = update_kernel(lv.x[i], lv.P[i], z[j], R[j])
+        if self.imm:
+            imm_gnn_update(lv, i, z[j], R[j])
+        else:
+            lv.x[i], lv.P[i], _, _ = update_kernel(lv.x[i], lv.P[i], z[j], R[j])
         inc[i] = inc_pair[take]
         hit[i] = True
         used[j] = 1.0
 
     def _jpda(self, z, R, ti, rj, inc_pair, pair_lab, track_lab, scored, inc, hit, used):
         lv, st = self.live, self.s
-        xu, Pu, _, _ = update_kernel(lv.x[ti], lv.P[ti], z[rj], R[rj])
+        if not self.imm:
+            xu, Pu, _, _ = update_kernel(lv.x[ti], lv.P[ti], z[rj], R[rj])
         w_miss = np.where(scored, 1.0 - st.p_detection * self.p_gate, 1.0)
         beta = np.zeros(ti.size)
         b0 = np.ones(lv.ids.size)
@@ -360,15 +392,18 @@ class _Tracker:
             b0[rows] = res.miss
         np.add.at(used, rj, beta)
         rows = np.unique(ti)
-        x0, P0 = lv.x[rows].copy(), lv.P[rows].copy()
-        mean = b0[rows, None] * x0
-        loc = np.searchsorted(rows, ti)
-        np.add.at(mean, loc, beta[:, None] * xu)
-        dx0 = x0 - mean
-        cov = b0[rows, None, None] * (P0 + dx0[:, :, None] * dx0[:, None, :])
-        dxu = xu - mean[loc]
-        np.add.at(cov, loc, beta[:, None, None] * (Pu + dxu[:, :, None] * dxu[:, None, :]))
-        lv.x[rows], lv.P[rows] = mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
+        if self.imm:
+            imm_jpda_update(lv, ti, rj, z, R, beta, b0)
+        else:
+            x0, P0 = lv.x[rows].copy(), lv.P[rows].copy()
+            mean = b0[rows, None] * x0
+            loc = np.searchsorted(rows, ti)
+            np.add.at(mean, loc, beta[:, None] * xu)
+            dx0 = x0 - mean
+            cov = b0[rows, None, None] * (P0 + dx0[:, :, None] * dx0[:, None, :])
+            dxu = xu - mean[loc]
+            np.add.at(cov, loc, beta[:, None, None] * (Pu + dxu[:, :, None] * dxu[:, None, :]))
+            lv.x[rows], lv.P[rows] = mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
         hit[rows] = b0[rows] < 0.5
         gain = np.zeros(lv.ids.size)                     # expected increment given a hit
         np.add.at(gain, ti, beta * inc_pair)
@@ -446,7 +481,7 @@ class _Tracker:
         old = np.flatnonzero(lv.confirmed & ~promote)
         ids, x, P, tt, th = self.lost
         fresh = (t - th) <= self.s.max_coast
-        xl, Pl = predict_kernel(x[fresh], P[fresh], t - tt[fresh], self.s.q)
+        xl, Pl = predict(x[fresh], P[fresh], t - tt[fresh], self.s)
         cand_x = np.concatenate([lv.x[old, :3], xl[:, :3]])
         if not cand_x.shape[0]:
             return []
@@ -481,17 +516,20 @@ class _Tracker:
         x[:, :3] = z
         P = np.zeros((n, 6, 6))
         P[:, :3, :3] = R
-        P[:, 3:, 3:] = self.s.speed_max ** 2 * np.eye(3)
+        P[:, 3:, 3:] = np.diag(velocity_sd(self.s) ** 2)
         seen = np.full((n, self.live.last_seen.shape[1]), -(1 << 40), dtype=np.int64)
         seen[:, r] = s
         ids = self.next_id + np.arange(n, dtype=np.int64)
         recent = np.zeros((n, self.s.n), dtype=bool)
         recent[:, -1] = True                                  # the report that started it
         self.next_id += n
+        M = self.live.mu.shape[1]
         self.live.extend(x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
                          recent=recent, scored=np.ones(n, np.int64), last_seen=seen,
-                         born=np.full(n, t))
+                         born=np.full(n, t),
+                         mu=np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1)),
+                         xm=np.repeat(x[:, None], M, 1), Pm=np.repeat(P[:, None], M, 1))
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
 
 

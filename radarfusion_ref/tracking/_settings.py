@@ -6,7 +6,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import as_bool, as_choice, as_float, as_int, as_positive, as_probability
+from ..engine._validation import (
+    as_bool,
+    as_choice,
+    as_float,
+    as_float_array,
+    as_int,
+    as_positive,
+    as_probability,
+)
 from ..engine.tracker import sprt_thresholds
 
 #: Association rules of the tracker.
@@ -15,6 +23,8 @@ ASSOCIATIONS = ("gnn", "jpda")
 CONFIRMATIONS = ("sprt", "m_of_n")
 #: Names of the six state components of a track (:meth:`TrackHistory.to_dict`).
 STATE_NAMES = ("x", "y", "z", "vx", "vy", "vz")
+#: Motion models of the tracker.
+MOTIONS = ("cv", "imm")
 
 
 @dataclass(frozen=True)
@@ -94,13 +104,39 @@ class TrackerSettings:
         in km). Reports whose standard deviations come out below 1 m or above 100 km in
         metres are warned of (:class:`~radarfusion_ref.engine.errors.RadarFusionWarning`):
         usually a `length_unit` not stated.
+    q_vertical : float or None
+        Process-noise intensity of the vertical coordinate (m²/s³, > 0); None (default):
+        the same as `q`. Aircraft change level far more gently than they turn.
+    speed_max_vertical : float or None
+        Standard deviation of the vertical velocity of a new track (m/s, > 0); None
+        (default): the same as `speed_max`.
+    motion : {"cv", "imm"}
+        The motion model: one constant-velocity filter (default) or the interacting
+        multiple model (:mod:`radarfusion_ref.engine.tracker`'s ``imm_*``) of constant-velocity
+        modes that differ by their process noise.
+    imm_q : tuple of float
+        IMM: the horizontal process-noise intensity of each mode (m²/s³, > 0; default
+        (5, 300): a quiet mode and a manoeuvre mode).
+    imm_q_vertical : tuple of float or None
+        IMM: the vertical intensity of each mode; None (default): `q_vertical` for every
+        mode if set, else each mode's `imm_q`.
+    imm_sojourn : tuple of float
+        IMM: mean time (s, > 0) spent in each mode before switching (default (120, 20)).
+        Over an interval :math:`\Delta t` the transition matrix is
+        :math:`\Pi(\Delta t) = e^{\Lambda\Delta t}`, :math:`\Lambda_{jj} = -1/s_j`, the
+        leaving rate spread evenly over the other modes: reports at irregular instants
+        switch modes at the same rate per second whatever the number of radars.
+    imm_probability : tuple of float
+        IMM: the mode probabilities of a new track, each in (0, 1], summing to 1
+        (default (0.8, 0.2)).
 
     Raises
     ------
     ValueError
         A probability outside (0, 1), :math:`\alpha + \beta \ge 1`, ``m > n``,
-        ``k < 1``, a non-positive period or intensity, an unknown choice; the message
-        names the attribute and shows the value.
+        ``k < 1``, a non-positive period or intensity, an unknown choice, IMM tuples of
+        different lengths or mode probabilities not summing to 1; the message names the
+        attribute and shows the value.
     TypeError
         A non-numeric value.
     """
@@ -123,6 +159,14 @@ class TrackerSettings:
     relink: bool = True
     p_relink: float = 1e-20
     length_unit: float = 1.0
+    # the motion model: vertical noise and prior apart, and the IMM
+    q_vertical: float | None = None
+    speed_max_vertical: float | None = None
+    motion: str = "cv"
+    imm_q: tuple = (5.0, 300.0)
+    imm_q_vertical: tuple | None = None
+    imm_sojourn: tuple = (120.0, 20.0)
+    imm_probability: tuple = (0.8, 0.2)
     lower: float = field(init=False, repr=False)
     upper: float = field(init=False, repr=False)
 
@@ -146,8 +190,36 @@ class TrackerSettings:
         put("max_events", as_int(self.max_events, "max_events", minimum=1))
         put("miss_scans", as_int(self.miss_scans, "miss_scans", minimum=1))
         put("relink", as_bool(self.relink, "relink"))
+        self._motion_iv(put)
         put("lower", sprt.lower)
         put("upper", sprt.upper)
+
+    def _motion_iv(self, put):
+        for name in ("q_vertical", "speed_max_vertical"):
+            if getattr(self, name) is not None:
+                put(name, as_float(as_positive(getattr(self, name), name), name))
+        put("motion", as_choice(self.motion, "motion", MOTIONS))
+        sizes = {}
+        for name in ("imm_q", "imm_q_vertical", "imm_sojourn", "imm_probability"):
+            v = getattr(self, name)
+            if v is None and name == "imm_q_vertical":
+                continue
+            a = as_float_array(v, name, ndim_min=1)
+            if a.ndim != 1 or not a.size:
+                raise ValueError(f"`{name}` must be a non-empty sequence of numbers (one per "
+                                 f"mode); received {v!r}")
+            a = (as_probability(a, name, open_interval=False) if name == "imm_probability"
+                 else as_positive(a, name))
+            put(name, tuple(float(e) for e in a))
+            sizes[name] = a.size
+        if len(set(sizes.values())) != 1:
+            raise ValueError(f"`imm_q`, `imm_q_vertical`, `imm_sojourn`, `imm_probability` "
+                             f"must have one entry per mode (the same length); received "
+                             f"lengths {sizes}")
+        p = self.imm_probability
+        if min(p) <= 0 or abs(sum(p) - 1) > 1e-9:
+            raise ValueError(f"`imm_probability` must hold mode probabilities in (0, 1] "
+                             f"summing to 1; received {p!r}")
 
 
 @dataclass(frozen=True, repr=False)

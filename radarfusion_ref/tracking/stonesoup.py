@@ -25,6 +25,7 @@ import numpy as np
 
 from ..engine._optional import require
 from ..engine._validation import _describe, as_bool, as_choice, as_float_array
+from ._motion import axis_q, velocity_sd
 from ._settings import TrackerSettings, TrackHistory, _in_unit
 
 __all__ = ["STONESOUP_TRACKERS", "stonesoup_track"]
@@ -166,14 +167,14 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     -----
     The configuration follows Stone Soup's tutorials: a constant-velocity model per axis
     (``ConstantVelocity(q)``, continuous white-noise acceleration of intensity
-    :math:`q`), a Kalman predictor and updater (its Joseph form, symmetrised: the plain
+    :math:`q`; vertically `q_vertical` if set), a Kalman predictor and updater (its Joseph form, symmetrised: the plain
     form leaves some covariances indefinite over an hour), each report with its own
     ``LinearGaussian`` measurement model (its covariance), Mahalanobis gating at
     :math:`\sqrt{\gamma}` with :math:`\gamma` the :math:`\chi^2_3` quantile of
     ``1 - p_false_reject`` (GNN: the hypothesiser's missed distance; JPDA: a
     ``DistanceGater`` around a ``PDAHypothesiser`` with the clutter density and
     :math:`P_D`), the ``MultiMeasurementInitiator`` (new tracks from single reports with
-    velocity spread `speed_max`, released after `m` updates, held ones forgotten after
+    velocity spread `speed_max`, vertically `speed_max_vertical` if set, released after `m` updates, held ones forgotten after
     1.5 of the longest radar revisit), and the ``UpdateTimeDeleter`` at `max_coast`
     seconds without an update — the closest of Stone Soup's initiators and deleters to
     the book's M-of-N start and coasting limit.
@@ -186,6 +187,10 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
         raise TypeError(f"`settings` must be a TrackerSettings or None; received "
                         f"{_describe(settings)}")
     pregate = as_bool(pregate, "pregate")
+    if settings.motion != "cv":
+        raise ValueError(f"`settings`: the Stone Soup adapter runs the constant-velocity model "
+                         f"(Stone Soup has no interacting multiple model); received "
+                         f"motion={settings.motion!r}, use 'cv'")
     _import()                                     # bad input is refused first, by name
     from scipy import stats
     from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
@@ -197,10 +202,6 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     from stonesoup.initiator.simple import MultiMeasurementInitiator, SimpleMeasurementInitiator
     from stonesoup.measures import Mahalanobis
     from stonesoup.models.measurement.linear import LinearGaussian
-    from stonesoup.models.transition.linear import (
-        CombinedLinearGaussianTransitionModel,
-        ConstantVelocity,
-    )
     from stonesoup.predictor.kalman import KalmanPredictor
     from stonesoup.tracker.simple import MultiTargetMixtureTracker, MultiTargetTracker
     from stonesoup.types.detection import Detection
@@ -209,9 +210,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     from stonesoup.updater.kalman import KalmanUpdater
 
     x, P = x * settings.length_unit, P * settings.length_unit**2     # metres
-    cv = ConstantVelocity(settings.q)
-    transition = CombinedLinearGaussianTransitionModel([cv, cv, cv])
-    predictor = KalmanPredictor(transition)
+    predictor = KalmanPredictor(_transition_model(settings))
     # the Joseph form, symmetrised: over an hour the plain P - K S K^T form leaves some
     # covariances indefinite (40 of 40 195 rows of the GNN hour)
     updater = KalmanUpdater(measurement_model=None, use_joseph_cov=True,
@@ -226,8 +225,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
 
     gnn = GNNWith2DAssignment(gated(DistanceHypothesiser(
         predictor, updater, measure=Mahalanobis(), missed_distance=gate)))
-    v0 = settings.speed_max ** 2
-    prior = GaussianState(np.zeros((6, 1)), np.diag([0.0, v0, 0.0, v0, 0.0, v0]))
+    prior = GaussianState(np.zeros((6, 1)), _prior_covariance(settings))
     started = [0]
 
     class _Counting(SimpleMeasurementInitiator):
@@ -265,6 +263,23 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     for _, tracks in run:
         every |= tracks
     return _in_unit(_history(every, settings.m, started[0], Update), settings.length_unit)
+
+
+def _transition_model(settings):
+    """Stone Soup's transition model of `settings`: one ``ConstantVelocity`` per axis, each
+    with its own intensity (:func:`~radarfusion_ref.tracking._motion.axis_q`)."""
+    from stonesoup.models.transition.linear import (
+        CombinedLinearGaussianTransitionModel,
+        ConstantVelocity,
+    )
+    return CombinedLinearGaussianTransitionModel(
+        [ConstantVelocity(float(q)) for q in axis_q(settings)])
+
+
+def _prior_covariance(settings):
+    """The initiator's prior covariance in Stone Soup's order (x, vx, y, vy, z, vz)."""
+    v = velocity_sd(settings) ** 2
+    return np.diag([0.0, v[0], 0.0, v[1], 0.0, v[2]])
 
 
 def _history(tracks, min_points, initiated, Update):

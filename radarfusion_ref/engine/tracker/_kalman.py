@@ -61,21 +61,32 @@ def _sym(a):
     return 0.5 * (a + np.swapaxes(a, -1, -2))
 
 
-def cv_matrices(dt, q, dim, noise="continuous"):
-    """Kernel: ``(F, Q)`` of the constant-velocity model broadcast over `dt` and `q` (trusted)."""
-    dt, q = np.broadcast_arrays(np.asarray(dt, float), np.asarray(q, float))
-    if noise == "continuous":
-        qpp, qpv, qvv = q * dt**3 / 3, q * dt**2 / 2, q * dt
+def cv_matrices(dt, q, dim, noise="continuous", per_axis=False):
+    """Kernel: ``(F, Q)`` of the constant-velocity model broadcast over `dt` and `q` (trusted).
+
+    With `per_axis`, `q` holds one intensity per coordinate on its last axis (shape
+    ``(..., dim)``) and :math:`Q` is block-diagonal per coordinate with those intensities.
+    """
+    dt, q = np.asarray(dt, float), np.asarray(q, float)
+    if per_axis:
+        dt, _ = np.broadcast_arrays(dt, q[..., 0])
+        dq = dt[..., None]
     else:
-        qpp, qpv, qvv = q * dt**4 / 4, q * dt**3 / 2, q * dt**2
+        dt, q = np.broadcast_arrays(dt, q)
+        dq = dt
+    if noise == "continuous":
+        qpp, qpv, qvv = q * dq**3 / 3, q * dq**2 / 2, q * dq
+    else:
+        qpp, qpv, qvv = q * dq**4 / 4, q * dq**3 / 2, q * dq**2
     eye = np.eye(dim)
 
-    def blocks(a, b, c, e):
-        a, b, c, e = (v[..., None, None] * eye for v in (a, b, c, e))
+    def blocks(a, b, c, e, axes=False):
+        a, b, c, e = ((v[..., None, :] if axes else v[..., None, None]) * eye
+                      for v in (a, b, c, e))
         return np.concatenate([np.concatenate([a, b], -1), np.concatenate([c, e], -1)], -2)
 
     one, zero = np.ones_like(dt), np.zeros_like(dt)
-    return blocks(one, dt, zero, one), blocks(qpp, qpv, qpv, qvv)
+    return blocks(one, dt, zero, one), blocks(qpp, qpv, qpv, qvv, per_axis)
 
 
 def check_prediction(xp, Pp, dt, q) -> None:
@@ -93,9 +104,10 @@ def check_prediction(xp, Pp, dt, q) -> None:
             f"{float(np.max(q)):.6g}; predict over a shorter interval or use larger units")
 
 
-def predict_kernel(x, P, dt, q, noise="continuous"):
-    r"""Kernel: :math:`F\mathbf x` and :math:`FPF^\mathsf T + Q` (trusted input)."""
-    F, Q = cv_matrices(dt, q, x.shape[-1] // 2, noise)
+def predict_kernel(x, P, dt, q, noise="continuous", per_axis=False):
+    r"""Kernel: :math:`F\mathbf x` and :math:`FPF^\mathsf T + Q` (trusted input; `per_axis`
+    as in :func:`cv_matrices`)."""
+    F, Q = cv_matrices(dt, q, x.shape[-1] // 2, noise, per_axis)
     xp = (F @ x[..., None])[..., 0]
     return xp, _sym(F @ P @ np.swapaxes(F, -1, -2) + Q)
 
