@@ -122,8 +122,20 @@ def _color(value, name: str):
 
 
 def use_book_style() -> None:
-    """Apply the book's look to all later figures (call once per chapter)."""
+    """Apply the book's look to all later figures and sympy results (call once per chapter).
+
+    Figures take :data:`BOOK_STYLE`; a sympy expression a cell displays is
+    printed by :func:`radarfusion_ref.kit.symbolic.latex` (``ln``, Greek
+    subscripts, positive terms first).
+    """
     mpl.rcParams.update(BOOK_STYLE)
+    try:
+        import sympy  # noqa: F401
+    except ImportError:
+        return
+    from .symbolic import use_book_printing
+
+    use_book_printing()
 
 
 @contextmanager
