@@ -191,3 +191,16 @@ def test_every_notebook_page_offers_its_ipynb(built_book, docname):
     nb = nbformat.read(notebook, as_version=4)
     assert any(c.get("outputs") for c in nb.cells if c.cell_type == "code"), (
         f"{name}: the offered notebook is not the executed one")
+
+
+def test_the_errata_page_opens_with_a_row_per_erratum():
+    """The summary table of book/errata.md links every entry of book/errata/*.md, once."""
+    page = (ROOT / "book" / "errata.md").read_text(encoding="utf-8")
+    linked = re.findall(r"^\|[^|\n]*\|[^|\n]*<(erratum-[\w-]+)>`", page, re.M)
+    labels = [lab for f in sorted((ROOT / "book" / "errata").glob("*.md"))
+              for lab in re.findall(r"^\((erratum-[\w-]+)\)=\s*\n###",
+                                    f.read_text(encoding="utf-8"), re.M)]
+    assert labels, "no errata entries found"
+    assert sorted(linked) == sorted(labels), (
+        f"summary rows {sorted(set(linked) ^ set(labels))} do not match the entries")
+    assert "```text" not in page, "the authoring template belongs in CONTRIBUTING.md"
