@@ -30,6 +30,7 @@ from __future__ import annotations
 import re
 import sys
 from dataclasses import asdict, dataclass, fields
+from html import unescape
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,6 +38,8 @@ HIDDEN_TAGS = {"remove-cell", "remove-input", "hide-input", "hide-cell"}
 CHECK_CALL = re.compile(
     r"\b(check_\w+|require|assert_\w+)\s*\(|^\s*assert\s|raise\s+\w*(Error|Exception)\b", re.M
 )
+#: A code cell of a MyST page, its body (options and code) as group 1.
+CODE_CELL = re.compile(r"```\{code-cell\}[^\n]*\n(.*?)```", re.S)
 WORDS_PER_MINUTE = 200
 CODE_LINES_PER_MINUTE = 10
 
@@ -187,3 +190,102 @@ def main(argv: list[str]) -> None:
 
 if __name__ == "__main__":
     main(sys.argv[1:])
+
+
+# ------------------------------------------------------------------ what the reader sees as text
+_HIDDEN_BLOCKS = re.compile(
+    r"<(script|style|pre|code|svg|textarea)\b.*?</\1>"
+    r"|<(span|div)\b[^>]*class=\"[^\"]*\bmath\b[^\"]*\"[^>]*>.*?</\2>", re.S | re.I)
+
+
+def visible_text(html: str) -> str:
+    """The prose of a built page, with maths, code, scripts and styles removed."""
+    main = re.search(r"<main\b.*?</main>", html, re.S)
+    text = _HIDDEN_BLOCKS.sub(" ", main.group(0) if main else html)
+    text = unescape(re.sub(r"<[^>]+>", " ", text))
+    # inline maths MathJax has not typeset yet: \( ... \) and $ ... $
+    return re.sub(r"\\\(.*?\\\)|\$[^$]*\$", " ", text, flags=re.S)
+
+
+#: A LaTeX command a reader would see verbatim (MathJax typesets maths, not prose).
+BACKSLASH_COMMAND = re.compile(r"\\(?:[A-Za-z]{2,}|_)")
+
+
+def contents_entries(html: str) -> list[str]:
+    """The entries of the page's contents panel ("On this page"), as the reader sees them."""
+    nav = re.search(r'<nav[^>]*class="[^"]*page-toc[^"]*"[^>]*>(.*?)</nav>', html, re.S)
+    if nav is None:
+        return []
+    return [re.sub(r"\s+", " ", re.sub(r"<[^>]+>", "", a)).strip()
+            for a in re.findall(r"<a\b[^>]*>(.*?)</a>", nav.group(1), re.S)]
+
+
+def contents_problems(entries: list[str], labels: set[str]) -> list[str]:
+    """Entries that show a raw label "(label)" or a second number ("11.7.1. 1. ...")."""
+    bad = []
+    for e in entries:
+        raw = [m for m in re.findall(r"\(([\w-]+)\)", e) if m in labels]
+        if raw or re.match(r"^\d+(?:\.\d+)*\.?\s+\d+\.\s", e):
+            bad.append(e)
+    return bad
+
+
+def book_labels(root: Path = ROOT) -> set[str]:
+    """Every MyST target ``(label)=`` of the book's sources."""
+    return {m for f in (root / "book").rglob("*.md")
+            for m in re.findall(r"^\(([\w-]+)\)=", f.read_text(encoding="utf-8"), re.M)}
+
+
+# ------------------------------------------------------------------ numbers that write the prose
+_TELLS_PROSE = {
+    "a plural in brackets, 'worker(s)'": re.compile(r"[a-z]\(s\)"),
+    "a count of its own total, '2 of the 2'": re.compile(r"\b(\d+) of (?:the )?\1\b"),
+    "an interval in bold": re.compile(r"\*\*[^*\n]*\[\s*-?\d[\d.]*,\s*-?\d[\d.]*\][^*\n]*\*\*"),
+}
+
+
+def _string_constants(tree):
+    """The string literals of a cell that can reach the page (docstrings left out)."""
+    import ast
+
+    docs = {id(n.body[0].value) for n in ast.walk(tree)
+            if isinstance(n, (ast.Module, ast.FunctionDef, ast.ClassDef))
+            and ast.get_docstring(n, clean=False) is not None}
+    return [n.value for n in ast.walk(tree)
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in docs]
+
+
+def prose_tells(path: Path) -> list[str]:
+    """Where generated numbers write the prose badly: what a reader would stumble on.
+
+    In the prose and in the strings a cell can print: "worker(s)", "2 of the 2", an
+    interval in bold; and a generated paragraph (a ``Markdown(...)`` that is not a table)
+    that strings two or more intervals (``.format(...)`` of a Monte-Carlo result) together.
+    One rounded number goes in a sentence; intervals go in a table or a caption.
+    """
+    import ast
+
+    text = path.read_text(encoding="utf-8")
+    found = []
+    prose = CODE_CELL.sub("", text)
+    for what, pattern in _TELLS_PROSE.items():
+        found += [f"{what}: {m.group(0)[:60]!r}" for m in pattern.finditer(prose)]
+    for body in CODE_CELL.findall(text):
+        code = "\n".join(line for line in body.splitlines() if not line.startswith(":"))
+        try:
+            tree = ast.parse(code)
+        except SyntaxError:
+            continue
+        for s in _string_constants(tree):
+            if _TELLS_PROSE["a plural in brackets, 'worker(s)'"].search(s):
+                found.append(f"a plural in brackets in a printed string: {s[:60]!r}")
+            if re.search(r"^ of the \d+\b", s):
+                found.append(f"a count against a typed total, '... of the 2': {s[:60]!r}")
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and getattr(node.func, "id", "") == "Markdown":
+                src = ast.get_source_segment(code, node) or ""
+                if "|---" not in src and len(re.findall(r"\.format\(", src)) >= 2:
+                    found.append(f"a paragraph of intervals: {src[:70]!r}")
+                if re.search(r"\*\*\{[^}]*(?:format|low|high)", src):
+                    found.append(f"an interval in bold: {src[:70]!r}")
+    return found

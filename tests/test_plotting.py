@@ -270,3 +270,15 @@ def test_the_default_figure_text_is_at_least_9_pt_as_displayed():
         shown_pt = pt * dpi / 72 * shown_scale * 72 / 96  # CSS: 96 px per inch
         assert shown_pt >= 9.0, f"{key} = {pt} pt shows at {shown_pt:.1f} pt"
     assert width_in * 96 == pytest.approx(TEXT_COLUMN_PX, rel=0.05)  # fills the column
+
+
+def test_plot_fusion_centre_links_every_site():
+    from radarfusion_ref.kit.plotting import plot_fusion_centre
+
+    fig, ax = plt.subplots()
+    plot_fusion_centre(ax, [5.0, -3.0], [[0, 0], [10, 0], [5, 8]])
+    assert len(ax.texts) == 3                       # one arrow per radar
+    assert ax.get_legend_handles_labels()[1] == ["fusion centre"]
+    with pytest.raises(ValueError, match="`centre`"):
+        plot_fusion_centre(ax, [[1.0, 2.0], [3.0, 4.0]], [[0, 0]])
+    plt.close(fig)

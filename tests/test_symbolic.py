@@ -38,3 +38,21 @@ def test_check_numeric_agreement_refuses_complex_input_by_name(side):
         check_numeric_agreement(args["derived"], args["package"])
     with pytest.raises(TypeError, match="complex"):
         check_numeric_agreement(1 + 1j, 1 + 2j)
+
+
+def test_book_latex_reads_like_a_textbook():
+    import sympy as sp
+
+    from radarfusion_ref.kit.symbolic import latex
+
+    x, xt = sp.symbols(r"x \tilde{x}")
+    assert latex((x - xt) ** 2) == r"\left(x - \tilde{x}\right)^{2}"
+    assert latex(sp.log(x)) == r"\ln{\left(x \right)}"
+    assert latex(sp.Symbol("Delta_beta1")) == r"\Delta \beta_{1}"
+    assert latex(sp.Symbol("Delta_r") ** 2) == r"\left(\Delta r\right)^{2}"
+    assert latex(1 / sp.Symbol("Delta_r") ** 2) == r"\frac{1}{\left(\Delta r\right)^{2}}"
+    assert latex(sp.Symbol("Delta_1")) == r"\Delta_{1}"
+    assert latex(sp.Symbol("sigma_Pi_1")) == r"\sigma_{\Pi,1}"
+    assert latex(sp.Symbol("rho_pos")) == r"\rho_{\mathrm{pos}}"
+    assert latex(sp.Symbol("P_D1")) == r"P_{D,1}"
+    assert latex(sp.Symbol(r"\hat{x}_1") - x) == r"\hat{x}_1 - x"

@@ -10,7 +10,17 @@ import re
 import textwrap
 
 import pytest
-from book_metrics import html_metrics, page_metrics, source_metrics
+from book_metrics import (
+    BACKSLASH_COMMAND,
+    book_labels,
+    contents_entries,
+    contents_problems,
+    html_metrics,
+    page_metrics,
+    prose_tells,
+    source_metrics,
+    visible_text,
+)
 from book_tools import ROOT, notebook_docnames
 
 from radarfusion_ref.kit import catalog
@@ -191,3 +201,66 @@ def test_every_notebook_page_offers_its_ipynb(built_book, docname):
     nb = nbformat.read(notebook, as_version=4)
     assert any(c.get("outputs") for c in nb.cells if c.cell_type == "code"), (
         f"{name}: the offered notebook is not the executed one")
+
+
+def test_the_errata_page_opens_with_a_row_per_erratum():
+    """The summary table of book/errata.md links every entry of book/errata/*.md, once."""
+    page = (ROOT / "book" / "errata.md").read_text(encoding="utf-8")
+    linked = re.findall(r"^\|[^|\n]*\|[^|\n]*<(erratum-[\w-]+)>`", page, re.M)
+    labels = [lab for f in sorted((ROOT / "book" / "errata").glob("*.md"))
+              for lab in re.findall(r"^\((erratum-[\w-]+)\)=\s*\n###",
+                                    f.read_text(encoding="utf-8"), re.M)]
+    assert labels, "no errata entries found"
+    assert sorted(linked) == sorted(labels), (
+        f"summary rows {sorted(set(linked) ^ set(labels))} do not match the entries")
+    assert "```text" not in page, "the authoring template belongs in CONTRIBUTING.md"
+
+
+def test_the_rendering_checks_see_raw_labels_and_backslashes():
+    """A raw label or a second number in the contents panel, and a LaTeX command in prose."""
+    html = ('<main><nav class="bd-toc-nav page-toc"><ul><li><a href="#a">11.7.1. 1. Registration '
+            '(registration)</a></li><li><a href="#b">Gating</a></li></ul></nav>'
+            '<p>see The experiment: does \\kappa follow its law? and '
+            '<span class="math notranslate nohighlight">\\(\\kappa\\)</span></p>'
+            '<pre>x = r"\\alpha"</pre></main>')
+    entries = contents_entries(html)
+    assert entries == ["11.7.1. 1. Registration (registration)", "Gating"]
+    assert contents_problems(entries, {"registration"}) == [entries[0]]
+    assert contents_problems(["11.7.1. Registration", "Gating (chapter 3)"],
+                             {"registration", "gating"}) == []
+    text = visible_text(html)
+    assert BACKSLASH_COMMAND.findall(text) == ["\\kappa"]
+
+
+@pytest.mark.book
+@pytest.mark.parametrize("docname", ALL_NOTEBOOKS)
+def test_built_page_shows_no_raw_markup(built_book, docname):
+    """No raw label or double number in the contents panel; no LaTeX command in the prose."""
+    html = (ROOT / "_build" / "html" / f"{docname}.html").read_text(encoding="utf-8")
+    bad = contents_problems(contents_entries(html), book_labels())
+    assert not bad, f"{docname}: contents entries {bad}"
+    raw = sorted(set(BACKSLASH_COMMAND.findall(visible_text(html))))
+    assert not raw, f"{docname}: LaTeX commands shown as text: {raw}"
+
+
+@pytest.mark.parametrize("docname", [*ALL_NOTEBOOKS, "book/errata"])
+def test_numbers_write_readable_prose(docname):
+    tells = prose_tells(ROOT / f"{docname}.md")
+    assert not tells, f"{docname}: " + "; ".join(tells)
+
+
+def test_the_prose_tells_can_fail(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(textwrap.dedent("""\
+        A rate of **0.31 [0.29, 0.33]** and 2 of the 2 candidates.
+
+        ```{code-cell} ipython3
+        :tags: [remove-input]
+        Markdown(f"{n} worker(s): {a.format()} and {b.format()}")
+        print(f"{k}" " of the 2 candidates")
+        ```
+        """), encoding="utf-8")
+    tells = " ".join(prose_tells(page))
+    for what in ("interval in bold", "its own total", "plural in brackets",
+                 "paragraph of intervals", "typed total"):
+        assert what in tells, what

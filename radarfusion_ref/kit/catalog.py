@@ -77,7 +77,7 @@ CHAPTERS: tuple[Chapter, ...] = (
     Chapter("trackfusion", 10, "Track-to-track fusion", "B", "cross-covariance; time alignment",
             (1, 2, 3)),
     Chapter("capstone", 11, "A fusion centre over real traffic", "B",
-            "ADS-B truth; the whole pipeline; GOSPA", (1, 3, 5, 6, 8, 9)),
+            "ADS-B truth; the whole pipeline; GOSPA score", (1, 3, 5, 6, 8, 9)),
     Chapter("tracking", 12, "From reports to tracks", "B",
             "track score and SPRT; GNN; JPDA; three architectures", (3, 4, 10, 11)),
 )

@@ -36,6 +36,7 @@ __all__ = [
     "plot_covariance_ellipse",
     "plot_groups",
     "plot_scene",
+    "plot_fusion_centre",
 ]
 
 #: Colours by role, used consistently across chapters.
@@ -122,8 +123,20 @@ def _color(value, name: str):
 
 
 def use_book_style() -> None:
-    """Apply the book's look to all later figures (call once per chapter)."""
+    """Apply the book's look to all later figures and sympy results (call once per chapter).
+
+    Figures take :data:`BOOK_STYLE`; a sympy expression a cell displays is
+    printed by :func:`radarfusion_ref.kit.symbolic.latex` (``ln``, Greek
+    subscripts, positive terms first).
+    """
     mpl.rcParams.update(BOOK_STYLE)
+    from importlib.util import find_spec
+
+    if find_spec("sympy") is None:          # the book's extra is not installed
+        return
+    from .symbolic import use_book_printing
+
+    use_book_printing()
 
 
 @contextmanager
@@ -479,6 +492,63 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
             ax.set_aspect("equal", adjustable="datalim")
     if legend and ax.get_legend_handles_labels()[0]:
         ax.legend(loc="best", framealpha=0.85, frameon=True)
+    return ax
+
+
+def plot_fusion_centre(ax, centre, sensors, *, label="fusion centre", colors=None):
+    """The fusion centre and the links that bring each radar's reports to it.
+
+    Draws a square at `centre` and a dashed arrow from every radar site to it;
+    with :func:`plot_scene` (the sites, reports and ellipses) it is the book's
+    picture of the whole problem.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    centre : array_like, shape (2,)
+        Position of the fusion centre.
+    sensors : array_like, shape (s, 2)
+        Radar sites.
+    label : str, optional
+        Legend label of the centre.
+    colors : sequence, optional
+        One colour per link (default dark grey).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Raises
+    ------
+    TypeError
+        If `ax` is not a matplotlib Axes or a position is not numeric.
+    ValueError
+        If `centre` is not one point or `sensors` not of shape (s, 2).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig, ax = plt.subplots()
+    >>> ax = plot_fusion_centre(ax, [5, -3], [[0, 0], [10, 0]])
+    >>> len(ax.texts), ax.get_legend_handles_labels()[1]
+    (2, ['fusion centre'])
+    >>> plt.close(fig)
+    """
+    ax = _as_axes(ax)
+    c = as_float_array(centre, "centre", last_dims=(2,))
+    if c.shape != (2,):
+        raise ValueError(f"`centre` must have shape (2,); received shape {c.shape}")
+    s = np.atleast_2d(as_float_array(sensors, "sensors", last_dims=(2,)))
+    if s.ndim != 2:
+        raise ValueError(f"`sensors` must have shape (s, 2); received shape {s.shape}")
+    colors = list(colors) if colors is not None else ["0.35"] * len(s)
+    if len(colors) < len(s):
+        raise ValueError(f"`colors` must hold at least one colour per site ({len(s)}); "
+                         f"received {_describe(colors)}")
+    for xy, col in zip(s, colors[:len(s)], strict=True):
+        ax.annotate("", c, xy, arrowprops=dict(arrowstyle="-|>", ls="--", lw=1.1, color=col,
+                                               shrinkA=7, shrinkB=9))
+    ax.plot(c[0], c[1], "s", color="0.15", ms=12, label=label)
     return ax
 
 

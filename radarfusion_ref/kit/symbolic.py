@@ -4,6 +4,9 @@ Every chapter derives its equations with sympy and then proves that the
 derivation and the package agree. These helpers keep that pattern short and
 make the executed book fail when a check fails:
 
+* :func:`latex` — the book's LaTeX for a sympy expression (``ln``, Greek
+  subscripts, positive terms first), used by :func:`show` and, after
+  :func:`use_book_printing`, by every sympy result a cell displays;
 * :func:`show` — display one step of a derivation, ``lhs = expr``;
 * :func:`check_zero` — a symbolic identity that must simplify to zero;
 * :func:`check_numeric_agreement` — a lambdified derivation against the package's numbers.
@@ -11,12 +14,142 @@ make the executed book fail when a check fails:
 
 from __future__ import annotations
 
+import re
+import typing
+
 import numpy as np
 
 from ..engine._optional import require
 from .checks import CheckError, _check_close, _record
 
-__all__ = ["show", "check_zero", "check_numeric_agreement", "SymbolicCheckError"]
+__all__ = ["latex", "use_book_printing", "show", "check_zero", "check_numeric_agreement",
+           "SymbolicCheckError"]
+
+#: Greek letter names sympy's printer knows (lower and upper case).
+_GREEK = frozenset({
+    "alpha", "beta", "gamma", "delta", "epsilon", "varepsilon", "zeta", "eta", "theta",
+    "vartheta", "iota", "kappa", "lambda", "mu", "nu", "xi", "pi", "rho", "sigma", "tau",
+    "upsilon", "phi", "varphi", "chi", "psi", "omega", "Gamma", "Delta", "Theta", "Lambda",
+    "Xi", "Pi", "Sigma", "Upsilon", "Phi", "Psi", "Omega"
+})
+_TOKEN = re.compile(r"([A-Za-z]+)(\d*)")
+#: ``Delta_<one letter or a Greek name><index>``: an increment (Δr_1, Δβ_1, Δt).
+_INCREMENT = re.compile(r"([A-Za-z]|" + "|".join(sorted(_GREEK)) + r")(\d*)")
+
+
+def _subscript(token: str) -> str:
+    r"""One subscript of a symbol's name, as a textbook writes it.
+
+    ``beta1`` → ``\beta_{1}`` (a Greek name with an index), ``r`` → ``r``,
+    ``Pi`` → ``\Pi``, ``pos`` → ``\mathrm{pos}`` (a word is upright), digits
+    and LaTeX stay as they are.
+    """
+    match = _TOKEN.fullmatch(token)
+    if match is None:
+        return token
+    word, index = match.groups()
+    if word in _GREEK:
+        head = "\\" + word
+    elif len(word) == 1:
+        return word + ("," + index if index else "")
+    elif not index:
+        return "\\mathrm{" + word + "}"
+    else:
+        return token
+    return head + ("_{" + index + "}" if index else "")
+
+
+def _book_printer_class():
+    """The book's LaTeX printer (built lazily: sympy is imported only when used)."""
+    from sympy.printing.conventions import split_super_sub
+    from sympy.printing.latex import LatexPrinter
+
+    class BookLatexPrinter(LatexPrinter):
+        """sympy's LaTeX printer with the book's conventions."""
+
+        _default_settings: typing.ClassVar[dict] = {**LatexPrinter._default_settings, "ln_notation": True}
+
+        def _deal_with_super_sub(self, string, style="plain"):
+            if "{" in string or "\\" in string:
+                return super()._deal_with_super_sub(string, style=style)
+            name, supers, subs = split_super_sub(string)
+            increment = _INCREMENT.fullmatch(subs[0]) if name == "Delta" and subs else None
+            if increment is not None and not supers:
+                # Delta_r1 is the increment Δr_1 of the book's notation, not Δ subscripted.
+                of, index = increment.groups()
+                inner = _subscript(of) + ("_{" + ",".join([index, *subs[1:]]) + "}"
+                                          if index or subs[1:] else "")
+                return r"\Delta " + inner
+            name = _subscript(name) if name in _GREEK else super()._deal_with_super_sub(
+                name, style=style)
+            if style == "bold":
+                name = r"\mathbf{" + name + "}"
+            if supers:
+                name += "^{" + ",".join(_subscript(t) for t in supers) + "}"
+            if subs:
+                name += "_{" + ",".join(_subscript(t) for t in subs) + "}"
+            return name
+
+        def _as_ordered_terms(self, expr, order=None):
+            # (x - x~)^2, not (-x~ + x)^2: the positive terms first, in sympy's order.
+            terms = super()._as_ordered_terms(expr, order=order)
+            return ([t for t in terms if not t.could_extract_minus_sign()]
+                    + [t for t in terms if t.could_extract_minus_sign()])
+
+        def _print_Pow(self, expr):
+            base = expr.base
+            if (base.is_Symbol and not expr.exp.could_extract_minus_sign()
+                    and self._print(base).startswith(r"\Delta ")):
+                exp = self._print(expr.exp)
+                return r"\left(" + self._print(base) + r"\right)^{" + exp + "}"
+            return super()._print_Pow(expr)
+
+    return BookLatexPrinter
+
+
+def latex(expr, **settings) -> str:
+    r"""The book's LaTeX for a sympy expression or matrix.
+
+    sympy's printer with the book's conventions: the natural logarithm is
+    :math:`\ln`; a symbol's subscripts read as a textbook writes them
+    (``sigma_Pi_1`` → :math:`\sigma_{\Pi,1}`, a word such as ``pos``
+    upright); an increment is written as in the book's notation (``Delta_r`` →
+    :math:`\Delta r`, ``Delta_beta1`` → :math:`\Delta\beta_{1}`); and a sum
+    starts with its positive terms, so :math:`(x - \tilde x)^2` is not printed
+    :math:`(-\tilde x + x)^2`.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> x, xt = sp.symbols(r"x \tilde{x}")
+    >>> latex((x - xt)**2)
+    '\\left(x - \\tilde{x}\\right)^{2}'
+    >>> latex(sp.log(sp.Symbol("Delta_beta1")))
+    '\\ln{\\left(\\Delta \\beta_{1} \\right)}'
+    """
+    return _book_printer_class()(settings).doprint(expr)
+
+
+def use_book_printing() -> None:
+    """Display every sympy result of a cell with :func:`latex` (call once per page).
+
+    Outside IPython it does nothing.
+    """
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return
+    shell = get_ipython()
+    if shell is None:
+        return
+    import sympy as sp
+
+    def as_math(expr):
+        return "$\\displaystyle " + latex(expr) + "$"
+
+    formatter = shell.display_formatter.formatters["text/latex"]
+    for kind in (sp.Basic, sp.MatrixBase):
+        formatter.for_type(kind, as_math)
 
 
 class SymbolicCheckError(CheckError):
@@ -31,15 +164,14 @@ def show(lhs: str, expr) -> None:
     lhs : str
         LaTeX of the left-hand side.
     expr : sympy expression, matrix or str
-        The right-hand side (a string is used as LaTeX as it is).
+        The right-hand side (a string is used as LaTeX as it is), printed by
+        :func:`latex`.
     """
-    import sympy as sp
-
     if not isinstance(lhs, str):
         raise TypeError(f"`lhs` must be a LaTeX string; received {type(lhs).__name__}")
     ipy = require("IPython.display", feature="show")
     Math, display = ipy.Math, ipy.display
-    rhs = expr if isinstance(expr, str) else sp.latex(expr)
+    rhs = expr if isinstance(expr, str) else latex(expr)
     display(Math(f"{lhs} = {rhs}"))
 
 
