@@ -5,7 +5,8 @@ only the ``.md`` source. This extension takes the page's executed notebook from
 the execution cache (``_build/.jupyter_cache``: outputs merged into the page's
 source, as a reader's kernel would leave it), writes it next to the page's
 sources in the built site and names it in the page context, where
-sphinx-book-theme turns it into a ".ipynb" entry of the download menu. (The copy
+sphinx-book-theme turns it into a ".ipynb" entry of the download menu. The download is a
+plain notebook: the source's jupytext header is dropped. (The copy
 MyST-NB leaves in ``_build/jupyter_execute`` has no outputs when the page came
 from the cache.)
 """
@@ -32,6 +33,9 @@ def _executed_notebook(app, pagename):
         _, merged = get_cache(str(cache_path)).merge_match_into_notebook(nb)
     except KeyError:
         return None
+    # A plain notebook: the MyST source's jupytext header (``formats: md:myst``) would make
+    # JupyterLab with jupytext look for a paired ``.md`` beside the download and refuse it.
+    merged.metadata.pop("jupytext", None)
     return nbformat.writes(merged)
 
 

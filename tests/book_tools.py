@@ -321,12 +321,58 @@ def build_pages(pages, out_dir: Path, *, fresh: bool = False, timeout: int = 360
     return html
 
 
+#: The kernelspec JupyterLab writes when it saves a notebook run in the default kernel.
+LIVE_KERNELSPEC = {"name": "python3", "display_name": "Python 3 (ipykernel)",
+                   "language": "python"}
+#: Tags of the cells a page hides or removes; the notebook collapses their code.
+HIDDEN_TAGS = frozenset({"remove-cell", "hide-input", "remove-input"})
+
+
+def live_form(text: str) -> str:
+    """A notebook page as JupyterLab (through jupytext) saves it.
+
+    jupytext's writer fixes the blank lines between cells, the kernelspec is the one the
+    reader's kernel writes back, and the code of a cell the page hides or removes is
+    collapsed in the notebook (``jupyter.source_hidden``), as is an exercise's solution
+    code, so a reader tries the exercise first — except live controls
+    (``controls(``), which a page removes only because a widget is dead without a kernel.
+    A page whose text equals its live form is left unchanged when a reader opens, runs
+    and saves it.
+    """
+    import jupytext
+
+    nb = jupytext.reads(text, fmt="md:myst")
+    nb.metadata["kernelspec"] = dict(LIVE_KERNELSPEC)
+    in_solution = False
+    for cell in nb.cells:
+        if cell.cell_type == "markdown":
+            for mark in re.findall(r"\{solution-(start|end)\}", cell.source):
+                in_solution = mark == "start"
+            continue
+        hidden = HIDDEN_TAGS & set(cell.metadata.get("tags", []))
+        if (hidden or in_solution) and "controls(" not in cell.source:
+            cell.metadata["jupyter"] = {"source_hidden": True}
+        else:
+            cell.metadata.pop("jupyter", None)
+    return jupytext.writes(nb, fmt="md:myst")
+
+
 def main(argv: list[str]) -> None:
-    """``python tests/book_tools.py build-pages [--fresh] OUT_DIR PAGE...``: build some pages."""
+    """``python tests/book_tools.py build-pages [--fresh] OUT_DIR PAGE...``: build some pages;
+    ``python tests/book_tools.py live-form PAGE...``: rewrite pages in their live form."""
+    if argv[:1] == ["live-form"]:
+        for page in argv[1:]:
+            path = Path(page)
+            text = path.read_text(encoding="utf-8")
+            if is_notebook(path) and live_form(text) != text:
+                path.write_text(live_form(text), encoding="utf-8")
+                print(f"rewrote {path}")
+        return
     fresh = "--fresh" in argv
     argv = [a for a in argv if a != "--fresh"]
     if len(argv) < 3 or argv[0] != "build-pages":
         sys.exit("usage: python tests/book_tools.py build-pages [--fresh] OUT_DIR PAGE...\n"
+                 "       python tests/book_tools.py live-form PAGE...\n"
                  "  e.g. python tests/book_tools.py build-pages /tmp/me_build book/01_fusion\n"
                  "  --fresh: re-read every page (after a change to the package)")
     start = time.perf_counter()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 
 import pytest
-from book_tools import ROOT, is_notebook, notebook_docnames, toc_docnames
+from book_tools import ROOT, is_notebook, live_form, notebook_docnames, toc_docnames
 
 from radarfusion_ref.kit import catalog
 
@@ -177,3 +177,44 @@ def test_every_literalinclude_pattern_is_in_its_source():
                     # MyST reads an option value that starts with # as a comment
                     missing.append(f"{page.name}: {key} {opts[key]!r}")
     assert not missing, missing
+
+
+@pytest.mark.parametrize("docname", notebook_docnames())
+def test_every_page_is_in_its_live_form(docname):
+    """A reader who opens, runs and saves a page in JupyterLab leaves its source unchanged:
+    the page is already written as jupytext writes it back, with the kernelspec the
+    kernel reports, and its hidden cells collapsed in the notebook (tests/test_live.py
+    saves one in a real browser)."""
+    path = ROOT / f"{docname}.md"
+    text = path.read_text(encoding="utf-8")
+    if live_form(text) != text:
+        import difflib
+
+        diff = list(difflib.unified_diff(text.splitlines(), live_form(text).splitlines(),
+                                         lineterm="", n=0))
+        pytest.fail(f"{docname}.md would be rewritten by a save in JupyterLab; run "
+                    f"`python tests/book_tools.py live-form {docname}.md`:\n"
+                    + "\n".join(diff[:20]))
+
+
+def test_live_form_collapses_hidden_cells_and_keeps_live_controls_open():
+    import jupytext
+
+    page = ("---\njupytext:\n  text_representation:\n    extension: .md\n"
+            "    format_name: myst\nkernelspec:\n  display_name: Python 3\n"
+            "  language: python\n  name: python3\n---\n\n# T\n\n"
+            "```{code-cell} ipython3\n:tags: [remove-cell]\n\nx = 1\n```\n"
+            "```{code-cell} ipython3\n:tags: [remove-cell]\n\ncontrols(view)\n```\n"
+            "```{code-cell} ipython3\n\ny = 2\n```\n"
+            "```{solution-start} ex-a\n```\n"
+            "```{code-cell} ipython3\n\nz = 3\n```\n"
+            "```{solution-end}\n```\n"
+            "```{code-cell} ipython3\n\nw = 4\n```\n")
+    out = live_form(page)
+    assert out != page
+    assert live_form(out) == out  # idempotent
+    nb = jupytext.reads(out, fmt="md:myst")
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    hidden = {"source_hidden": True}
+    assert [c.metadata.get("jupyter") for c in code] == [hidden, None, None, hidden, None]
+    assert nb.metadata["kernelspec"]["display_name"] == "Python 3 (ipykernel)"

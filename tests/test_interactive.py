@@ -269,3 +269,15 @@ def test_player_print_frame_has_the_players_layout():
     assert struct.unpack(">II", player.png[16:24]) == (4 * interactive.PRINT_DPI,
                                                        3 * interactive.PRINT_DPI)
     assert repr(player) == f"<sweep player: {MIN_FRAMES} frames>"
+
+
+@pytest.mark.parametrize(("lo", "value", "step", "decimals"), [
+    (0.001, 0.01, 0.001, 3), (0.5, 8.0, 0.5, 1), (10.0, 150.0, 10.0, 0), (0.02, 0.08, 0.02, 2),
+    (0.0, 1.0, 0.25, 2), (0.0, 1e-6, 1e-7, 7)])
+def test_slider_readout_shows_every_value_it_can_take(lo, value, step, decimals):
+    s = slider(value, lo, lo + 100 * step, step)
+    assert s.readout_format == f".{decimals}f"
+    # every value the slider can take prints to the value itself (0.013 on a 0.001 step)
+    for k in (1, 12, 37):
+        v = lo + k * step
+        assert float(format(v, s.readout_format)) == pytest.approx(v, rel=1e-9, abs=1e-12)

@@ -1,11 +1,16 @@
 """The README's "running live" command, tested for real.
 
 A JupyterLab server is started on loopback exactly as the README starts it
-(with the project's settings that open chapters as notebooks). The test
-fetches the introduction through the contents API *as a notebook* (jupytext's
-contents manager), opens a kernel session for it through the REST API and
-executes every code cell over the kernel's websocket, checking that nothing
-errs and that the interactive cell produces a live widget.
+(with the project's settings that open chapters as notebooks), and with the
+application object exposed to the page so a browser can drive it. The tests
+fetch the introduction through the contents API *as a notebook* (jupytext's
+contents manager), open a kernel session for it through the REST API and
+execute every code cell over the kernel's websocket, checking that nothing
+errs and that the interactive cell produces a live widget; then, in Chromium,
+they open the chapter as a reader does, check that its MyST renders, run it,
+move a slider, check that the figure changes, save, and check that the page's
+source is unchanged; and they open the notebook the built site offers for
+download.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ import uuid
 from datetime import datetime, timezone
 
 import pytest
-from book_tools import ROOT
+from book_tools import BUILD_DIR, ROOT, browser_fixture
 
 pytestmark = pytest.mark.book
 
@@ -51,7 +56,8 @@ def lab():
     env = dict(os.environ, JUPYTERLAB_SETTINGS_DIR=str(ROOT / ".jupyter/lab/user-settings"))
     cmd = [sys.executable, "-m", "jupyterlab", "--no-browser", "--ip=127.0.0.1",
            f"--port={port}", f"--IdentityProvider.token={TOKEN}",
-           f"--ServerApp.root_dir={ROOT}", "--allow-root"]
+           f"--ServerApp.root_dir={ROOT}", "--allow-root",
+           "--LabApp.expose_app_in_browser=True"]
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     base = f"http://127.0.0.1:{port}"
@@ -139,3 +145,91 @@ def test_chapter_runs_in_a_server_kernel(lab):
     finally:
         ws.close()
         _get(f"{lab}/api/sessions/{session['id']}", "DELETE")
+
+
+def test_myst_extension_is_enabled(lab):
+    assert "jupyterlab-myst" in _get(f"{lab}/lab")
+
+
+@pytest.fixture(scope="module")
+def browser():
+    yield from browser_fixture("live JupyterLab test")
+
+
+_CURRENT = "window.jupyterapp.shell.currentWidget"
+_KERNEL_IDLE = f"""() => {{ const w = {_CURRENT}; const k = w.sessionContext.session &&
+    w.sessionContext.session.kernel; return !!k && k.status === 'idle'; }}"""
+_ALL_RUN = f"""() => {{ const w = {_CURRENT}; return w.sessionContext.session.kernel.status ===
+    'idle' && w.content.widgets.every(c => c.model.type !== 'code' ||
+    c.model.executionCount !== null); }}"""
+#: MyST that shows raw where a Markdown renderer does not know it.
+_RAW_MYST = ("```{", ":::{", "{eq}`", "{ref}`", "{doc}`", ")=\n#")
+
+
+def _open(page, lab: str, path: str) -> None:
+    """Open `path` in a fresh JupyterLab workspace; wait until its document is loaded."""
+    page.goto(f"{lab}/lab/tree/{path}?reset&token={TOKEN}")
+    page.wait_for_function(f"() => window.jupyterapp && {_CURRENT} && "
+                           f"{_CURRENT}.context && {_CURRENT}.context.isReady "
+                           f"&& {_CURRENT}.title.label === {json.dumps(path.rsplit('/', 1)[-1])}",
+                           timeout=120_000)
+
+
+def test_a_chapter_run_moved_and_saved_in_jupyterlab_keeps_its_source(lab, browser):
+    path = ROOT / CHAPTER
+    before = path.read_bytes()
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    try:
+        _open(page, lab, CHAPTER)
+        page.wait_for_function("() => document.querySelectorAll('.jp-MarkdownCell .myst')"
+                               ".length >= 5", timeout=180_000)
+        rendered = page.locator(".jp-MarkdownCell .myst").all_inner_texts()
+        raw = [m for m in _RAW_MYST for text in rendered if m in text]
+        assert not raw, f"MyST shown raw in JupyterLab: {sorted(set(raw))}"
+
+        page.wait_for_function(_KERNEL_IDLE, timeout=300_000)
+        page.evaluate("() => window.jupyterapp.commands.execute('notebook:run-all-cells')")
+        page.wait_for_function(_ALL_RUN, timeout=300_000)
+        errors = page.locator(".jp-OutputArea-output[data-mime-type='application/vnd.jupyter.stderr']")
+        traces = [t for t in errors.all_inner_texts() if "Error" in t]
+        assert not traces, f"{CHAPTER}: a cell failed in JupyterLab: {traces[0][-400:]}"
+
+        box = page.locator(".widget-interact").first
+        box.scroll_into_view_if_needed()
+        figure = box.locator("img").first
+        readout = box.locator(".widget-readout").first
+        before_src, before_readout = figure.get_attribute("src"), readout.inner_text()
+        box.locator(".noUi-handle").first.focus()
+        page.keyboard.press("ArrowRight")
+        # the view re-runs on release and replaces its figure
+        page.wait_for_function(
+            "(old) => { const i = document.querySelector('.widget-interact img');"
+            " return !!i && i.getAttribute('src') !== old; }", arg=before_src, timeout=120_000)
+        assert readout.inner_text() != before_readout, "the slider's readout did not move"
+
+        page.evaluate("() => window.jupyterapp.commands.execute('docmanager:save')")
+        page.wait_for_function(f"() => !{_CURRENT}.context.model.dirty", timeout=60_000)
+    finally:
+        page.close()
+        after = path.read_bytes()
+        if after != before:
+            path.write_bytes(before)
+    assert after == before, (
+        f"saving {CHAPTER} in JupyterLab rewrote its source; run "
+        f"`python tests/book_tools.py live-form {CHAPTER}` (see test_every_page_is_in_its_live_form)")
+
+
+def test_the_downloaded_notebook_opens_in_jupyterlab(lab, browser, built_book):
+    offered = BUILD_DIR / "html" / "_sources" / "intro.ipynb"
+    assert offered.exists(), "the built site offers no notebook of the introduction"
+    folder = BUILD_DIR / "live_download"
+    folder.mkdir(exist_ok=True)
+    (folder / "intro.ipynb").write_bytes(offered.read_bytes())
+    rel = (folder / "intro.ipynb").relative_to(ROOT).as_posix()
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    try:
+        _open(page, lab, rel)
+        cells = page.evaluate(f"() => {_CURRENT}.content.widgets.length")
+        assert cells >= 10, f"the downloaded notebook opened with {cells} cells"
+    finally:
+        page.close()

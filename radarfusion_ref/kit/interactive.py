@@ -117,6 +117,15 @@ def _as_limits(value, name: str) -> tuple[float, float] | None:
     return float(arr[0]), float(arr[1])
 
 
+def _decimals(*numbers: float) -> int:
+    """Fewest decimals (at most 12) that print each of `numbers` exactly: the readout of a
+    slider whose values are ``lo + k * step`` shows every value it can take."""
+    for d in range(13):
+        if all(abs(round(x, d) - x) <= 1e-9 * max(1.0, abs(x)) for x in numbers):
+            return d
+    return 12
+
+
 def slider(value: float, lo: float, hi: float, step: float | None = None, *,
            description: str = "", integer: bool = False):
     """An ipywidgets slider that updates on release (``continuous_update=False``).
@@ -127,7 +136,9 @@ def slider(value: float, lo: float, hi: float, step: float | None = None, *,
         Initial value and range, ``lo < hi`` and ``lo <= value <= hi``
         (integers when `integer` is true).
     step : float, optional
-        Step (> 0; ipywidgets' default when omitted).
+        Step (> 0; ipywidgets' default 0.1 when omitted). The readout of a float slider
+        shows as many decimals as `lo`, `value` and `step` need, so every value the
+        slider can take reads as it is (0.013 on a 0.001 step, not 0.01).
     description : str, optional
         Label shown beside the slider.
     integer : bool, optional
@@ -159,6 +170,8 @@ def slider(value: float, lo: float, hi: float, step: float | None = None, *,
     widgets = require("ipywidgets", feature="slider")
     cls = widgets.IntSlider if integer else widgets.FloatSlider
     kw = {} if step is None else {"step": step}
+    if not integer:
+        kw["readout_format"] = f".{_decimals(lo, value, 0.1 if step is None else step)}f"
     return cls(value=value, min=lo, max=hi, description=description,
                continuous_update=False, style={"description_width": "initial"}, **kw)
 
