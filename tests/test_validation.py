@@ -77,6 +77,9 @@ def test_choice_and_rng():
         v.as_rng(np.random.RandomState(0))
     with pytest.raises(TypeError, match="`rng`"):
         v.as_rng("seed")
+    for flag in (True, False, np.True_):  # numpy takes a bool as the seed 1 or 0
+        with pytest.raises(TypeError, match="`rng` must be None, an int seed.*received"):
+            v.as_rng(flag)
 
 
 def test_broadcast_names_all_arguments():

@@ -350,11 +350,20 @@ def as_rng(rng) -> np.random.Generator:
     --------
     >>> bool(as_rng(1).integers(10) == as_rng(1).integers(10))
     True
+    >>> as_rng(True)
+    Traceback (most recent call last):
+    ...
+    TypeError: `rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; received True
     """
     if isinstance(value := rng, np.random.RandomState):
         raise TypeError(
             "`rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; "
             "received a legacy RandomState (use numpy.random.default_rng)"
+        )
+    if isinstance(value, (bool, np.bool_)):  # an int to numpy, but never a seed
+        raise TypeError(
+            "`rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; "
+            f"received {_describe(value)}"
         )
     try:
         return np.random.default_rng(value)
