@@ -163,10 +163,10 @@ def test_cross_covariance_of_asynchronous_tracks_matches_monte_carlo():
     times = (set(1.0 + 3.0 * np.arange(14)), set(2.5 + 5.0 * np.arange(9)))
     instants, trials = (12.2, 22.5, 30.7, 41.0), 20_000
     hist, errors = _two_filters(times, {(0, 22.0)}, instants, Q_INT, trials, rng)
-    loc = arch._Local(hist, Q_INT, gains=True)
+    loc = arch._Local(hist, np.full(3, Q_INT), gains=True)
     starts = loc.t[np.unique(loc.last_restart)]
     assert starts.tolist() == [1.0, 22.0, 2.5]        # A's first row, its restart, B's first row
-    cross = arch._Cross(loc, Q_INT)
+    cross = arch._Cross(loc, np.full(3, Q_INT))
     for tg, (ea, eb) in zip(instants, errors, strict=True):
         P12 = cross.at(loc.latest(0, tg, 1e9), loc.latest(1, tg, 1e9), tg)[0]
         emp = ea.T @ eb / trials
@@ -187,8 +187,8 @@ def test_cross_covariance_of_synchronous_tracks_is_chapter_10s_recursion():
     hist = {i: TrackHistory(np.zeros(steps + 1, np.int64), t, np.zeros((steps + 1, 6)),
                             np.concatenate([[_p0(R)], P]), np.ones(steps + 1, bool))
             for i, (R, P) in enumerate(((R_A, cc.P1), (R_B, cc.P2)))}
-    loc = arch._Local(hist, Q_INT, gains=True)
-    cross = arch._Cross(loc, Q_INT)
+    loc = arch._Local(hist, np.full(3, Q_INT), gains=True)
+    cross = arch._Cross(loc, np.full(3, Q_INT))
     for k in range(1, steps + 1):
         P12 = cross.at(np.array([k]), np.array([steps + 1 + k]), t[k])[0]
         np.testing.assert_allclose(P12, cc.P12[k - 1], rtol=1e-7, atol=1e-9 * np.abs(
@@ -272,8 +272,8 @@ def test_bar_shalom_campo_covariance_is_below_ci_on_the_same_groups(realistic_wi
     t, z, R, rad, sc = reports
     hist = {r: track_reports(t[rad == r], z[rad == r], R[rad == r], rad[rad == r],
                              sc[rad == r], settings=settings) for r in range(3)}
-    loc = arch._Local(hist, settings.q, gains=True)
-    cross = arch._Cross(loc, settings.q)
+    loc = arch._Local(hist, np.full(3, settings.q), gains=True)
+    cross = arch._Cross(loc, np.full(3, settings.q))
     fused = 0
     for tg in np.arange(t.min() + 5.0, t.max(), 5.0):
         _, gP, _, rows = arch._fuse_at(loc, cross, tg, settings, "bar_shalom_campo", {})
