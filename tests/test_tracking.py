@@ -549,3 +549,68 @@ def test_imm_transition_over_an_interval_is_the_chain_s_matrix_exponential():
     a, b = 1 / 120.0, 1 / 20.0
     p = transition(TrackerSettings(), np.array(7.0))
     assert p[0, 1] == pytest.approx(a / (a + b) * (1 - np.exp(-(a + b) * 7.0)), rel=1e-12)
+
+
+def test_imm_jpda_on_one_target_is_the_mixture_over_event_and_mode_by_hand():
+    from scipy.linalg import expm
+
+    from radarfusion_ref.engine.tracker import imm_combine, imm_predict, imm_update
+    inputs, _ = _scene(scans=8)
+    t, z, R, _, _ = inputs
+    # a clutter density this high makes the miss event weigh (beta 0.79 at the second scan)
+    s = TrackerSettings(motion="imm", association="jpda", alpha=0.1, imm_q=(3.0, 200.0),
+                        imm_sojourn=(60.0, 15.0), imm_probability=(0.7, 0.3),
+                        clutter_density=5e-11)
+    h = track_reports(*inputs, settings=s)
+    assert np.unique(h.track).size == 1 and len(h) == t.size
+    a, b = 1 / 60.0, 1 / 15.0
+    gen = np.array([[-a, a], [b, -b]])
+    x0 = np.r_[z[0], 0, 0, 0]
+    P0 = np.zeros((6, 6))
+    P0[:3, :3], P0[3:, 3:] = R[0], s.speed_max**2 * np.eye(3)
+    mu, xm, Pm = np.array([0.7, 0.3]), np.array([x0, x0]), np.array([P0, P0])
+    w_miss = 1 - s.p_detection * (1 - s.p_false_reject)
+    betas = []
+    for k in range(1, t.size):
+        dt = t[k] - t[k - 1]
+        p = imm_predict(mu, xm, Pm, expm(gen * dt), dt, [3.0, 200.0])
+        u = imm_update(p.probability, p.state, p.covariance, z[k], R[k])
+        ratio = s.p_detection / s.clutter_density * (p.probability @ np.exp(u.log_likelihood))
+        beta = ratio / (ratio + w_miss)                 # one report, one track: PDA
+        wm, wu = (1 - beta) * p.probability, beta * u.probability
+        mu = wm + wu
+        xm = (wm[:, None] * p.state + wu[:, None] * u.state) / mu[:, None]
+        dm, du = p.state - xm, u.state - xm
+        Pm = (wm[:, None, None] * (p.covariance + dm[:, :, None] * dm[:, None, :])
+              + wu[:, None, None] * (u.covariance + du[:, :, None] * du[:, None, :])
+              ) / mu[:, None, None]
+        c = imm_combine(mu, xm, Pm)
+        betas.append(beta)
+        np.testing.assert_allclose(h.state[k], c.state, rtol=1e-9, atol=1e-6)
+        np.testing.assert_allclose(h.covariance[k], c.covariance, rtol=1e-7, atol=1e-6)
+    assert min(betas) < 0.9 and abs(mu[0] - 0.7) > 1e-3
+
+
+def test_imm_gnn_on_one_target_is_the_engine_s_imm_cycle_by_hand():
+    from scipy.linalg import expm
+
+    from radarfusion_ref.engine.tracker import imm_combine, imm_predict, imm_update
+    inputs, _ = _scene(scans=10)
+    t, z, R, _, _ = inputs
+    s = TrackerSettings(motion="imm", alpha=0.1, imm_q=(3.0, 200.0), imm_sojourn=(60.0, 15.0),
+                        imm_probability=(0.7, 0.3), speed_max_vertical=30.0)
+    h = track_reports(*inputs, settings=s)
+    assert np.unique(h.track).size == 1 and len(h) == t.size
+    gen = np.array([[-1 / 60.0, 1 / 60.0], [1 / 15.0, -1 / 15.0]])
+    x0 = np.r_[z[0], 0, 0, 0]
+    P0 = np.zeros((6, 6))
+    P0[:3, :3], P0[3:, 3:] = R[0], np.diag([250.0**2, 250.0**2, 30.0**2])
+    mu, xm, Pm = np.array([0.7, 0.3]), np.array([x0, x0]), np.array([P0, P0])
+    for k in range(1, t.size):
+        dt = t[k] - t[k - 1]
+        p = imm_predict(mu, xm, Pm, expm(gen * dt), dt, [3.0, 200.0])
+        u = imm_update(p.probability, p.state, p.covariance, z[k], R[k])
+        mu, xm, Pm = u.probability, u.state, u.covariance
+        c = imm_combine(mu, xm, Pm)
+        np.testing.assert_allclose(h.state[k], c.state, rtol=1e-9, atol=1e-6)
+        np.testing.assert_allclose(h.covariance[k], c.covariance, rtol=1e-7, atol=1e-6)
