@@ -2,12 +2,12 @@
 
 ``pyproject.toml`` declares the lowest version of each dependency it accepts. This module reads
 those floors (the core dependencies and :data:`FLOOR_EXTRAS`: the kit's, the progress bar's,
-Dask's and the sliders'), builds a virtual environment with each pinned exactly at its floor, plus the
+Dask's, Stone Soup's and the sliders'), builds a virtual environment with each pinned exactly at its floor, plus the
 pytest and hypothesis of this environment, installs this checkout into it plainly (a
 non-editable install without dependencies, as ``tests/test_packaging.py`` makes it) and runs
 :data:`FLOOR_TESTS` and the package's doctests there, from a folder with no checkout in it.
 It fails naming every test that failed at the floors. Tests that need what the floors
-environment lacks (Stone Soup, the book build) skip there.
+environment lacks (the tools that build the book) skip there.
 
 The README example must print, at the floors, exactly what it prints here.
 
@@ -38,10 +38,10 @@ from packaging.version import Version
 tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
 
 #: Extras whose floors the floors environment installs: the kit's (sympy, matplotlib), the
-#: progress bar's (tqdm), Dask's and the sliders' (ipywidgets). Stone Soup and the tools that
-#: build the book are not installed: their tests skip there.
+#: progress bar's (tqdm), Dask's, Stone Soup's and the sliders' (ipywidgets). The tools that
+#: build the book are not installed: the tests that need them skip there.
 FLOOR_EXTRAS = {"book": ("sympy", "matplotlib"), "progress": ("tqdm",), "dask": ("dask",),
-                "widgets": ("ipywidgets",)}
+                "stonesoup": ("stonesoup",), "widgets": ("ipywidgets",)}
 
 #: Test files run at the floors: every numerical path of the engine and the chapter modules
 #: whose answer a NumPy or scipy release could change (batched solves, sparse solvers, HiGHS,
@@ -55,9 +55,21 @@ FLOOR_TESTS = (
     # the sliders (the rest of test_interactive.py draws players: slow, and matplotlib only)
     "test_interactive.py::test_slider_updates_on_release", "test_interactive.py::test_bad_input",
     "test_interactive.py::test_fuzz_slider_accepts_or_names_the_argument",
+    # Stone Soup's trackers through tracking.stonesoup_track (the hour-long runs are slow)
+    "test_tracking_realistic.py::test_stonesoup_bad_input_and_missing_package",
+    "test_tracking_realistic.py::test_stonesoup_state_order_and_a_lone_target",
     # chapter 12's architectures end to end, on the shortest of its tests
     "test_architectures.py::test_track_then_fuse_keeps_identities_through_a_one_scan_glitch",
 )
+
+#: Not run at the floors, each with its reason.
+FLOOR_DESELECT = {
+    # Stone Soup 1.9 on NumPy 1.26 and scipy 1.11 books a pair farther apart than the cut-off c
+    # as localisation (c^p), on NumPy 2 as a miss and a false track (c^p / 2 each): the same
+    # total, which matches the package's at the floors too, and the package splits it the same
+    # way under both; only the oracle's split moves (test_gospa_brute_force runs here).
+    "test_capstone.py::test_gospa_against_stone_soup",
+}
 
 CACHE = ROOT / ".cache"
 SOURCES = ("pyproject.toml", "README.md", "LICENSE", "radarfusion_ref")
@@ -99,7 +111,8 @@ def test_floors_are_read_from_pyproject():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     core = {_requirement(s)[0] for s in project["dependencies"]}
     assert core == {"numpy", "scipy"}, "core: only what the engine and chapter modules import"
-    assert set(pins) == core | {"sympy", "matplotlib", "tqdm", "dask[distributed]", "ipywidgets"}
+    assert set(pins) == core | {"sympy", "matplotlib", "tqdm", "dask[distributed]", "stonesoup",
+                                "ipywidgets"}
     assert all(re.fullmatch(r"[0-9]+(\.[0-9]+)+", v) for v in pins.values()), pins
     with pytest.raises(AssertionError, match="declares no floor"):
         _requirement("numpy")
@@ -217,14 +230,18 @@ def test_package_tests_pass_at_the_floors(floor_env):
     report = site.parent / "floors.xml"
     cmd = [python, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-c",
            str(ROOT / "pyproject.toml"), "--rootdir", str(ROOT), f"--junitxml={report}",
-           *(str(ROOT / "tests" / f) for f in FLOOR_TESTS), str(site / "radarfusion_ref")]
+           *(str(ROOT / "tests" / f) for f in FLOOR_TESTS), str(site / "radarfusion_ref"),
+           *(f"--deselect=tests/{f}" for f in sorted(FLOOR_DESELECT)), "--disable-warnings"]
     proc = subprocess.run(cmd, cwd=site.parent, env=_env(site), capture_output=True, text=True,
                           timeout=1800)
     failed = []
     if report.exists():
         for case in ET.parse(report).getroot().iter("testcase"):
-            if case.find("failure") is not None or case.find("error") is not None:
-                failed.append(f"{case.get('classname')}::{case.get('name')}")
+            bad = case.find("failure")
+            bad = case.find("error") if bad is None else bad
+            if bad is not None:
+                why = (bad.get("message") or "").strip().splitlines()[:1]
+                failed.append(f"{case.get('classname')}::{case.get('name')}: {''.join(why)}")
     pinned = ", ".join(f"{n} {v}" for n, v in sorted(pins.items()))
     tail = "\n".join((proc.stdout + proc.stderr).splitlines()[-40:])
     assert proc.returncode == 0 and not failed, (
