@@ -1,13 +1,13 @@
 """Every declared dependency floor is a tested one: the package's tests at the lowest versions.
 
 ``pyproject.toml`` declares the lowest version of each dependency it accepts. This module reads
-those floors (the core dependencies, and the ``book`` and ``progress`` extras the kit and the
-progress bar use), builds a virtual environment with each pinned exactly at its floor, plus the
+those floors (the core dependencies and :data:`FLOOR_EXTRAS`: the kit's, the progress bar's,
+Dask's, Stone Soup's and the sliders'), builds a virtual environment with each pinned exactly at its floor, plus the
 pytest and hypothesis of this environment, installs this checkout into it plainly (a
 non-editable install without dependencies, as ``tests/test_packaging.py`` makes it) and runs
 :data:`FLOOR_TESTS` and the package's doctests there, from a folder with no checkout in it.
 It fails naming every test that failed at the floors. Tests that need what the floors
-environment lacks (Dask, Stone Soup, the book build) skip there.
+environment lacks (the tools that build the book) skip there.
 
 The README example must print, at the floors, exactly what it prints here.
 
@@ -37,10 +37,11 @@ from packaging.version import Version
 
 tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
 
-#: Extras whose floors the floors environment installs: the kit's (sympy, matplotlib) and the
-#: progress bar's (tqdm). The others (Dask, Stone Soup, widgets, the book build) are large or
-#: need what the package's tests do not run here.
-FLOOR_EXTRAS = {"book": ("sympy", "matplotlib"), "progress": ("tqdm",)}
+#: Extras whose floors the floors environment installs: the kit's (sympy, matplotlib), the
+#: progress bar's (tqdm), Dask's, Stone Soup's and the sliders' (ipywidgets). The tools that
+#: build the book are not installed: the tests that need them skip there.
+FLOOR_EXTRAS = {"book": ("sympy", "matplotlib"), "progress": ("tqdm",), "dask": ("dask",),
+                "stonesoup": ("stonesoup",), "widgets": ("ipywidgets",)}
 
 #: Test files run at the floors: every numerical path of the engine and the chapter modules
 #: whose answer a NumPy or scipy release could change (batched solves, sparse solvers, HiGHS,
@@ -51,9 +52,24 @@ FLOOR_TESTS = (
     "test_grouping.py", "test_linalg.py", "test_montecarlo.py", "test_plotting.py",
     "test_proximity.py", "test_readme_usage.py", "test_symbolic.py", "test_tracker.py",
     "test_trackfusion.py", "test_tracking.py", "test_validation.py",
+    # the sliders (the rest of test_interactive.py draws players: slow, and matplotlib only)
+    "test_interactive.py::test_slider_updates_on_release", "test_interactive.py::test_bad_input",
+    "test_interactive.py::test_fuzz_slider_accepts_or_names_the_argument",
+    # Stone Soup's trackers through tracking.stonesoup_track (the hour-long runs are slow)
+    "test_tracking_realistic.py::test_stonesoup_bad_input_and_missing_package",
+    "test_tracking_realistic.py::test_stonesoup_state_order_and_a_lone_target",
     # chapter 12's architectures end to end, on the shortest of its tests
     "test_architectures.py::test_track_then_fuse_keeps_identities_through_a_one_scan_glitch",
 )
+
+#: Not run at the floors, each with its reason.
+FLOOR_DESELECT = {
+    # Stone Soup 1.9 on NumPy 1.26 and scipy 1.11 books a pair farther apart than the cut-off c
+    # as localisation (c^p), on NumPy 2 as a miss and a false track (c^p / 2 each): the same
+    # total, which matches the package's at the floors too, and the package splits it the same
+    # way under both; only the oracle's split moves (test_gospa_brute_force runs here).
+    "test_capstone.py::test_gospa_against_stone_soup",
+}
 
 CACHE = ROOT / ".cache"
 SOURCES = ("pyproject.toml", "README.md", "LICENSE", "radarfusion_ref")
@@ -61,23 +77,32 @@ SECTION = "## Use the package"
 
 
 def _requirement(spec: str) -> tuple[str, str]:
-    """``"numpy>=1.26"`` -> ``("numpy", "1.26")``: the name and its declared floor."""
-    m = re.fullmatch(r"([A-Za-z0-9_.\-]+)(\[[^\]]*\])?\s*>=\s*([0-9][0-9A-Za-z.]*)\s*(,.*)?", spec)
+    """``"numpy>=1.26"`` -> ``("numpy", "1.26")``: the name (with its extras, as in
+    ``"dask[distributed]"``) and its declared floor."""
+    m = re.fullmatch(r"([A-Za-z0-9_.\-]+(?:\[[^\]]*\])?)\s*>=\s*([0-9][0-9A-Za-z.]*)\s*(,.*)?",
+                     spec)
     if m is None:
         raise AssertionError(f"{spec!r} declares no floor (name>=version)")
-    return m.group(1).lower(), m.group(3)
+    return m.group(1).lower(), m.group(2)
 
 
 def floors() -> dict[str, str]:
-    """The pins of the floors environment, read from ``pyproject.toml``."""
+    """The pins of the floors environment, read from ``pyproject.toml``: {requirement: floor}."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     pins = dict(_requirement(s) for s in project["dependencies"])
     extras = project["optional-dependencies"]
     for extra, names in FLOOR_EXTRAS.items():
-        declared = dict(_requirement(s) for s in extras[extra] if not s.startswith("radarfusion"))
+        declared = {name.split("[")[0]: (name, floor) for name, floor in
+                    (_requirement(s) for s in extras[extra] if not s.startswith("radarfusion"))}
         for name in names:
-            pins[name] = declared[name]
+            requirement, floor = declared[name]
+            pins[requirement] = floor
     return pins
+
+
+def _dist(requirement: str) -> str:
+    """``"dask[distributed]"`` -> ``"dask"``: the distribution whose version is pinned."""
+    return requirement.split("[")[0]
 
 
 def test_floors_are_read_from_pyproject():
@@ -86,7 +111,8 @@ def test_floors_are_read_from_pyproject():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     core = {_requirement(s)[0] for s in project["dependencies"]}
     assert core == {"numpy", "scipy"}, "core: only what the engine and chapter modules import"
-    assert set(pins) == core | {"sympy", "matplotlib", "tqdm"}
+    assert set(pins) == core | {"sympy", "matplotlib", "tqdm", "dask[distributed]", "stonesoup",
+                                "ipywidgets"}
     assert all(re.fullmatch(r"[0-9]+(\.[0-9]+)+", v) for v in pins.values()), pins
     with pytest.raises(AssertionError, match="declares no floor"):
         _requirement("numpy")
@@ -187,7 +213,7 @@ def test_floors_environment_holds_the_floors_and_the_installed_package(floor_env
     python, site, pins = floor_env
     code = ("import json, importlib.metadata as md, radarfusion_ref\n"
             f"print(json.dumps({{'file': radarfusion_ref.__file__, 'versions': "
-            f"{{n: md.version(n) for n in {sorted(pins)!r}}}}}))\n")
+            f"{{n: md.version(n) for n in {sorted(map(_dist, pins))!r}}}}}))\n")
     proc = subprocess.run([python, "-c", code], cwd=site.parent, env=_env(site),
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -195,7 +221,7 @@ def test_floors_environment_holds_the_floors_and_the_installed_package(floor_env
     assert got["file"].startswith(str(site)), got["file"]
     # PEP 440: the floor "1.26" is the release 1.26.0
     assert {n: Version(v) for n, v in got["versions"].items()} == \
-        {n: Version(v) for n, v in pins.items()}, (pins, got["versions"])
+        {_dist(n): Version(v) for n, v in pins.items()}, (pins, got["versions"])
 
 
 def test_package_tests_pass_at_the_floors(floor_env):
@@ -204,14 +230,18 @@ def test_package_tests_pass_at_the_floors(floor_env):
     report = site.parent / "floors.xml"
     cmd = [python, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-c",
            str(ROOT / "pyproject.toml"), "--rootdir", str(ROOT), f"--junitxml={report}",
-           *(str(ROOT / "tests" / f) for f in FLOOR_TESTS), str(site / "radarfusion_ref")]
+           *(str(ROOT / "tests" / f) for f in FLOOR_TESTS), str(site / "radarfusion_ref"),
+           *(f"--deselect=tests/{f}" for f in sorted(FLOOR_DESELECT)), "--disable-warnings"]
     proc = subprocess.run(cmd, cwd=site.parent, env=_env(site), capture_output=True, text=True,
                           timeout=1800)
     failed = []
     if report.exists():
         for case in ET.parse(report).getroot().iter("testcase"):
-            if case.find("failure") is not None or case.find("error") is not None:
-                failed.append(f"{case.get('classname')}::{case.get('name')}")
+            bad = case.find("failure")
+            bad = case.find("error") if bad is None else bad
+            if bad is not None:
+                why = (bad.get("message") or "").strip().splitlines()[:1]
+                failed.append(f"{case.get('classname')}::{case.get('name')}: {''.join(why)}")
     pinned = ", ".join(f"{n} {v}" for n, v in sorted(pins.items()))
     tail = "\n".join((proc.stdout + proc.stderr).splitlines()[-40:])
     assert proc.returncode == 0 and not failed, (
