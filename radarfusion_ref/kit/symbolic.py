@@ -156,7 +156,10 @@ def use_book_printing() -> None:
     import sympy as sp
 
     def as_math(expr):
-        return "$\\displaystyle " + latex(expr) + "$"
+        try:
+            return "$\\displaystyle " + latex(expr) + "$"
+        except TypeError:                  # sympy's true and false: their plain repr
+            return None
 
     formatter = shell.display_formatter.formatters["text/latex"]
     for kind in (sp.Basic, sp.MatrixBase):
