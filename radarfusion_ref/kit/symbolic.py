@@ -118,6 +118,12 @@ def latex(expr, **settings) -> str:
     starts with its positive terms, so :math:`(x - \tilde x)^2` is not printed
     :math:`(-\tilde x + x)^2`.
 
+    Raises
+    ------
+    TypeError
+        If `expr` is not a sympy expression or matrix (a number or a string is
+        not: build it with sympy first).
+
     Examples
     --------
     >>> import sympy as sp
@@ -127,6 +133,12 @@ def latex(expr, **settings) -> str:
     >>> latex(sp.log(sp.Symbol("Delta_beta1")))
     '\\ln{\\left(\\Delta \\beta_{1} \\right)}'
     """
+    import sympy as sp
+    from sympy.logic.boolalg import BooleanAtom
+
+    if not isinstance(expr, (sp.Basic, sp.MatrixBase)) or isinstance(expr, BooleanAtom):
+        raise TypeError(f"`expr` must be a sympy expression or matrix; received "
+                        f"{type(expr).__name__} {expr!r:.60}")
     return _book_printer_class()(settings).doprint(expr)
 
 
@@ -145,7 +157,10 @@ def use_book_printing() -> None:
     import sympy as sp
 
     def as_math(expr):
-        return "$\\displaystyle " + latex(expr) + "$"
+        try:
+            return "$\\displaystyle " + latex(expr) + "$"
+        except TypeError:                  # sympy's true and false: their plain repr
+            return None
 
     formatter = shell.display_formatter.formatters["text/latex"]
     for kind in (sp.Basic, sp.MatrixBase):
@@ -171,7 +186,12 @@ def show(lhs: str, expr) -> None:
         raise TypeError(f"`lhs` must be a LaTeX string; received {type(lhs).__name__}")
     ipy = require("IPython.display", feature="show")
     Math, display = ipy.Math, ipy.display
-    rhs = expr if isinstance(expr, str) else latex(expr)
+    if isinstance(expr, str):
+        rhs = expr
+    else:
+        import sympy as sp
+
+        rhs = latex(expr if isinstance(expr, (sp.Basic, sp.MatrixBase)) else sp.sympify(expr))
     display(Math(f"{lhs} = {rhs}"))
 
 
