@@ -82,7 +82,7 @@ __all__ = [
 #: smallest accepted value is its reciprocal): :math:`2^{150}`.
 MAX_MAGNITUDE = 2.0 ** 150
 #: Default pairs per chunk of :func:`mahalanobis_sq_pairwise`: the work buffers stay in cache.
-_PAIR_CHUNK = 32768
+_PAIR_CHUNK = 65536
 
 
 # --------------------------------------------------------------------------- door checks
