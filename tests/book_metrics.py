@@ -271,6 +271,7 @@ def prose_tells(path: Path) -> list[str]:
     for what, pattern in _TELLS_PROSE.items():
         found += [f"{what}: {m.group(0)[:60]!r}" for m in pattern.finditer(prose)]
     for body in CODE_CELL.findall(text):
+        body = re.sub(r"\A---\n.*?\n---\n", "", body, flags=re.S)   # a YAML options block
         code = "\n".join(line for line in body.splitlines() if not line.startswith(":"))
         try:
             tree = ast.parse(code)

@@ -119,6 +119,13 @@ def code_cells(path: Path) -> list[tuple[set[str], list[str]]]:
             if j < len(lines) and lines[j].startswith(":tags:"):
                 tags = set(re.findall(r"[\w-]+", lines[j].split(":", 2)[2]))
                 j += 1
+            elif j < len(lines) and lines[j] == "---":          # a YAML options block
+                j += 1
+                while j < len(lines) and lines[j] != "---":
+                    if lines[j].startswith("tags:"):
+                        tags = set(re.findall(r"[\w-]+", lines[j].split(":", 1)[1]))
+                    j += 1
+                j += 1
             while j < len(lines) and lines[j].rstrip() != "```":
                 src.append(lines[j])
                 j += 1
