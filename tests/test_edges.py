@@ -228,3 +228,71 @@ def test_noncentrality_outside_the_domain_names_the_sigmas():
     k = 1e150
     with pytest.raises(ValueError, match=r"^`sigma_r`, `sigma_beta`.*numeric domain"):
         rg.noncentrality(SITES * k, OBJS * k, [[k, 0, 0], [0, 0, 0]], 0.05 * k, 1e-3)
+
+
+# --------------------------------------------------------------------------- scenes
+def test_scene_spacing_and_sigmas_outside_the_domain_are_refused_by_name():
+    from radarfusion_ref.engine import scenes as sc
+
+    # a spacing of 1e308 gave inf positions (line) or numpy's OverflowError (uniform)
+    for layout in ("line", "uniform"):
+        with pytest.raises(ValueError, match=r"^`spacing`.*2\*\*150.*inf"):
+            sc.two_radar_scene(5, spacing=1e308, layout=layout, sigma1=1, sigma2=1, rng=1)
+    with pytest.raises(ValueError, match=r"^`sigma1`.*2\*\*150.*1e\+300"):
+        sc.two_radar_scene(5, spacing=1.0, sigma1=1e300, sigma2=1, rng=1)
+    with pytest.raises(ValueError, match=r"^`spacing`.*2\*\*150.*inf"):
+        sc.grouping_scene(3, 2, spacing=1e308, cov=np.eye(2)[None, None], rng=1)
+    # at the edge of the domain the scene is drawn, finite
+    s = sc.two_radar_scene(4, spacing=2.0**148, sigma1=2.0**140, sigma2=1, rng=1)
+    assert np.all(np.isfinite(s.reports1)) and s.truth[0, 3, 0] == 3 * 2.0**148
+
+
+def test_clutter_box_and_false_counts_that_overflow_are_refused_by_name():
+    from radarfusion_ref.engine import scenes as sc
+
+    # ceil(inf) raised a raw OverflowError
+    with pytest.raises(ValueError, match=r"^`spacing`, `dim`.*volume.*1e\+40, dim 9"):
+        sc.two_radar_clutter_scene(5, spacing=1e40, sigma1=1, sigma2=1, dim=9, rng=1)
+    with pytest.raises(ValueError, match=r"^`false_density1`.*overflows.*1e\+308"):
+        sc.two_radar_clutter_scene(5, spacing=1.0, sigma1=1, sigma2=1, false_density1=1e308,
+                                   rng=1)
+
+
+def test_huge_grouping_scenes_are_refused_before_cov_is_broadcast():
+    from radarfusion_ref.engine import scenes as sc
+
+    # broadcasting and checking `cov` asked for 7.45 GiB before the size check ran
+    with pytest.raises(ValueError, match=r"refused: .* bytes of scenes .*`trials`"):
+        sc.grouping_scene(10**9, 2, cov=np.eye(2)[None, None], trials=10**9, rng=1)
+    with pytest.raises(ValueError, match=r"refused: .* bytes of scenes"):
+        sc.grouping_scene(10**5, 10**4, cov=np.eye(2)[None, None], rng=1)
+
+
+def test_binding_hypotheses_refuses_huge_counts_without_forming_them():
+    from radarfusion_ref.engine import scenes as sc
+
+    # (10**9)! was computed exactly before the limit was compared (it never returned)
+    with pytest.raises(ValueError, match=r"^refused: about 10\*\*\d+ binding hypotheses.*"
+                                         r"`n_targets` n = 1000000000.*group_sd"):
+        sc.binding_hypotheses(10**9, 10**9)
+    with pytest.raises(ValueError, match=r"above the limit of 1000000"):
+        sc.binding_hypotheses(7, 2)                       # 25 401 600
+    assert sc.binding_hypotheses(6, 2).shape == (518400, 2, 6)
+
+
+def test_nearest_neighbour_pairing_outside_the_domain_and_memory_is_refused():
+    from radarfusion_ref.engine import scenes as sc
+
+    # squared differences overflowed to inf and argmin picked index 0: a wrong pairing
+    with pytest.raises(ValueError, match=r"^`reports1`.*2\*\*150.*1e\+300"):
+        sc.nearest_neighbour_pairing([[-1e300]], [[1e300], [5e299]])
+    assert sc.nearest_neighbour_pairing([[-(2.0**149)]], [[2.0**149], [2.0**148]]).tolist() == [1]
+    # broadcast views of 10**8 x 10**8 reports: refused before any copy or finiteness mask
+    with pytest.raises(ValueError, match=r"^refused: .*bytes of reports.*`reports1`"):
+        sc.nearest_neighbour_pairing(np.zeros((10**8, 1, 1)),
+                                     np.broadcast_to(np.zeros((1, 1)), (10**8, 10**8, 1)))
+    with pytest.raises(ValueError, match=r"^refused: .*1000000 scenes"):
+        sc.nearest_neighbour_pairing(np.broadcast_to(np.zeros((1, 1, 1)), (10**6, 10**3, 1)),
+                                     np.zeros((1, 1)))
+    with pytest.raises(ValueError, match=r"^`reports1` and `reports2`.*broadcast"):
+        sc.nearest_neighbour_pairing(np.zeros((3, 1, 1)), np.zeros((2, 1, 1)))

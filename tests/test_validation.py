@@ -78,7 +78,7 @@ def test_choice_and_rng():
     with pytest.raises(TypeError, match="`rng`"):
         v.as_rng("seed")
     for flag in (True, False, np.True_):  # numpy takes a bool as the seed 1 or 0
-        with pytest.raises(TypeError, match="`rng` must be None, an int seed.*received"):
+        with pytest.raises(TypeError, match=r"`rng` must be None, an int seed.*received"):
             v.as_rng(flag)
 
 
