@@ -296,3 +296,32 @@ def test_nearest_neighbour_pairing_outside_the_domain_and_memory_is_refused():
                                      np.zeros((1, 1)))
     with pytest.raises(ValueError, match=r"^`reports1` and `reports2`.*broadcast"):
         sc.nearest_neighbour_pairing(np.zeros((3, 1, 1)), np.zeros((2, 1, 1)))
+
+
+def test_a_target_at_a_radar_site_is_refused_naming_targets():
+    from radarfusion_ref.engine import scenes as sc
+    from radarfusion_ref.engine.geometry import Geometry
+
+    # polar_scene refused naming polar_from's `xy` and `origin`, not its own arguments
+    for target, k in (([0.0, 0.0], 1), ([30.0, 0.0], 2)):
+        with pytest.raises(ValueError, match=rf"^`targets` must lie off radar {k}'s site"):
+            Geometry(30.0, 0.0, [target, [100.0, 100.0]])
+    rep = sc.polar_scene(Geometry(30.0, 0.0, [[1e-3, 0.0]]), sigma_r=1e-5, sigma_beta=0.01,
+                         rng=1)
+    assert np.all(np.isfinite(rep.r1))
+
+
+# --------------------------------------------------------------------------- capstone radars
+@pytest.mark.parametrize("field", ["sigma_r", "max_range", "clutter_rate", "sigma_feature",
+                                   "bias_range", "height"])
+def test_radar_lengths_beyond_the_domain_are_refused_by_field(field):
+    import dataclasses
+
+    from radarfusion_ref.capstone import radars as ra
+
+    # sigma_r = 1e308 gave inf ranges, max_range = 1e200 an inf clutter range and an
+    # OverflowError from coverage_volume, clutter_rate = 1e308 an OverflowError
+    bad = [dataclasses.replace(r, **{field: 1e200}) for r in ra.default_radars()]
+    with pytest.raises(ValueError, match=rf"^`radars\[0\]\.{field}`.*2\*\*150.*1e\+200"):
+        ra.as_radars(bad)
+    assert np.isfinite(ra.default_radars(max_range=2.0**150)[0].coverage_volume)
