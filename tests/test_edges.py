@@ -336,3 +336,24 @@ def test_sd_counts_beyond_memory_are_refused_before_allocation():
         solve_sd(np.zeros(1), np.zeros((1, 3), int), counts=[10**9] * 3)
     ok = solve_sd(np.zeros(2), np.array([[0, 0, 0], [1, 1, 1]]), counts=[2, 2, 2])
     assert ok.groups.tolist() == [[0, 0, 0], [1, 1, 1]]
+
+
+def test_a_scene_without_targets_is_refused_naming_targets():
+    # numpy's "high <= 0" escaped from the draw that keeps one report
+    with pytest.raises(ValueError, match=r"^`targets` must have shape \(n, 2\) with n >= 1"):
+        rg.simulate_scene(SITES, np.zeros((0, 2)), np.zeros((2, 3)), 0.05, 1e-3, p_detect=0.9,
+                          rng=1)
+
+
+def test_a_traffic_integer_beyond_64_bits_is_refused_naming_path(tmp_path):
+    import gzip
+
+    from radarfusion_ref.capstone.traffic import COLUMNS, load_traffic
+
+    # every character a digit, but beyond int64: a bare StopIteration escaped
+    row = ["99999999999999999999", "abc123", "CALL1", "4600000", "700000", "35000", "450", "90"]
+    f = tmp_path / "t.csv.gz"
+    f.write_bytes(gzip.compress((",".join(COLUMNS) + "\n" + ",".join(row) + "\n").encode()))
+    with pytest.raises(ValueError, match=r"^`path` .*column 't_s', row 2: "
+                                         r"'99999999999999999999' lies beyond the 64-bit"):
+        load_traffic(f)
