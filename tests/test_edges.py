@@ -357,3 +357,20 @@ def test_a_traffic_integer_beyond_64_bits_is_refused_naming_path(tmp_path):
     with pytest.raises(ValueError, match=r"^`path` .*column 't_s', row 2: "
                                          r"'99999999999999999999' lies beyond the 64-bit"):
         load_traffic(f)
+
+
+# --------------------------------------------------------------------------- association
+def test_proximity_matrix_outside_the_domain_names_its_own_arguments():
+    from radarfusion_ref.association import proximity_matrix
+
+    # 1e300 reports were refused naming the engine's `x2`; a sigma of 1e200 raised a raw
+    # OverflowError from its square
+    with pytest.raises(ValueError, match=r"^`reports2` must lie within the numeric domain"):
+        proximity_matrix(np.zeros((2, 2)), np.full((2, 2), 1e300), 1.0, 1.0)
+    with pytest.raises(ValueError, match=r"^`sigma1` squared .*numeric domain.*1\.e\+200"):
+        proximity_matrix(np.zeros((2, 2)), np.ones((2, 2)), 1e200, 1.0)
+    with pytest.raises(ValueError, match=r"^`sigma2` squared"):
+        proximity_matrix(np.zeros((2, 2)), np.ones((2, 2)), 1.0, [1e-100, 1.0])
+    # inside it: the closed form |x1 - x2|^2 / (sigma1^2 + sigma2^2)
+    out = proximity_matrix(np.zeros((1, 2)), np.full((1, 2), 2.0**70), 2.0**70, 2.0**70)
+    assert out[0, 0] == pytest.approx(1.0, rel=1e-12)
