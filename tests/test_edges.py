@@ -374,3 +374,18 @@ def test_proximity_matrix_outside_the_domain_names_its_own_arguments():
     # inside it: the closed form |x1 - x2|^2 / (sigma1^2 + sigma2^2)
     out = proximity_matrix(np.zeros((1, 2)), np.full((1, 2), 2.0**70), 2.0**70, 2.0**70)
     assert out[0, 0] == pytest.approx(1.0, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- capstone detections
+def test_detection_windows_beyond_memory_or_numbering_are_refused_by_name():
+    from radarfusion_ref.capstone import load_traffic, realistic_radars, simulate_detections
+
+    traffic, radars = load_traffic(), realistic_radars()
+    # numpy's "Maximum allowed size exceeded" escaped from the scans' np.arange
+    with pytest.raises(ValueError, match=r"^`start`, `duration`, `radars\[0\]\.period`.*1e\+154"):
+        simulate_detections(traffic, radars, duration=1e154, rng=1)
+    # a far start was refused naming truth_at's `times`, with an empty object array
+    with pytest.raises(ValueError, match=r"^`start`, `duration`"):
+        simulate_detections(traffic, radars, start=1e154, duration=10.0, rng=1)
+    with pytest.raises(ValueError, match=r"^refused: .*scans of radar 0.*`duration` = 1e\+09"):
+        simulate_detections(traffic, radars, duration=1e9, rng=1)
