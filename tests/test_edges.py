@@ -389,3 +389,16 @@ def test_detection_windows_beyond_memory_or_numbering_are_refused_by_name():
         simulate_detections(traffic, radars, start=1e154, duration=10.0, rng=1)
     with pytest.raises(ValueError, match=r"^refused: .*scans of radar 0.*`duration` = 1e\+09"):
         simulate_detections(traffic, radars, duration=1e9, rng=1)
+
+
+# --------------------------------------------------------------------------- grouping
+def test_binding_costs_outside_the_domain_names_its_own_arguments():
+    from radarfusion_ref.grouping import binding_costs
+
+    # the refusals named the engine's `x1` and `cov1`
+    eye, x = np.eye(2), np.zeros((2, 2, 2))
+    c = np.broadcast_to(eye, (2, 2, 2, 2))
+    with pytest.raises(ValueError, match=r"^`x` and `tracks` must lie within the numeric domain"):
+        binding_costs(x, c, np.full((2, 2), 1e300), np.broadcast_to(eye, (2, 2, 2)))
+    with pytest.raises(ValueError, match=r"^`cov` and `track_cov` must have every variance"):
+        binding_costs(x, c, np.zeros((2, 2)), np.broadcast_to(1e300 * eye, (2, 2, 2)))
