@@ -402,3 +402,17 @@ def test_binding_costs_outside_the_domain_names_its_own_arguments():
         binding_costs(x, c, np.full((2, 2), 1e300), np.broadcast_to(eye, (2, 2, 2)))
     with pytest.raises(ValueError, match=r"^`cov` and `track_cov` must have every variance"):
         binding_costs(x, c, np.zeros((2, 2)), np.broadcast_to(1e300 * eye, (2, 2, 2)))
+
+
+def test_ml_group_cost_never_returns_inf():
+    from radarfusion_ref.grouping import ml_group_cost
+
+    # reports at +-1e300 gave a cost of inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        with pytest.raises(ValueError, match=r"^`x` and `cov`: 1 candidate group costs exceed"):
+            ml_group_cost(np.array([[1e300, 0.0], [-1e300, 0.0]]),
+                          np.broadcast_to(np.eye(2), (2, 2, 2)))
+    # two unit-variance reports 2 apart: 2**2 / 2 + ln det W (W = 2), ln det C_i = 0
+    c = ml_group_cost([[0.0], [2.0]], [[[1.0]], [[1.0]]])
+    assert float(c) == pytest.approx(2.0 + np.log(2.0), rel=1e-12)
