@@ -228,3 +228,191 @@ def test_noncentrality_outside_the_domain_names_the_sigmas():
     k = 1e150
     with pytest.raises(ValueError, match=r"^`sigma_r`, `sigma_beta`.*numeric domain"):
         rg.noncentrality(SITES * k, OBJS * k, [[k, 0, 0], [0, 0, 0]], 0.05 * k, 1e-3)
+
+
+# --------------------------------------------------------------------------- scenes
+def test_scene_spacing_and_sigmas_outside_the_domain_are_refused_by_name():
+    from radarfusion_ref.engine import scenes as sc
+
+    # a spacing of 1e308 gave inf positions (line) or numpy's OverflowError (uniform)
+    for layout in ("line", "uniform"):
+        with pytest.raises(ValueError, match=r"^`spacing`.*2\*\*150.*inf"):
+            sc.two_radar_scene(5, spacing=1e308, layout=layout, sigma1=1, sigma2=1, rng=1)
+    with pytest.raises(ValueError, match=r"^`sigma1`.*2\*\*150.*1e\+300"):
+        sc.two_radar_scene(5, spacing=1.0, sigma1=1e300, sigma2=1, rng=1)
+    with pytest.raises(ValueError, match=r"^`spacing`.*2\*\*150.*inf"):
+        sc.grouping_scene(3, 2, spacing=1e308, cov=np.eye(2)[None, None], rng=1)
+    # at the edge of the domain the scene is drawn, finite
+    s = sc.two_radar_scene(4, spacing=2.0**148, sigma1=2.0**140, sigma2=1, rng=1)
+    assert np.all(np.isfinite(s.reports1)) and s.truth[0, 3, 0] == 3 * 2.0**148
+
+
+def test_clutter_box_and_false_counts_that_overflow_are_refused_by_name():
+    from radarfusion_ref.engine import scenes as sc
+
+    # ceil(inf) raised a raw OverflowError
+    with pytest.raises(ValueError, match=r"^`spacing`, `dim`.*volume.*1e\+40, dim 9"):
+        sc.two_radar_clutter_scene(5, spacing=1e40, sigma1=1, sigma2=1, dim=9, rng=1)
+    with pytest.raises(ValueError, match=r"^`false_density1`.*overflows.*1e\+308"):
+        sc.two_radar_clutter_scene(5, spacing=1.0, sigma1=1, sigma2=1, false_density1=1e308,
+                                   rng=1)
+
+
+def test_huge_grouping_scenes_are_refused_before_cov_is_broadcast():
+    from radarfusion_ref.engine import scenes as sc
+
+    # broadcasting and checking `cov` asked for 7.45 GiB before the size check ran
+    with pytest.raises(ValueError, match=r"refused: .* bytes of scenes .*`trials`"):
+        sc.grouping_scene(10**9, 2, cov=np.eye(2)[None, None], trials=10**9, rng=1)
+    with pytest.raises(ValueError, match=r"refused: .* bytes of scenes"):
+        sc.grouping_scene(10**5, 10**4, cov=np.eye(2)[None, None], rng=1)
+
+
+def test_binding_hypotheses_refuses_huge_counts_without_forming_them():
+    from radarfusion_ref.engine import scenes as sc
+
+    # (10**9)! was computed exactly before the limit was compared (it never returned)
+    with pytest.raises(ValueError, match=r"^refused: about 10\*\*\d+ binding hypotheses.*"
+                                         r"`n_targets` n = 1000000000.*group_sd"):
+        sc.binding_hypotheses(10**9, 10**9)
+    with pytest.raises(ValueError, match=r"above the limit of 1000000"):
+        sc.binding_hypotheses(7, 2)                       # 25 401 600
+    assert sc.binding_hypotheses(6, 2).shape == (518400, 2, 6)
+
+
+def test_nearest_neighbour_pairing_outside_the_domain_and_memory_is_refused():
+    from radarfusion_ref.engine import scenes as sc
+
+    # squared differences overflowed to inf and argmin picked index 0: a wrong pairing
+    with pytest.raises(ValueError, match=r"^`reports1`.*2\*\*150.*1e\+300"):
+        sc.nearest_neighbour_pairing([[-1e300]], [[1e300], [5e299]])
+    assert sc.nearest_neighbour_pairing([[-(2.0**149)]], [[2.0**149], [2.0**148]]).tolist() == [1]
+    # broadcast views of 10**8 x 10**8 reports: refused before any copy or finiteness mask
+    with pytest.raises(ValueError, match=r"^refused: .*bytes of reports.*`reports1`"):
+        sc.nearest_neighbour_pairing(np.zeros((10**8, 1, 1)),
+                                     np.broadcast_to(np.zeros((1, 1)), (10**8, 10**8, 1)))
+    with pytest.raises(ValueError, match=r"^refused: .*1000000 scenes"):
+        sc.nearest_neighbour_pairing(np.broadcast_to(np.zeros((1, 1, 1)), (10**6, 10**3, 1)),
+                                     np.zeros((1, 1)))
+    with pytest.raises(ValueError, match=r"^`reports1` and `reports2`.*broadcast"):
+        sc.nearest_neighbour_pairing(np.zeros((3, 1, 1)), np.zeros((2, 1, 1)))
+
+
+def test_a_target_at_a_radar_site_is_refused_naming_targets():
+    from radarfusion_ref.engine import scenes as sc
+    from radarfusion_ref.engine.geometry import Geometry
+
+    # polar_scene refused naming polar_from's `xy` and `origin`, not its own arguments
+    for target, k in (([0.0, 0.0], 1), ([30.0, 0.0], 2)):
+        with pytest.raises(ValueError, match=rf"^`targets` must lie off radar {k}'s site"):
+            Geometry(30.0, 0.0, [target, [100.0, 100.0]])
+    rep = sc.polar_scene(Geometry(30.0, 0.0, [[1e-3, 0.0]]), sigma_r=1e-5, sigma_beta=0.01,
+                         rng=1)
+    assert np.all(np.isfinite(rep.r1))
+
+
+# --------------------------------------------------------------------------- capstone radars
+@pytest.mark.parametrize("field", ["sigma_r", "max_range", "clutter_rate", "sigma_feature",
+                                   "bias_range", "height"])
+def test_radar_lengths_beyond_the_domain_are_refused_by_field(field):
+    import dataclasses
+
+    from radarfusion_ref.capstone import radars as ra
+
+    # sigma_r = 1e308 gave inf ranges, max_range = 1e200 an inf clutter range and an
+    # OverflowError from coverage_volume, clutter_rate = 1e308 an OverflowError
+    bad = [dataclasses.replace(r, **{field: 1e200}) for r in ra.default_radars()]
+    with pytest.raises(ValueError, match=rf"^`radars\[0\]\.{field}`.*2\*\*150.*1e\+200"):
+        ra.as_radars(bad)
+    assert np.isfinite(ra.default_radars(max_range=2.0**150)[0].coverage_volume)
+
+
+# --------------------------------------------------------------------------- S-D assignment
+def test_sd_counts_beyond_memory_are_refused_before_allocation():
+    from radarfusion_ref.engine.assignment import solve_sd
+
+    # counts of 10**9 reports per source asked numpy for 2.79 GiB of per-report masks
+    with pytest.raises(ValueError, match=r"^`counts`: refused: .*3000000000 reports"):
+        solve_sd(np.zeros(1), np.zeros((1, 3), int), counts=[10**9] * 3)
+    ok = solve_sd(np.zeros(2), np.array([[0, 0, 0], [1, 1, 1]]), counts=[2, 2, 2])
+    assert ok.groups.tolist() == [[0, 0, 0], [1, 1, 1]]
+
+
+def test_a_scene_without_targets_is_refused_naming_targets():
+    # numpy's "high <= 0" escaped from the draw that keeps one report
+    with pytest.raises(ValueError, match=r"^`targets` must have shape \(n, 2\) with n >= 1"):
+        rg.simulate_scene(SITES, np.zeros((0, 2)), np.zeros((2, 3)), 0.05, 1e-3, p_detect=0.9,
+                          rng=1)
+
+
+def test_a_traffic_integer_beyond_64_bits_is_refused_naming_path(tmp_path):
+    import gzip
+
+    from radarfusion_ref.capstone.traffic import COLUMNS, load_traffic
+
+    # every character a digit, but beyond int64: a bare StopIteration escaped
+    row = ["99999999999999999999", "abc123", "CALL1", "4600000", "700000", "35000", "450", "90"]
+    f = tmp_path / "t.csv.gz"
+    f.write_bytes(gzip.compress((",".join(COLUMNS) + "\n" + ",".join(row) + "\n").encode()))
+    with pytest.raises(ValueError, match=r"^`path` .*column 't_s', row 2: "
+                                         r"'99999999999999999999' lies beyond the 64-bit"):
+        load_traffic(f)
+
+
+# --------------------------------------------------------------------------- association
+def test_proximity_matrix_outside_the_domain_names_its_own_arguments():
+    from radarfusion_ref.association import proximity_matrix
+
+    # 1e300 reports were refused naming the engine's `x2`; a sigma of 1e200 raised a raw
+    # OverflowError from its square
+    with pytest.raises(ValueError, match=r"^`reports2` must lie within the numeric domain"):
+        proximity_matrix(np.zeros((2, 2)), np.full((2, 2), 1e300), 1.0, 1.0)
+    with pytest.raises(ValueError, match=r"^`sigma1` squared .*numeric domain.*1\.e\+200"):
+        proximity_matrix(np.zeros((2, 2)), np.ones((2, 2)), 1e200, 1.0)
+    with pytest.raises(ValueError, match=r"^`sigma2` squared"):
+        proximity_matrix(np.zeros((2, 2)), np.ones((2, 2)), 1.0, [1e-100, 1.0])
+    # inside it: the closed form |x1 - x2|^2 / (sigma1^2 + sigma2^2)
+    out = proximity_matrix(np.zeros((1, 2)), np.full((1, 2), 2.0**70), 2.0**70, 2.0**70)
+    assert out[0, 0] == pytest.approx(1.0, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- capstone detections
+def test_detection_windows_beyond_memory_or_numbering_are_refused_by_name():
+    from radarfusion_ref.capstone import load_traffic, realistic_radars, simulate_detections
+
+    traffic, radars = load_traffic(), realistic_radars()
+    # numpy's "Maximum allowed size exceeded" escaped from the scans' np.arange
+    with pytest.raises(ValueError, match=r"^`start`, `duration`, `radars\[0\]\.period`.*1e\+154"):
+        simulate_detections(traffic, radars, duration=1e154, rng=1)
+    # a far start was refused naming truth_at's `times`, with an empty object array
+    with pytest.raises(ValueError, match=r"^`start`, `duration`"):
+        simulate_detections(traffic, radars, start=1e154, duration=10.0, rng=1)
+    with pytest.raises(ValueError, match=r"^refused: .*scans of radar 0.*`duration` = 1e\+09"):
+        simulate_detections(traffic, radars, duration=1e9, rng=1)
+
+
+# --------------------------------------------------------------------------- grouping
+def test_binding_costs_outside_the_domain_names_its_own_arguments():
+    from radarfusion_ref.grouping import binding_costs
+
+    # the refusals named the engine's `x1` and `cov1`
+    eye, x = np.eye(2), np.zeros((2, 2, 2))
+    c = np.broadcast_to(eye, (2, 2, 2, 2))
+    with pytest.raises(ValueError, match=r"^`x` and `tracks` must lie within the numeric domain"):
+        binding_costs(x, c, np.full((2, 2), 1e300), np.broadcast_to(eye, (2, 2, 2)))
+    with pytest.raises(ValueError, match=r"^`cov` and `track_cov` must have every variance"):
+        binding_costs(x, c, np.zeros((2, 2)), np.broadcast_to(1e300 * eye, (2, 2, 2)))
+
+
+def test_ml_group_cost_never_returns_inf():
+    from radarfusion_ref.grouping import ml_group_cost
+
+    # reports at +-1e300 gave a cost of inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        with pytest.raises(ValueError, match=r"^`x` and `cov`: 1 candidate group costs exceed"):
+            ml_group_cost(np.array([[1e300, 0.0], [-1e300, 0.0]]),
+                          np.broadcast_to(np.eye(2), (2, 2, 2)))
+    # two unit-variance reports 2 apart: 2**2 / 2 + ln det W (W = 2), ln det C_i = 0
+    c = ml_group_cost([[0.0], [2.0]], [[[1.0]], [[1.0]]])
+    assert float(c) == pytest.approx(2.0 + np.log(2.0), rel=1e-12)

@@ -128,3 +128,41 @@ def test_the_net_covers_the_package():
             "capstone.detections", "capstone.evaluation", "capstone.pipeline",
             "capstone.radars", "capstone.traffic", "tracker",
             "tracking", "tracking.stonesoup"} <= modules
+
+
+# --------------------------------------------------------------------------- extreme magnitudes
+def _scene_calls():
+    from radarfusion_ref.engine import scenes as sc
+
+    base = dict(spacing=1.0, sigma1=0.1, sigma2=0.2, rng=1)
+    return [
+        (sc.two_radar_scene, (3,), dict(base, layout="uniform", dim=2)),
+        (sc.two_radar_clutter_scene, (3,), dict(base, false_density1=0.5, dim=2)),
+        (sc.typed_scene, (3,), dict(base, type_means=[0.0, 5.0], type_vars=[1.0, 1.0],
+                                    feature_sigma1=0.1, feature_sigma2=0.1)),
+        (sc.grouping_scene, (3, 2), dict(spacing=1.0, cov=np.eye(2)[None, None], rng=1)),
+    ]
+
+
+def _all_finite(obj) -> bool:
+    fields = getattr(obj, "__dataclass_fields__", {})
+    return all(np.all(np.isfinite(v)) for k in fields
+               if isinstance(v := getattr(obj, k), np.ndarray) and v.dtype.kind == "f")
+
+
+@pytest.mark.parametrize("value", [1e154, 1e200, 1e300, 1e308])
+def test_extreme_finite_magnitudes_give_finite_scenes_or_a_named_refusal(value):
+    """A finite but extreme spacing or sigma: a finite scene, or a refusal naming it."""
+    for fn, args, kw in _scene_calls():
+        for name in [k for k, v in kw.items() if isinstance(v, float)]:
+            refusal, out = None, None
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", RuntimeWarning)
+                try:
+                    out = fn(*args, **dict(kw, **{name: value}))
+                except (ValueError, TypeError) as exc:
+                    refusal = str(exc)
+            if refusal is not None:
+                assert f"`{name}`" in refusal, (fn.__name__, name, refusal)
+            else:
+                assert _all_finite(out), (fn.__name__, name, value)

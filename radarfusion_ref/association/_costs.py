@@ -21,7 +21,7 @@ from ..engine.assignment._checks import (
     _limit,
 )
 from ..engine.errors import RadarFusionWarning
-from ..engine.linalg import mahalanobis_sq_pairwise
+from ..engine.linalg import MAX_MAGNITUDE, mahalanobis_sq_pairwise
 
 
 # --------------------------------------------------------------------------- non-assignment cost
@@ -212,7 +212,9 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
     ValueError
         For reports of different dimensions or unbroadcastable batch axes, sigmas
         that are not > 0 or do not broadcast against the reports, and sizes
-        beyond the memory limit.
+        beyond the memory limit; reports beyond 2**150 in magnitude, or a sigma
+        whose square leaves [2**-150, 2**150] (the numeric domain of
+        :mod:`radarfusion_ref.engine.linalg`).
     TypeError
         For non-numeric input or a `logdet` that is not a bool.
 
@@ -242,6 +244,17 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
                          f"received shapes {r1.shape} and {r2.shape}")
     sd1 = as_positive(sigma1, "sigma1")
     sd2 = as_positive(sigma2, "sigma2")
+    for name, a in (("reports1", r1), ("reports2", r2)):
+        if a.size and not float(np.max(np.abs(a))) <= MAX_MAGNITUDE:
+            raise ValueError(f"`{name}` must lie within the numeric domain |value| <= 2**150 "
+                             f"(about 1.4e45); received {_describe(a)} (largest magnitude "
+                             f"{float(np.max(np.abs(a))):.6g}); change the unit of the "
+                             "coordinates")
+    for name, sd in (("sigma1", sd1), ("sigma2", sd2)):
+        if sd.size and not (sd.min() >= MAX_MAGNITUDE ** -0.5 and sd.max() <= MAX_MAGNITUDE ** 0.5):
+            raise ValueError(f"`{name}` squared (the report variances) must lie within the "
+                             "numeric domain [2**-150, 2**150] (about 7e-46 to 1.4e45); "
+                             f"received {_describe(sd)}; change the unit of the coordinates")
     shapes = []
     for name, sd, r in (("sigma1", sd1, r1), ("sigma2", sd2, r2)):
         try:

@@ -143,6 +143,12 @@ def _rotation(radar):
     return _enu_rotation(radar.lat, radar.lon) @ _enu_rotation(ORIGIN[0], ORIGIN[1]).T
 
 
+#: Bytes of :func:`simulate_detections`' work arrays per scan and aircraft (the truth's
+#: position, validity and speed at each instant, with their copies), counted against the
+#: memory limit.
+_SCAN_BYTES = 8 * 8
+
+
 def _simulate_iv(traffic, radars, start, duration, mode):
     if not isinstance(traffic, Traffic):
         raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
@@ -151,6 +157,18 @@ def _simulate_iv(traffic, radars, start, duration, mode):
     start = as_float(as_positive(start, "start", strict=False), "start")
     duration = as_float(as_positive(duration, "duration"), "duration")
     mode = as_choice(mode, "mode", MODES)
+    n_aircraft = int(traffic.aircraft.max()) + 1 if traffic.aircraft.size else 1
+    for i, r in enumerate(radars):                   # before np.arange sizes the scans
+        if not (start + duration) / r.period < 2.0**62:
+            raise ValueError(f"`start`, `duration`, `radars[{i}].period`: the window's end "
+                             f"{start + duration:.6g} s is beyond 2**62 scans of radar {i} "
+                             f"(period {r.period:g} s), too many to number")
+        n_scans = max(math.ceil(duration / r.period) + 1, 0)
+        check_size(n_scans * n_aircraft * _SCAN_BYTES, MEMORY_LIMIT,
+                   what=f"bytes of truth at the scans ({n_scans} scans of radar {i}, period "
+                        f"{r.period:g} s, over `duration` = {duration:g} s, x {n_aircraft} "
+                        "aircraft)",
+                   alternative="a shorter `duration` (the window simulated in pieces)")
     if mode == "simple":
         per = {(r.period, r.phase) for r in radars}
         if len(per) > 1:
@@ -266,6 +284,8 @@ def simulate_detections(traffic, radars, *, start=0.0, duration=3600.0, mode="re
         ``radars[i].period`` / ``radars[i].phase``), other bad radar parameters, negative
         `start`, non-positive `duration`, unknown `mode`, radars of different timing in
         simple mode, clutter beyond the memory limit (named ``radars[i].clutter_rate``),
+        scan instants beyond it (named `duration`) or a window whose end is beyond
+        :math:`2^{62}` scans of a radar (named `start`, `duration`),
         or a window holding no aircraft.
 
     Notes

@@ -26,6 +26,7 @@ import numpy as np
 from .. import registration
 from ..engine._validation import MEMORY_LIMIT, _describe, as_float_array, as_rng, check_size
 from ..engine.geodesy import geodetic_to_enu
+from ..engine.linalg import MAX_MAGNITUDE
 from .traffic import ORIGIN, TruthScans
 
 __all__ = [
@@ -49,6 +50,11 @@ RADAR_SITES = {
     "Monte Lema": (46.0408, 8.8332, 1626.0),
 }
 
+#: Fields of :class:`Radar` whose magnitude :func:`as_radars` bounds by
+#: :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE` (:math:`2^{150}`): a range or
+#: noise level beyond it overflows the reports or the coverage volume.
+_DOMAIN_FIELDS = ("height", "sigma_r", "bias_range", "clutter_rate", "max_range",
+                  "sigma_feature")
 #: Span (kt) over which false reports draw their speed feature, uniformly.
 _FEATURE_SPAN = (300.0, 600.0)
 #: Altitudes (m, common frame) between which false reports are placed, uniformly.
@@ -292,7 +298,10 @@ def as_radars(radars) -> tuple[Radar, ...]:
         Fewer than two radars; a scan period not > 0, a phase outside ``[0, period)`` or a
         range scale error outside (-0.5, 0.5) (named ``radars[i].period`` and so on); a
         site, noise level, range, detection probability, clutter rate or azimuth offset
-        outside its meaning.
+        outside its meaning; a height, range noise, range offset, clutter rate, coverage
+        range or feature noise above :math:`2^{150}` in magnitude (named
+        ``radars[i].max_range`` and so on: beyond it reports or the coverage volume
+        overflow).
 
     Examples
     --------
@@ -321,6 +330,12 @@ def as_radars(radars) -> tuple[Radar, ...]:
             raise ValueError(f"`radars`: radar {r.name!r} needs finite values, positive "
                              "deviations and range, p_detect in (0, 1], clutter_rate >= 0, "
                              f"|bias_azimuth| < pi and a valid site; received {r!r}")
+        for name in _DOMAIN_FIELDS:
+            if not abs(getattr(r, name)) <= MAX_MAGNITUDE:
+                raise ValueError(
+                    f"`radars[{i}].{name}` (radar {r.name!r}) must lie within the numeric "
+                    f"domain |value| <= 2**150 (about 1.4e45), so that ranges, noise and "
+                    f"the coverage volume stay finite; received {getattr(r, name)!r}")
     return tuple(radars)
 
 

@@ -158,7 +158,12 @@ def _parse(p, raw):
         try:
             num[name] = np.array(cols[k], dtype=np.int64)
         except (ValueError, OverflowError):
-            j = next(i for i, v in enumerate(cols[k]) if not v.strip().lstrip("-").isdigit())
+            j = next((i for i, v in enumerate(cols[k]) if not v.strip().lstrip("-").isdigit()),
+                     None)
+            if j is None:                       # all digits: one beyond the 64-bit range
+                j = next(i for i, v in enumerate(cols[k]) if abs(int(v)) >= 2**63)
+                raise _bad_file(p, f"column {name!r}, row {j + 2}: {cols[k][j]!r} lies beyond "
+                                   "the 64-bit integer range") from None
             raise _bad_file(p, f"column {name!r}, row {j + 2}: {cols[k][j]!r} is not an "
                                "integer") from None
     for name, scale, lo, hi in (("lat_e5", 1e-5, -90, 90), ("lon_e5", 1e-5, -180, 180),

@@ -165,6 +165,9 @@ class Geometry:
         Azimuth :math:`\beta_0` of the base from radar 1 (rad).
     targets : numpy.ndarray, shape (n, 2)
         True target positions in radar 1's frame (km); radar 1 is at the origin.
+        Every target lies off both radar sites (a target at a site, range 0, has
+        no azimuth) at a range that does not overflow; otherwise the constructor
+        refuses it naming `targets`.
     """
 
     base: float
@@ -178,6 +181,15 @@ class Geometry:
         if t.ndim != 2 or t.shape[0] < 1:
             raise ValueError(f"`targets` must have shape (n, 2) with n >= 1; received shape "
                              f"{t.shape}")
+        site2 = radar2_position(self.base, self.base_azimuth)
+        for k, site in ((1, np.zeros(2)), (2, site2)):
+            with np.errstate(over="ignore", invalid="ignore"):
+                r = np.hypot(*(t - site).T)
+            if not np.all(np.isfinite(r)) or np.any(r <= 0):
+                raise ValueError(
+                    f"`targets` must lie off radar {k}'s site {site.tolist()} at a finite "
+                    f"range (a target at a site has no azimuth); received {_describe(t)} "
+                    f"(ranges from {float(np.min(r)):.6g} to {float(np.max(r)):.6g} km)")
         object.__setattr__(self, "targets", t)
 
     @property

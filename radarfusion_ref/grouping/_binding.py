@@ -30,6 +30,13 @@ for _h in PAPER_HYPOTHESES.values():
 
 
 # ----------------------------------------------------------------------------- binding
+#: The arguments of :func:`~radarfusion_ref.engine.linalg.mahalanobis_sq_pairwise` as
+#: :func:`binding_costs` passes them, under the names its caller gave them.
+_ENGINE_NAMES = {"`x1` must": "`x` and `tracks` must", "`x2` must": "`x` and `tracks` must",
+                 "`cov1` must": "`cov` and `track_cov` must",
+                 "`cov2` must": "`cov` and `track_cov` must"}
+
+
 def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarray:
     r"""Score every binding hypothesis of m sources' reports to n fused tracks.
 
@@ -126,7 +133,14 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
                alternative="fewer scenes per call")
     (xb, cb, tb, tcb), log_s2 = _rescale(xb, cb, tb, tcb)
     if cost == "paper":
-        q = mahalanobis_sq_pairwise(xb, tb[:, None], cb, tcb[:, None])  # (B, m, n_j, n_p)
+        try:
+            q = mahalanobis_sq_pairwise(xb, tb[:, None], cb, tcb[:, None])  # (B, m, n_j, n_p)
+        except ValueError as exc:                # the engine's names -> this function's
+            text = str(exc)
+            for engine, public in _ENGINE_NAMES.items():
+                text = text.replace(engine, public)
+            raise ValueError(f"{text} (the values after the common rescaling of `x`, `cov`, "
+                             "`tracks` and `track_cov`)") from None
         ii = np.arange(m)[None, :, None]
         pp = np.arange(n)[None, None, :]
         out = q[:, ii, hyp, pp].sum(axis=(-2, -1))                   # (B, H)

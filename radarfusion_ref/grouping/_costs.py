@@ -144,7 +144,7 @@ def ml_group_cost(x, cov):
     q = sum(_quad(a - xhat, Ci) for a, Ci in zip(xs, info, strict=True))
     ld_w = 2.0 * np.sum(np.log(np.diagonal(np.linalg.cholesky(W),
                                            axis1=-2, axis2=-1)), -1)
-    return q + ld_w + logdet[0] + sum(logdet[1:])
+    return _finite_costs(q + ld_w + logdet[0] + sum(logdet[1:]))
 
 
 def _ml_tensor(x, cov):

@@ -362,8 +362,9 @@ def simulate_scene(sensors, targets, biases, sigma_r, sigma_beta, *, p_detect=1.
         raise ValueError(f"`sensors` must hold exactly two radar sites, shape (2, 2); received "
                          f"shape {s.shape}")
     t = _targets_iv(targets, s)
-    if t.ndim != 2:
-        raise ValueError(f"`targets` must have shape (n, 2), one scene; received shape {t.shape}")
+    if t.ndim != 2 or t.shape[0] < 1:
+        raise ValueError(f"`targets` must have shape (n, 2) with n >= 1, one scene; received "
+                         f"shape {t.shape}")
     pd = _probability_iv(p_detect, "p_detect", open_interval=False)
     if pd <= 0:
         raise ValueError(f"`p_detect` must lie in (0, 1]; received {p_detect!r}")

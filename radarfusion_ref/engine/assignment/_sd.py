@@ -87,6 +87,10 @@ def _full_size(m: int, n: int, method: str) -> None:
                            "not n**m)")
 
 
+#: Bytes of the S-D solvers' work arrays per report of `counts` (labels, offsets, masks).
+_COUNT_BYTES = 64
+
+
 def _as_candidates(candidates, cost, counts):
     """Candidate groups (K, m) of ints >= -1, their finite costs (K,) and the report counts."""
     if candidates is None or isinstance(candidates, (str, bytes, bool, np.bool_)):
@@ -133,6 +137,10 @@ def _as_candidates(candidates, cost, counts):
     if min(cnt) < 1:
         raise ValueError(f"`candidates`: every source must have at least one report; report "
                          f"counts {cnt}")
+    # one constraint row, label and offset per report: sized by the counts, not by K
+    _limit(_COUNT_BYTES * sum(cnt), MEMORY_LIMIT, name="counts",
+           what=f"bytes of per-report work arrays ({sum(cnt)} reports over {m} sources)",
+           alternative="counts equal to the reports the candidate groups name (the default)")
     return T, c, cnt
 
 
@@ -190,7 +198,9 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
         for ``"milp"`` or whose bytes with the work arrays exceed
         ``MEMORY_LIMIT`` for ``"lagrangian"`` (refused before any work array
         is allocated, naming the bytes, the limit and `candidates`), candidate
-        rows outside ``[-1, counts)`` or all ``-1``, a `gap` outside (0, 1),
+        rows outside ``[-1, counts)`` or all ``-1``, `counts` whose per-report
+        work arrays exceed ``MEMORY_LIMIT`` (refused before they are
+        allocated), a `gap` outside (0, 1),
         or a problem without any grouping (the message names the source
         whose reports cannot be grouped; never a partial answer).
     TypeError

@@ -12,6 +12,7 @@ from .._validation import (
     as_positive,
     check_size,
 )
+from ..linalg import MAX_MAGNITUDE
 
 #: Object placements of the simulators that place objects themselves.
 LAYOUTS = ("line", "uniform")
@@ -35,6 +36,19 @@ def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
         return check_size(requested, limit, what=what, alternative=alternative)
     except ValueError as exc:
         raise ValueError(f"`{name}`: {exc}") from None
+
+
+def _domain(value: float, *, name: str, what: str) -> None:
+    """Refuse a scene whose coordinates or errors would leave the numeric domain.
+
+    The simulators place objects and draw errors inside the Mahalanobis functions'
+    domain, magnitudes at most :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`
+    (:math:`2^{150}`), so no position, difference or square overflows.
+    """
+    if not value <= MAX_MAGNITUDE:
+        raise ValueError(f"`{name}` must keep the scene within the numeric domain "
+                         f"|coordinate| <= 2**150 (about 1.4e45): {what} = {value:.6g}; "
+                         "change the unit of the coordinates")
 
 
 def _types_iv(type_means, type_vars, priors):

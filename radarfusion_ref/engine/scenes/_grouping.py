@@ -21,6 +21,7 @@ from .._validation import (
 from ._base import (
     LAYOUTS,
     Scene,
+    _domain,
 )
 
 #: Largest number of binding hypotheses :math:`(n!)^m` that :func:`binding_hypotheses`
@@ -130,8 +131,11 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
     ValueError
         A count below 1, a non-positive `spacing` or one of the wrong length,
         a `cov` or `track_cov` that does not broadcast to its shape or is not
-        symmetric positive definite, an unknown `layout`, or scenes beyond
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`.
+        symmetric positive definite, an unknown `layout`, targets outside the
+        numeric domain (``spacing * n_objects`` above
+        :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`, :math:`2^{150}`), or
+        scenes beyond :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`
+        (checked before `cov` is broadcast).
     TypeError
         A count that is not an integer, or an `rng` that is not a seed or a
         Generator.
@@ -157,6 +161,11 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
     scale = as_positive(spacing, "spacing")
     layout = as_choice(layout, "layout", LAYOUTS)
     c = as_float_array(cov, "cov", ndim_min=4)
+    d = c.shape[-1]
+    check_size(8 * trials * (4 * m * n * d + 3 * n * d + m * n) + 8 * m * n * d * d,
+               MEMORY_LIMIT,
+               what=f"bytes of scenes (`trials` = {trials} x {m} sources x {n} targets x d = {d})",
+               alternative="several calls with generators spawned from one SeedSequence")
     try:
         c = np.broadcast_to(c, (m, n, *c.shape[-2:]))
     except ValueError:
@@ -165,7 +174,6 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
             f"received shape {np.shape(cov)}"
         ) from None
     c = as_covariance(c, "cov")
-    d = c.shape[-1]
     if scale.ndim > 1 or scale.size not in (1, d):
         raise ValueError(
             f"`spacing` must be a number or have shape ({d},) (one scale per coordinate); "
@@ -183,9 +191,7 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
                 f"{np.shape(track_cov)}"
             ) from None
         tcov = as_covariance(tcov, "track_cov")
-    check_size(8 * trials * (4 * m * n * d + 3 * n * d + m * n), MEMORY_LIMIT,
-               what=f"bytes of scenes (`trials` = {trials} x {m} sources x {n} targets x d = {d})",
-               alternative="several calls with generators spawned from one SeedSequence")
+    _domain(float(scale.max()) * n, name="spacing", what=f"`spacing` x `n_objects` ({n})")
     rng = as_rng(rng)
     if layout == "line":
         truth = np.zeros((trials, n, d))
@@ -240,6 +246,12 @@ def binding_hypotheses(n_targets: int, n_sources: int) -> np.ndarray:
     """
     n = as_int(n_targets, "n_targets", minimum=1)
     m = as_int(n_sources, "n_sources", minimum=1)
+    if m * math.lgamma(n + 1) > math.log(MAX_BINDING_HYPOTHESES) + 1:   # (n!)**m not formed
+        raise ValueError(
+            f"refused: about 10**{m * math.lgamma(n + 1) / math.log(10):.0f} binding hypotheses "
+            f"(n!)**m (`n_targets` n = {n}, `n_sources` m = {m}) requested, above the limit of "
+            f"{MAX_BINDING_HYPOTHESES}; use group_sd on the m + 1 sources with the tracks as "
+            "source 0 (the exact ML binding, without enumeration) instead")
     check_size(math.factorial(n) ** m, MAX_BINDING_HYPOTHESES,
                what=f"binding hypotheses (n!)**m (`n_targets` n = {n}, `n_sources` m = {m})",
                alternative="group_sd on the m + 1 sources with the tracks as source 0 "

@@ -7,10 +7,14 @@ import math
 import numpy as np
 
 from .._validation import (
+    MEMORY_LIMIT,
+    _describe,
     as_float,
     as_float_array,
     as_positive,
+    check_size,
 )
+from ..linalg import MAX_MAGNITUDE
 
 
 # ----------------------------------------------------------------------------- helpers for callers
@@ -44,16 +48,24 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
     Raises
     ------
     ValueError
-        If the last dimensions differ, an input is not finite or has fewer
-        than two axes, or `reports2` holds no report.
+        If the last dimensions differ or the leading axes do not broadcast, an
+        input is not finite, lies outside the numeric domain (a magnitude above
+        :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`, :math:`2^{150}`,
+        whose squared differences could overflow) or has fewer than two axes,
+        `reports2` holds no report, or the broadcast scenes exceed
+        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (checked before
+        anything is allocated).
 
     Examples
     --------
     >>> nearest_neighbour_pairing([[0.0], [1.0]], [[0.9], [0.1]])
     array([1, 0])
     """
+    _pairing_size_iv(np.shape(reports1) if isinstance(reports1, np.ndarray) else None,
+                     np.shape(reports2) if isinstance(reports2, np.ndarray) else None)
     r1 = as_float_array(reports1, "reports1", ndim_min=2)
     r2 = as_float_array(reports2, "reports2", ndim_min=2)
+    _pairing_size_iv(r1.shape, r2.shape)
     if r1.shape[-1] != r2.shape[-1]:
         raise ValueError(
             "`reports1` and `reports2` must have the same last dimension d; "
@@ -62,7 +74,34 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
     if r2.shape[-2] == 0:
         raise ValueError(f"`reports2` must hold at least one report to be nearest; received "
                          f"shape {r2.shape}")
+    for arr, name in ((r1, "reports1"), (r2, "reports2")):
+        if arr.size and not float(np.max(np.abs(arr))) <= MAX_MAGNITUDE:
+            raise ValueError(
+                f"`{name}` must lie within the numeric domain |value| <= 2**150 (about "
+                f"1.4e45); received {_describe(arr)} (largest magnitude "
+                f"{float(np.max(np.abs(arr))):.6g}); change the unit of the coordinates")
     return _nearest(r1, r2)
+
+
+def _pairing_size_iv(shape1, shape2) -> None:
+    """Refuse leading axes that do not broadcast, or scenes beyond the memory limit.
+
+    Run on the arrays' shapes before they are converted or checked (a broadcast view
+    may stand for far more reports than it stores), and again after conversion.
+    """
+    if shape1 is None or shape2 is None or len(shape1) < 2 or len(shape2) < 2:
+        return
+    try:
+        lead = np.broadcast_shapes(shape1[:-2], shape2[:-2])
+    except ValueError:
+        raise ValueError(f"`reports1` and `reports2` must have leading axes that broadcast; "
+                         f"received shapes {shape1} and {shape2}") from None
+    (n1, d), n2, m = shape1[-2:], shape2[-2], math.prod(lead)
+    check_size(8 * (math.prod(shape1) + math.prod(shape2) + m * (2 * n1 + (n1 + n2) * d)),
+               MEMORY_LIMIT,
+               what=f"bytes of reports and indices ({m} scenes of {n1} and {n2} reports, "
+                    f"d = {d})",
+               alternative="slices of the leading (trial) axes of `reports1` and `reports2`")
 
 
 #: Largest n1 x n2 x d for which one scene's nearest neighbours are found from the

@@ -22,6 +22,7 @@ from ._base import (
     FEATURE_MODELS,
     LAYOUTS,
     Scene,
+    _domain,
     _limit,
     _types_iv,
 )
@@ -238,7 +239,10 @@ def two_radar_scene(n_objects: int, *, spacing: float, layout: str = "line", sig
     ------
     ValueError
         A count below 1, a `spacing` or sigma that is not a positive finite
-        number, an unknown `layout`, or a scene beyond
+        number, a scene outside the numeric domain (``spacing * n_objects``,
+        `sigma1` or `sigma2` above
+        :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`, :math:`2^{150}`), an
+        unknown `layout`, or a scene beyond
         :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`.
     TypeError
         A count that is not an integer, or an `rng` that is not a seed or a
@@ -266,6 +270,9 @@ def two_radar_scene(n_objects: int, *, spacing: float, layout: str = "line", sig
     s1 = as_float(as_positive(sigma1, "sigma1"), "sigma1")
     s2 = as_float(as_positive(sigma2, "sigma2"), "sigma2")
     layout = as_choice(layout, "layout", LAYOUTS)
+    _domain(spacing * n, name="spacing", what=f"`spacing` x `n_objects` ({n})")
+    _domain(s1, name="sigma1", what="`sigma1`")
+    _domain(s2, name="sigma2", what="`sigma2`")
     _limit(8 * _TWO_RADAR_COPIES * trials * n * dim, MEMORY_LIMIT, name="trials",
            what=f"bytes of scenes ({trials} trials x {n} objects x dim {dim})",
            alternative="fewer `trials` per call (draw the trials in batches)")
@@ -318,7 +325,8 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, layout: str = "li
     ------
     ValueError
         As :func:`two_radar_scene`; a detection probability outside [0, 1], a
-        negative or non-finite false-report density, or false reports beyond
+        negative or non-finite false-report density, a box volume or expected
+        false-report count that overflows the largest double, or false reports beyond
         :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (checked on the
         expected count before any draw, and on the drawn count before the
         positions are allocated).
@@ -353,12 +361,20 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, layout: str = "li
         high[0] = (n - 0.5) * s
     else:
         low, high = np.zeros(d), np.full(d, s * n ** (1.0 / d))
-    volume = float(np.prod(high - low))
+    with np.errstate(over="ignore"):
+        volume = float(np.prod(high - low))
+    if not math.isfinite(volume):
+        raise ValueError(f"`spacing`, `dim`: the surveillance box's volume n * spacing**dim "
+                         f"overflows the largest double (spacing {s:.6g}, dim {d}); change "
+                         "the unit of the coordinates")
     owner1_obj = np.broadcast_to(np.arange(n), (t, n))
 
     # The false reports' memory is checked before any is drawn: expected count, then
     # (after the Poisson draw, before the positions are allocated) the actual one.
     for name, lam in (("false_density1", lam1), ("false_density2", lam2)):
+        if not math.isfinite(lam * volume):
+            raise ValueError(f"`{name}` times the box's volume ({volume:.6g}) overflows the "
+                             f"largest double; received {lam:.6g}")
         _limit(math.ceil(lam * volume) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name=name,
                what=f"bytes of false reports (expected {lam * volume:.3g} per trial, "
                     f"{t} trials, d = {d})",
