@@ -251,25 +251,30 @@ def test_package_tests_pass_at_the_floors(floor_env):
     assert re.search(r"\b[1-9][0-9]* passed", summary), summary   # something ran
 
 
-def _readme_example() -> str:
+def _readme_examples() -> list[str]:
+    """The Python blocks of the README's "Use the package": association first, then tracking."""
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     section = readme.split(SECTION, 1)[1].split("\n## ", 1)[0]
     blocks = re.findall(r"```python\n(.*?)\n```", section, flags=re.S)
-    assert len(blocks) == 1
-    return blocks[0]
+    assert len(blocks) >= 2, f"the README's {SECTION!r} lost an example"
+    return blocks
 
 
-def test_readme_example_prints_the_same_at_the_floors(floor_env):
+@pytest.mark.parametrize("example", [0, 1], ids=["association", "tracking"])
+def test_readme_example_prints_the_same_at_the_floors(floor_env, example):
     """The same installed package, run by this environment and by the floors one."""
     python, site, _ = floor_env
+    code = _readme_examples()[example]
     out = []
     for exe in (sys.executable, python):
-        proc = subprocess.run([exe, "-c", _readme_example()], cwd=site.parent, env=_env(site),
+        proc = subprocess.run([exe, "-c", code], cwd=site.parent, env=_env(site),
                               capture_output=True, text=True, timeout=300)
         assert proc.returncode == 0, proc.stderr
         out.append(proc.stdout)
     here, floor = out
-    assert len(here.splitlines()) == 3 and all(here.splitlines()), here   # three fused pairs
+    assert here.strip() and all(here.splitlines()), here
+    if example == 0:
+        assert len(here.splitlines()) == 3, here                       # three fused pairs
     assert floor == here
 
 

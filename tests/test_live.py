@@ -220,7 +220,7 @@ def test_a_chapter_run_moved_and_saved_in_jupyterlab_keeps_its_source(lab, brows
 
 
 def test_the_downloaded_notebook_opens_in_jupyterlab(lab, browser, built_book):
-    offered = BUILD_DIR / "html" / "_sources" / "intro.ipynb"
+    offered = BUILD_DIR / "html" / "_sources" / CHAPTER.replace(".md", ".ipynb")
     assert offered.exists(), "the built site offers no notebook of the introduction"
     folder = BUILD_DIR / "live_download"
     folder.mkdir(exist_ok=True)
