@@ -321,6 +321,32 @@ def build_pages(pages, out_dir: Path, *, fresh: bool = False, timeout: int = 360
     return html
 
 
+#: What a wheel of the package is built from (pyproject.toml reads README.md and LICENSE).
+SOURCES = ("pyproject.toml", "README.md", "LICENSE", "radarfusion_ref")
+
+
+def plain_install(tmp: Path) -> Path:
+    """Install a copy of this checkout, plainly (not editable, no dependencies), into
+    ``tmp/site``; return that folder. Built here without build isolation (setuptools >= 77)."""
+    import shutil
+    import subprocess
+
+    src, site = tmp / "src", tmp / "site"
+    src.mkdir()
+    for name in SOURCES:
+        if (ROOT / name).is_dir():
+            shutil.copytree(ROOT / name, src / name,
+                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        else:
+            shutil.copy2(ROOT / name, src / name)
+    proc = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
+         "--no-index", "--no-compile", "--disable-pip-version-check", "--target", str(site),
+         str(src)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return site
+
+
 #: The kernelspec JupyterLab writes when it saves a notebook run in the default kernel.
 LIVE_KERNELSPEC = {"name": "python3", "display_name": "Python 3 (ipykernel)",
                    "language": "python"}

@@ -32,7 +32,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-from book_tools import ROOT
+from book_tools import ROOT, plain_install
 from packaging.version import Version
 
 tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
@@ -72,7 +72,6 @@ FLOOR_DESELECT = {
 }
 
 CACHE = ROOT / ".cache"
-SOURCES = ("pyproject.toml", "README.md", "LICENSE", "radarfusion_ref")
 SECTION = "## Use the package"
 
 
@@ -187,20 +186,7 @@ def floor_env(tmp_path_factory):
     venv = _build_venv(pins)
     python = str(_bin(venv, "python"))
     tmp = tmp_path_factory.mktemp("floors")
-    src, site = tmp / "src", tmp / "site"
-    src.mkdir()
-    for name in SOURCES:
-        if (ROOT / name).is_dir():
-            shutil.copytree(ROOT / name, src / name,
-                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        else:
-            shutil.copy2(ROOT / name, src / name)
-    # a plain install of this checkout, built here (setuptools >= 77) for the floors' Python
-    proc = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-         "--no-index", "--no-compile", "--disable-pip-version-check", "--target", str(site),
-         str(src)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+    site = plain_install(tmp)          # built here, for the floors' Python too
     return python, site, pins
 
 

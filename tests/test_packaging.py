@@ -15,15 +15,11 @@ import io
 import json
 import os
 import re
-import shutil
 import subprocess
 import sys
 
 import pytest
-from book_tools import ROOT
-
-#: What a wheel is built from (pyproject.toml reads README.md and LICENSE).
-SOURCES = ("pyproject.toml", "README.md", "LICENSE", "radarfusion_ref")
+from book_tools import ROOT, plain_install
 
 #: The installed package's data files (the capstone's traffic), as installed paths.
 DATA_GLOB = "radarfusion_ref/capstone/data/*.csv.gz"
@@ -33,21 +29,8 @@ DATA_GLOB = "radarfusion_ref/capstone/data/*.csv.gz"
 def installed(tmp_path_factory):
     """Install a copy of the project into an empty target; return (site, workdir)."""
     tmp = tmp_path_factory.mktemp("install")
-    src, site, work = tmp / "src", tmp / "site", tmp / "elsewhere"
-    src.mkdir()
+    site, work = plain_install(tmp), tmp / "elsewhere"
     work.mkdir()
-    for name in SOURCES:
-        if (ROOT / name).is_dir():
-            shutil.copytree(ROOT / name, src / name,
-                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        else:
-            shutil.copy2(ROOT / name, src / name)
-    proc = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-         "--no-index", "--no-compile", "--disable-pip-version-check", "--target", str(site),
-         str(src)],
-        capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
     return site, work
 
 
