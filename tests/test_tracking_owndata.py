@@ -290,15 +290,38 @@ def test_metres_and_kilometres_give_the_same_tracks(seed, clutter, association,
         _same_history(h_m, trk.track_reports(*km, settings=by_hand), scale=1000.0)
 
 
-def test_other_architectures_in_kilometres():
+@pytest.mark.parametrize("motion", [
+    {}, {"q_vertical": 2.0, "speed_max_vertical": 15.0},
+    {"motion": "imm", "q_vertical": 2.0, "speed_max_vertical": 15.0}],
+    ids=["cv", "cv-vertical", "imm-vertical"])
+def test_other_architectures_in_kilometres(motion):
+    """Architectures (b) and (c) use the motion model in the reports' unit themselves (the
+    window's inflation, the prediction to the output instant, the cross-covariance): the
+    vertical settings and the IMM's too."""
     rep, _ = own_scene(rng=4, duration=100.0)
-    si = trk.TrackerSettings(clutter_density=CLUTTER_DENSITY)
+    si = trk.TrackerSettings(clutter_density=CLUTTER_DENSITY, **motion)
     km, s_km = _in_km(rep), dataclasses.replace(si, length_unit=1000.0)
-    for run in (lambda r, s: trk.fuse_then_track(*r, window=5.0, settings=s),
-                lambda r, s: trk.track_then_fuse(*r, period=5.0, settings=s),
-                lambda r, s: trk.track_then_fuse(*r, period=5.0, settings=s,
-                                                 rule="bar_shalom_campo")):
+    runs = [lambda r, s: trk.track_reports(*r, settings=s),
+            lambda r, s: trk.fuse_then_track(*r, window=5.0, settings=s),
+            lambda r, s: trk.track_then_fuse(*r, period=5.0, settings=s)]
+    if si.motion == "cv":        # Bar-Shalom-Campo needs the constant-velocity gains
+        runs.append(lambda r, s: trk.track_then_fuse(*r, period=5.0, settings=s,
+                                                     rule="bar_shalom_campo"))
+    for run in runs:
         _same_history(run(rep, si), run(km, s_km), scale=1000.0)
+
+
+def test_vertical_settings_differ_from_the_isotropic_run():
+    """The km test above would pass vacuously if the vertical settings were ignored."""
+    rep, _ = own_scene(rng=4, duration=100.0)
+    iso = trk.TrackerSettings(clutter_density=CLUTTER_DENSITY)
+    vert = dataclasses.replace(iso, q_vertical=2.0, speed_max_vertical=15.0)
+    for run in (lambda s: trk.fuse_then_track(*rep, window=5.0, settings=s),
+                lambda s: trk.track_then_fuse(*rep, period=5.0, settings=s)):
+        a, b = run(iso), run(vert)
+        assert len(a) and len(b)
+        assert a.covariance.shape != b.covariance.shape or not np.allclose(
+            a.covariance, b.covariance)
 
 
 def test_kilometres_without_a_unit_are_warned_of():
