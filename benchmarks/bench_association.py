@@ -34,7 +34,7 @@ from scipy.optimize import linear_sum_assignment
 
 from radarfusion_ref import association, gating
 from radarfusion_ref.engine import assignment, scenes
-from radarfusion_ref.engine._validation import MEMORY_LIMIT
+from radarfusion_ref.engine.validation import MEMORY_LIMIT
 
 P_LO = 0.01
 SIGMA = 0.3

@@ -37,9 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .engine._validation import (
+from .engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     as_covariance,
     as_float_array,
     as_int,
@@ -47,6 +46,7 @@ from .engine._validation import (
     as_rng,
     broadcast,
     check_size,
+    describe,
 )
 
 __all__ = [
@@ -166,7 +166,7 @@ def _ratio(num, den, what):
     with np.errstate(over="ignore", under="ignore"):
         out = np.asarray(num) / np.asarray(den)
     if not np.all((out > 0) & np.isfinite(out)):
-        raise ValueError(f"the {what} ({_describe(out)}) lies outside the float range: "
+        raise ValueError(f"the {what} ({describe(out)}) lies outside the float range: "
                          "`var_assumed` and `var_true` differ by more than floating point can "
                          "express")
     return _scalar(out)
@@ -191,7 +191,7 @@ def _in_domain(arr, name, lo, hi, what):
     """Refuse entries of `arr` outside [lo, hi] (the numeric domain), naming `name`."""
     if arr.size and not (float(arr.min()) >= lo and float(arr.max()) <= hi):
         raise ValueError(f"`{name}` must have {what} within the numeric domain [{lo:.3g}, "
-                         f"{hi:.3g}]; received {_describe(arr)} (from {float(arr.min()):.6g} "
+                         f"{hi:.3g}]; received {describe(arr)} (from {float(arr.min()):.6g} "
                          f"to {float(arr.max()):.6g}); express the coordinates in other units")
 
 

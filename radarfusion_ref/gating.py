@@ -64,24 +64,21 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize, special, stats
 
-from .engine._validation import (
+from .engine.linalg import mahalanobis_sq_k2_kernel, mahalanobis_sq_pairwise
+from .engine.validation import (
+    MAX_MAGNITUDE,
     MEMORY_LIMIT,
-    _describe,
+    as_covariance,
     as_float,
     as_float_array,
     as_int,
     as_positive,
     as_probability,
     broadcast,
+    check_domain,
     check_size,
+    describe,
     unwrap,
-)
-from .engine.linalg import (
-    MAX_MAGNITUDE,
-    _as_cov,
-    _check_domain,
-    _ldl2_shared,
-    mahalanobis_sq_pairwise,
 )
 
 __all__ = [
@@ -117,13 +114,13 @@ def _as_dof(value, name: str = "dof") -> np.ndarray:
     """Degrees of freedom: integer-valued numbers >= 1 (scalar or array)."""
     if isinstance(value, bool) or (isinstance(value, np.ndarray) and value.dtype == bool):
         raise TypeError(f"`{name}` must be an integer or an array of integers >= 1; "
-                        f"received {_describe(value)}")
+                        f"received {describe(value)}")
     arr = as_float_array(value, name)
     if np.any(arr != np.round(arr)) or np.any(arr < 1):
         bad = arr[(arr != np.round(arr)) | (arr < 1)].ravel()[0]
         raise ValueError(
             f"`{name}` must be an integer >= 1 (or an array of them); received "
-            f"{_describe(value)} (offending entry {bad:.6g})"
+            f"{describe(value)} (offending entry {bad:.6g})"
         )
     return arr
 
@@ -418,8 +415,8 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
     if np.any(pa >= 1 - p):
         raise ValueError(
             "`p_accept` must be below 1 - p_false_reject (the acceptance probability at "
-            f"lambda = 0); received p_accept={_describe(unwrap(pa))} with "
-            f"p_false_reject={_describe(unwrap(p))}"
+            f"lambda = 0); received p_accept={describe(unwrap(pa))} with "
+            f"p_false_reject={describe(unwrap(p))}"
         )
     out = np.empty(pa.shape)
     for idx in np.ndindex(pa.shape):
@@ -443,7 +440,7 @@ def _gate_options(return_statistic, p_false_reject) -> float:
     """Validate the 2-D gate kernels' shared options; return the threshold for `p_false_reject`."""
     if not isinstance(return_statistic, (bool, np.bool_)):
         raise TypeError(f"`return_statistic` must be a bool; received "
-                        f"{_describe(return_statistic)}")
+                        f"{describe(return_statistic)}")
     p = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
     return float(gate_threshold(p, 2))
 
@@ -463,7 +460,7 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     x1, x2 : array_like, shape (N, 2)
         Paired reports of radar 1 and radar 2, whose differences lie within
         the numeric domain (magnitude at most
-        :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`).
+        :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`).
     cov : array_like, shape (2, 2)
         :math:`S`, obeying :func:`radarfusion_ref.engine.linalg.is_positive_definite`
         (for per-report covariances use :func:`gate_pairwise_2d`).
@@ -505,7 +502,7 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     if a.ndim != 2 or b.shape != a.shape:
         raise ValueError(f"`x1` and `x2` must both have shape (N, 2); received shapes "
                          f"{a.shape} and {b.shape}")
-    s = _as_cov(cov, "cov", 2)
+    s = as_covariance(cov, "cov", dim=2)
     if s.ndim != 2:
         raise ValueError(f"`cov` must have shape (2, 2); received shape {s.shape}")
     chunk = as_int(chunk_size, "chunk_size", minimum=1)
@@ -526,10 +523,10 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
             names = f"x1[{start}:{stop}]", f"x2[{start}:{stop}]"
             for name, part in zip(names, (pa, pb), strict=True):
                 as_float_array(part, name)
-            _check_domain(delta, " - ".join(names))
+            check_domain(delta, " - ".join(names))
         kk = kappa[start:stop] if kappa is not None else buf[:stop - start]
         with np.errstate(under="ignore"):
-            _ldl2_shared(delta, s, kk)
+            mahalanobis_sq_k2_kernel(delta, s, kk)
         np.less(kk, th, out=accepted[start:stop])
     return (accepted, kappa) if return_statistic else accepted
 
@@ -622,7 +619,7 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
         If the shapes are not ``(n1, 2)``, ``(n2, 2)``, ``(2, 2)``, an entry is
         not finite, `cov` is not symmetric positive definite, the whitened
         coordinates overflow, or the candidate pairs would exceed
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (counted before they
+        :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` (counted before they
         are listed).
     TypeError
         If an argument is not numeric.
@@ -653,9 +650,9 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
     if a.ndim != 2 or b.ndim != 2:
         raise ValueError(f"`x1` and `x2` must have shapes (n1, 2) and (n2, 2); received shapes "
                          f"{a.shape} and {b.shape}")
-    _check_domain(a, "x1")
-    _check_domain(b, "x2")
-    s = _as_cov(cov, "cov", 2)
+    check_domain(a, "x1")
+    check_domain(b, "x2")
+    s = as_covariance(cov, "cov", dim=2)
     if s.ndim != 2:
         raise ValueError(f"`cov` must have shape (2, 2); received shape {s.shape}")
     th = _gate_options(False, p_false_reject)

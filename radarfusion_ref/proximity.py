@@ -47,15 +47,17 @@ from __future__ import annotations
 import numpy as np
 from scipy import special, stats
 
-from .engine._validation import (
+from .engine.linalg import mahalanobis_sq_kernel
+from .engine.validation import (
     as_choice,
+    as_covariance,
     as_float_array,
     as_int,
     as_positive,
     broadcast,
+    check_domain,
     unwrap,
 )
-from .engine.linalg import _as_cov, _check_domain, _kappa
 
 __all__ = [
     "best_partner",
@@ -83,14 +85,14 @@ def _scalar_iv(x1, x2, var1, var2, names=("x1", "x2", "var1", "var2")):
     b = as_float_array(x2, n2)
     v1 = _as_variance(var1, n3)
     v2 = _as_variance(var2, n4)
-    _check_domain(a, n1)
-    _check_domain(b, n2)
+    check_domain(a, n1)
+    check_domain(b, n2)
     return broadcast(**{n1: a, n2: b, n3: v1, n4: v2})
 
 
 def _as_variance(value, name):
     """Positive variances within the numeric domain of engine.linalg."""
-    return _as_cov(as_positive(value, name)[..., None, None], name)[..., 0, 0]
+    return as_covariance(as_positive(value, name)[..., None, None], name)[..., 0, 0]
 
 
 def _gaussian_iv(x1, x2, cov1, cov2):
@@ -98,16 +100,16 @@ def _gaussian_iv(x1, x2, cov1, cov2):
     a = as_float_array(x1, "x1", ndim_min=1)
     d = a.shape[-1]
     b = as_float_array(x2, "x2", ndim_min=1)
-    c1 = _as_cov(cov1, "cov1")
-    c2 = _as_cov(cov2, "cov2")
+    c1 = as_covariance(cov1, "cov1")
+    c2 = as_covariance(cov2, "cov2")
     for name, arr, got in (("x2", b, b.shape[-1]), ("cov1", c1, c1.shape[-1]),
                            ("cov2", c2, c2.shape[-1])):
         if got != d:
             want = "(..., d)" if name == "x2" else "(..., d, d)"
             raise ValueError(f"`{name}` must have shape {want} with d = {d} (the last axis of "
                              f"`x1`); received shape {arr.shape}")
-    _check_domain(a, "x1")
-    _check_domain(b, "x2")
+    check_domain(a, "x1")
+    check_domain(b, "x2")
     try:
         np.broadcast_shapes(a.shape[:-1], b.shape[:-1], c1.shape[:-2], c2.shape[:-2])
     except ValueError:
@@ -168,7 +170,8 @@ def proximity(x1, x2, var1, var2):
     array([0., 1.])
     """
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
-    return unwrap(_kappa((a - b)[..., None], (v1 + v2)[..., None, None], "`x1`, `x2`"))
+    return unwrap(mahalanobis_sq_kernel((a - b)[..., None], (v1 + v2)[..., None, None],
+                                        "`x1`, `x2`"))
 
 
 def proximity_gaussian(x1, x2, cov1, cov2):
@@ -229,7 +232,7 @@ def proximity_gaussian(x1, x2, cov1, cov2):
     """
     a, b, c1, c2 = _gaussian_iv(x1, x2, cov1, cov2)
     delta, s = a - b, c1 + c2
-    return unwrap(_kappa(delta, s, "`x1`, `x2`"))
+    return unwrap(mahalanobis_sq_kernel(delta, s, "`x1`, `x2`"))
 
 
 def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
@@ -289,7 +292,7 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
     kind = as_choice(kind, "kind", _KINDS)
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
     # eq. (7)
-    kappa = _kappa((a - b)[..., None], (v1 + v2)[..., None, None],
+    kappa = mahalanobis_sq_kernel((a - b)[..., None], (v1 + v2)[..., None, None],
                    "`x1`, `x2`")
     if kind == "profile":
         # -kappa/2 - ln(2 pi sigma_1 sigma_2)
@@ -343,7 +346,7 @@ def log_likelihood_measure_gaussian(x1, x2, cov1, cov2, *, kind="profile"):
     a, b, c1, c2 = _gaussian_iv(x1, x2, cov1, cov2)
     d = a.shape[-1]
     logdet_s = []
-    kappa = _kappa(a - b, c1 + c2, "`x1`, `x2`", logdet_s)
+    kappa = mahalanobis_sq_kernel(a - b, c1 + c2, "`x1`, `x2`", logdet_s)
     if kind == "profile":
         out = -0.5 * kappa - d * _LOG_2PI - 0.5 * (np.linalg.slogdet(c1)[1]
                                                    + np.linalg.slogdet(c2)[1])
@@ -401,8 +404,8 @@ def best_partner(x1, candidates, var1, candidate_vars, *, kind="profile"):
                          f"received shape {c.shape}")
     v1 = _as_variance(var1, "var1")
     cv = _as_variance(candidate_vars, "candidate_vars")
-    _check_domain(a, "x1")
-    _check_domain(c, "candidates")
+    check_domain(a, "x1")
+    check_domain(c, "candidates")
     try:
         np.broadcast_shapes(a.shape, v1.shape)
         np.broadcast_shapes((*a.shape, 1), (*v1.shape, 1), c.shape, cv.shape)

@@ -357,8 +357,8 @@ def test_dense_lagrangian_no_grouping_names_the_argument():
 
 
 def test_full_tensor_limits_are_bytes_for_the_lagrangian():
-    from radarfusion_ref.engine._validation import MEMORY_LIMIT
     from radarfusion_ref.engine.assignment._dense import dense_bytes
+    from radarfusion_ref.engine.validation import MEMORY_LIMIT
 
     assert dense_bytes(3, 200) < MEMORY_LIMIT < dense_bytes(3, 500)
     big = np.broadcast_to(0.0, (500, 500, 500))           # a view: nothing allocated

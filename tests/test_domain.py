@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 from radarfusion_ref import fusion, trackfusion
 from radarfusion_ref import registration as rg
 from radarfusion_ref.engine.errors import RadarFusionWarning
-from radarfusion_ref.engine.linalg import MAX_MAGNITUDE
+from radarfusion_ref.engine.validation import MAX_MAGNITUDE
 
 SITES = np.array([[0.0, 0.0], [30.0, 0.0]])
 TARGETS = np.array([[0.0, 60.0], [30.0, 70.0], [-20.0, 50.0], [10.0, 80.0], [45.0, 55.0],

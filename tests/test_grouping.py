@@ -24,8 +24,8 @@ from scipy.optimize import linear_sum_assignment
 
 from radarfusion_ref import grouping
 from radarfusion_ref.engine import scenes
-from radarfusion_ref.engine._validation import MEMORY_LIMIT
 from radarfusion_ref.engine.montecarlo import binomial_tolerance
+from radarfusion_ref.engine.validation import MEMORY_LIMIT
 from radarfusion_ref.grouping._solve import _scene_candidates
 
 

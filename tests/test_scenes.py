@@ -28,9 +28,9 @@ from hypothesis import strategies as st
 
 from radarfusion_ref import association, features, grouping, separated
 from radarfusion_ref.engine import geometry, scenes
-from radarfusion_ref.engine._validation import MEMORY_LIMIT
 from radarfusion_ref.engine.montecarlo import binomial_tolerance, mean, proportion
 from radarfusion_ref.engine.scenes import nearest_neighbour_pairing, two_radar_scene
+from radarfusion_ref.engine.validation import MEMORY_LIMIT
 from radarfusion_ref.kit.checks import MonteCarloCheckError, require
 
 

@@ -7,21 +7,22 @@ import warnings
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.assignment._checks import (
+    _limit,
+)
+from ..engine.errors import RadarFusionWarning
+from ..engine.linalg import mahalanobis_sq_pairwise
+from ..engine.validation import (
+    MAX_MAGNITUDE,
     MEMORY_LIMIT,
-    _describe,
     as_bool,
     as_covariance,
     as_float_array,
     as_positive,
     as_probability,
     broadcast,
+    describe,
 )
-from ..engine.assignment._checks import (
-    _limit,
-)
-from ..engine.errors import RadarFusionWarning
-from ..engine.linalg import MAX_MAGNITUDE, mahalanobis_sq_pairwise
 
 
 # --------------------------------------------------------------------------- non-assignment cost
@@ -35,7 +36,7 @@ def _non_assignment_iv(p_detect1, p_detect2, false_density1, false_density2, obj
     p2 = as_probability(p_detect2, "p_detect2", open_interval=False)
     for name, p, raw in (("p_detect1", p1, p_detect1), ("p_detect2", p2, p_detect2)):
         if np.any(p <= 0):
-            raise ValueError(f"`{name}` must lie in (0, 1]; received {_describe(raw)}")
+            raise ValueError(f"`{name}` must lie in (0, 1]; received {describe(raw)}")
     lam1 = as_positive(false_density1, "false_density1", strict=False)
     lam2 = as_positive(false_density2, "false_density2", strict=False)
     beta = as_positive(object_density, "object_density")
@@ -247,14 +248,14 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
     for name, a in (("reports1", r1), ("reports2", r2)):
         if a.size and not float(np.max(np.abs(a))) <= MAX_MAGNITUDE:
             raise ValueError(f"`{name}` must lie within the numeric domain |value| <= 2**150 "
-                             f"(about 1.4e45); received {_describe(a)} (largest magnitude "
+                             f"(about 1.4e45); received {describe(a)} (largest magnitude "
                              f"{float(np.max(np.abs(a))):.6g}); change the unit of the "
                              "coordinates")
     for name, sd in (("sigma1", sd1), ("sigma2", sd2)):
         if sd.size and not (sd.min() >= MAX_MAGNITUDE ** -0.5 and sd.max() <= MAX_MAGNITUDE ** 0.5):
             raise ValueError(f"`{name}` squared (the report variances) must lie within the "
                              "numeric domain [2**-150, 2**150] (about 7e-46 to 1.4e45); "
-                             f"received {_describe(sd)}; change the unit of the coordinates")
+                             f"received {describe(sd)}; change the unit of the coordinates")
     shapes = []
     for name, sd, r in (("sigma1", sd1, r1), ("sigma2", sd2, r2)):
         try:
@@ -290,7 +291,7 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
             raise ValueError(
                 "`sigma1` and `sigma2` must have squares within the float "
                 "range (1e-154 < sigma < 1e154); received "
-                f"{_describe(sd1)} and {_describe(sd2)}")
+                f"{describe(sd1)} and {describe(sd2)}")
         c1 = v1[..., :, None, None] * eye               # (..., n1, d, d)
         c2 = v2[..., :, None, None] * eye               # (..., n2, d, d)
         out = mahalanobis_sq_pairwise(r1, r2, c1, c2)

@@ -8,18 +8,18 @@ from typing import NamedTuple
 import numpy as np
 
 from ..engine import assignment
-from ..engine._validation import (
-    _describe,
-    as_choice,
-    as_float,
-    as_float_array,
-    as_probability,
-)
 from ..engine.assignment._checks import (
     _as_cost,
     _as_threshold,
 )
 from ..engine.montecarlo import Proportion, proportion
+from ..engine.validation import (
+    as_choice,
+    as_float,
+    as_float_array,
+    as_probability,
+    describe,
+)
 from ._rules import _as_decisions, associate_pointwise
 
 
@@ -184,7 +184,7 @@ def _as_gate(gate, name: str = "gate") -> float:
     g = as_float(gate, name, allow_inf=True)
     if not g > 0:
         raise ValueError(f"`{name}` must be a single number > 0 (+inf: no gate); received "
-                         f"{_describe(gate)}")
+                         f"{describe(gate)}")
     return g
 
 
@@ -371,7 +371,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
                 or np.any(np.diff(cand) <= 0)):
             raise ValueError(
                 "`gates` must be a non-empty increasing 1-D array of "
-                f"numbers > 0; received {_describe(gates)}")
+                f"numbers > 0; received {describe(gates)}")
         rates = np.array([rate(float(g)) for g in cand])
         ok = np.flatnonzero(rates <= a)
         if ok.size == 0:

@@ -8,10 +8,6 @@ import math
 import numpy as np
 
 from ..engine import assignment
-from ..engine._validation import (
-    _describe,
-    as_choice,
-)
 from ..engine.assignment import (
     MAX_HYPOTHESES,
     Association,
@@ -24,30 +20,34 @@ from ..engine.assignment._checks import (
     _scaled,
 )
 from ..engine.assignment._two_d import _BLOCK_BYTES, _injections, _make_result
+from ..engine.validation import (
+    as_choice,
+    describe,
+)
 
 
 def _as_decisions(value, name: str) -> np.ndarray:
     """``row_to_col`` vectors: integers >= -1, at least one axis, not empty."""
     if value is None or isinstance(value, (str, bytes, bool, np.bool_)):
         raise TypeError(f"`{name}` must be an integer array of decisions (row_to_col, -1 for "
-                        f"unassigned); received {_describe(value)}")
+                        f"unassigned); received {describe(value)}")
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError):
         raise TypeError(f"`{name}` must be an integer array of decisions; received "
-                        f"{_describe(value)}") from None
+                        f"{describe(value)}") from None
     if arr.dtype.kind == "f" and arr.size and np.all(np.isfinite(arr)) \
             and np.all(arr == np.round(arr)):
         arr = arr.astype(int)
     if arr.dtype.kind not in "iu":
         raise TypeError(f"`{name}` must be an integer array of decisions (row_to_col, -1 for "
-                        f"unassigned); received {_describe(value)}")
+                        f"unassigned); received {describe(value)}")
     if arr.ndim < 1 or arr.size == 0:
         raise ValueError(f"`{name}` must be a non-empty array of shape (..., n1); received "
                          f"shape {arr.shape}")
     if np.any(arr < -1):
         raise ValueError(f"`{name}` entries must be column indices >= 0 or -1 (unassigned); "
-                         f"received {_describe(value)} (smallest entry {int(arr.min())})")
+                         f"received {describe(value)} (smallest entry {int(arr.min())})")
     return arr
 
 

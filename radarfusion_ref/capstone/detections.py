@@ -24,17 +24,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import conversion, registration
-from ..engine._validation import (
+from ..engine.geodesy import _enu_rotation
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     as_bool,
     as_choice,
     as_float,
     as_positive,
     as_rng,
     check_size,
+    describe,
 )
-from ..engine.geodesy import _enu_rotation
 from .radars import (
     MIN_REGISTRATION_GROUPS,
     Radar,
@@ -135,7 +135,7 @@ def local_rotation(radar) -> np.ndarray:
     """
     if not isinstance(radar, Radar):
         raise TypeError(f"`radar` must be a Radar (see realistic_radars()); received "
-                        f"{_describe(radar)}")
+                        f"{describe(radar)}")
     return _rotation(as_radars((radar, radar))[0])
 
 
@@ -152,7 +152,7 @@ _SCAN_BYTES = 8 * 8
 def _simulate_iv(traffic, radars, start, duration, mode):
     if not isinstance(traffic, Traffic):
         raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
-                        f"{_describe(traffic)}")
+                        f"{describe(traffic)}")
     radars = as_radars(radars)
     start = as_float(as_positive(start, "start", strict=False), "start")
     duration = as_float(as_positive(duration, "duration"), "duration")
@@ -323,7 +323,7 @@ def simulate_detections(traffic, radars, *, start=0.0, duration=3600.0, mode="re
 def _to_common_iv(detections, radars, biases, debias):
     if not isinstance(detections, Detections):
         raise TypeError(f"`detections` must be a Detections (from simulate_detections); "
-                        f"received {_describe(detections)}")
+                        f"received {describe(detections)}")
     radars = as_radars(radars)
     m = len(radars)
     if detections.radar.size and int(detections.radar.max()) >= m:
@@ -334,7 +334,7 @@ def _to_common_iv(detections, radars, biases, debias):
         if b is None or b.shape != (m, 3) or not np.all(np.isfinite(b)):
             raise ValueError(f"`biases` must be a finite ({m}, 3) array (range offset m, range "
                              f"scale, azimuth offset rad per radar); received "
-                             f"{_describe(biases)}")
+                             f"{describe(biases)}")
         biases = b
     check_size(8 * 40 * len(detections), MEMORY_LIMIT,
                what=f"bytes of converted reports ({len(detections)} `detections`)",

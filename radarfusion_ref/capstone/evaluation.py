@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import _describe, as_choice
 from ..engine.metrics import NeesResult, gospa, nees, purity
 from ..engine.montecarlo import Proportion, proportion
+from ..engine.validation import as_choice, describe
 from .pipeline import PipelineResult
 from .radars import _coverage_count
 from .traffic import TruthScans
@@ -159,10 +159,10 @@ def gospa_parameters(c, p) -> tuple[float, float]:
 def _evaluate_iv(result, truth, c, p, scope):
     if not isinstance(result, PipelineResult):
         raise TypeError(f"`result` must be a PipelineResult (from run_pipeline); received "
-                        f"{_describe(result)}")
+                        f"{describe(result)}")
     if not isinstance(truth, TruthScans):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
-                        f"{_describe(truth)}")
+                        f"{describe(truth)}")
     c, p = gospa_parameters(c, p)
     scope = as_choice(scope, "scope", ("covered", "all"))
     if truth.n_scans != result.reports.n_scans:

@@ -22,13 +22,13 @@ import numpy as np
 from scipy import stats
 
 from .. import features, fusion, gating, grouping, registration
-from ..engine._validation import (
-    _describe,
+from ..engine.validation import (
     as_bool,
     as_choice,
     as_float,
     as_int,
     as_probability,
+    describe,
 )
 from .detections import _convert as _convert_polar
 from .radars import (
@@ -395,13 +395,13 @@ class _Clock(dict):
 def _pipeline_iv(reports, radars, settings):
     if not isinstance(reports, Reports):
         raise TypeError(f"`reports` must be a Reports (from simulate_reports); received "
-                        f"{_describe(reports)}")
+                        f"{describe(reports)}")
     radars = as_radars(radars)
     if settings is None:
         settings = PipelineSettings()
     if not isinstance(settings, PipelineSettings):
         raise TypeError(f"`settings` must be a PipelineSettings or None; received "
-                        f"{_describe(settings)}")
+                        f"{describe(settings)}")
     if settings.min_reports > len(radars):
         raise ValueError(f"`settings.min_reports` must be at most the number of radars, "
                          f"{len(radars)}; received {settings.min_reports}")

@@ -24,9 +24,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import registration
-from ..engine._validation import MEMORY_LIMIT, _describe, as_float_array, as_rng, check_size
 from ..engine.geodesy import geodetic_to_enu
-from ..engine.linalg import MAX_MAGNITUDE
+from ..engine.validation import (
+    MAX_MAGNITUDE,
+    MEMORY_LIMIT,
+    as_float_array,
+    as_rng,
+    check_size,
+    describe,
+)
 from .traffic import ORIGIN, TruthScans
 
 __all__ = [
@@ -51,7 +57,7 @@ RADAR_SITES = {
 }
 
 #: Fields of :class:`Radar` whose magnitude :func:`as_radars` bounds by
-#: :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE` (:math:`2^{150}`): a range or
+#: :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE` (:math:`2^{150}`): a range or
 #: noise level beyond it overflows the reports or the coverage volume.
 _DOMAIN_FIELDS = ("height", "sigma_r", "bias_range", "clutter_rate", "max_range",
                   "sigma_feature")
@@ -174,7 +180,7 @@ def default_radars(**overrides) -> tuple[Radar, ...]:
                         f"parameter; allowed: {', '.join(sorted(allowed))}")
     for k, v in overrides.items():
         if not _is_number(v):
-            raise TypeError(f"`{k}` must be a number; received {_describe(v)}")
+            raise TypeError(f"`{k}` must be a number; received {describe(v)}")
     out = tuple(dataclasses.replace(
         Radar(name, *site, bias_range=extra[name][0],
               bias_azimuth=math.radians(extra[name][1]), p_detect=extra[name][2]),
@@ -265,14 +271,14 @@ def _timing_iv(i, r):
         if not _is_number(v) or not math.isfinite(v):
             raise (ValueError if _is_number(v) else TypeError)(
                 f"`radars[{i}].{name}` (radar {r.name!r}) must be a finite number; received "
-                f"{_describe(v)}")
+                f"{describe(v)}")
     for name, bad, rule in (
             ("period", not r.period > 0, "> 0 s"),
             ("phase", not 0 <= r.phase < r.period, f">= 0 and < its period ({r.period!r} s)"),
             ("bias_scale", not abs(r.bias_scale) < 0.5, "in (-0.5, 0.5) (a range scale error)")):
         if bad:
             raise ValueError(f"`radars[{i}].{name}` (radar {r.name!r}) must be {rule}; "
-                             f"received {_describe(getattr(r, name))}")
+                             f"received {describe(getattr(r, name))}")
 
 
 def as_radars(radars) -> tuple[Radar, ...]:
@@ -315,7 +321,7 @@ def as_radars(radars) -> tuple[Radar, ...]:
     if isinstance(radars, Radar) or not isinstance(radars, (list, tuple)) or not all(
             isinstance(r, Radar) for r in radars):
         raise TypeError(f"`radars` must be a list or tuple of Radar (see default_radars()); "
-                        f"received {_describe(radars)}")
+                        f"received {describe(radars)}")
     if len(radars) < 2:
         raise ValueError(f"`radars` must hold at least two radars; received {len(radars)}")
     for i, r in enumerate(radars):
@@ -497,7 +503,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
     ValueError
         Invalid radar parameters (named), or false reports (`clutter_rate` times
         the scans, then the drawn count) whose working memory would exceed
-        :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT`: refused naming the
+        :data:`~radarfusion_ref.engine.validation.MEMORY_LIMIT`: refused naming the
         radar's `clutter_rate` before anything is drawn or allocated.
 
     Notes
@@ -521,7 +527,7 @@ def simulate_reports(truth, radars, *, rng=None) -> Reports:
     """
     if not isinstance(truth, TruthScans):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
-                        f"{_describe(truth)}")
+                        f"{describe(truth)}")
     radars = as_radars(radars)
     gen = as_rng(rng)
     S = truth.n_scans

@@ -22,16 +22,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.geodesy import geodetic_to_enu
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     as_choice,
     as_float,
     as_float_array,
     as_positive,
     check_size,
+    describe,
 )
-from ..engine.geodesy import geodetic_to_enu
 
 __all__ = [
     "COLUMNS",
@@ -123,7 +123,7 @@ def _read_iv(path, hour="scored"):
         return HOURS[hour], HOURS[hour].read_bytes()
     if isinstance(path, bool) or not isinstance(path, (str, Path)):
         raise TypeError(f"`path` must be a file path (str or pathlib.Path); received "
-                        f"{_describe(path)}")
+                        f"{describe(path)}")
     p = Path(path)
     if not p.is_file():
         raise _bad_file(p, "no such file (the default, load_traffic(), reads the committed "
@@ -265,7 +265,7 @@ class TruthScans:
 def _truth_iv(traffic, period, start, duration, max_gap):
     if not isinstance(traffic, Traffic):
         raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
-                        f"{_describe(traffic)}")
+                        f"{describe(traffic)}")
     period = as_float(as_positive(period, "period"), "period")
     start = as_float(as_positive(start, "start", strict=False), "start")
     duration = as_float(as_positive(duration, "duration"), "duration")
@@ -376,7 +376,7 @@ def _fresh(t, xy, speed, max_gap):
 def _truth_at_iv(traffic, times, max_gap):
     if not isinstance(traffic, Traffic):
         raise TypeError(f"`traffic` must be a Traffic (from load_traffic); received "
-                        f"{_describe(traffic)}")
+                        f"{describe(traffic)}")
     tt = np.asarray(as_float_array(times, "times"), dtype=float)
     if tt.ndim != 1:
         raise ValueError(f"`times` must be a 1-D array of instants (s); received shape "

@@ -7,9 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.linalg import mahalanobis_sq
+from ..engine.montecarlo import MeanEstimate, mean
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     as_choice,
     as_float_array,
     as_int,
@@ -17,9 +18,8 @@ from ..engine._validation import (
     as_rng,
     broadcast,
     check_size,
+    describe,
 )
-from ..engine.linalg import mahalanobis_sq
-from ..engine.montecarlo import MeanEstimate, mean
 from ._planar import (
     ALL_METHODS,
     MAX_BATCH,
@@ -193,7 +193,7 @@ def nees_per_trial(error, cov) -> np.ndarray:
     ----------
     error : array_like, shape (..., d)
         Estimate minus truth, within the engine's numeric domain (entries of
-        magnitude at most :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`).
+        magnitude at most :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`).
     cov : array_like, shape (..., d, d)
         Symmetric positive-definite covariances, broadcasting with `error`, variances
         within the numeric domain.
@@ -287,7 +287,7 @@ def nees_at_truth(r, beta, sigma_r, sigma_beta, *, method: str = "linearized") -
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, strict=True)
     if method == "linearized" and np.any(r == 0):
         raise ValueError("`r` must be > 0 for method 'linearized' (its covariance at zero "
-                         f"range is singular); received {_describe(r)}")
+                         f"range is singular); received {describe(r)}")
     s = sigma_beta**2
     e = _scale(r, sigma_r)
     rn, sr2 = np.ldexp(r, -e), np.ldexp(sigma_r, -e) ** 2
@@ -312,7 +312,7 @@ def _as_methods(methods, allowed) -> tuple[str, ...]:
         methods = (methods,)
     if isinstance(methods, (bytes, np.ndarray)) or not hasattr(methods, "__iter__"):
         raise TypeError(f"`methods` must be a sequence of method names; received "
-                        f"{_describe(methods)}")
+                        f"{describe(methods)}")
     methods = tuple(as_choice(m, "methods", allowed) for m in methods)
     if not methods:
         raise ValueError("`methods` must name at least one method; received an empty sequence")
@@ -384,7 +384,7 @@ def conversion_monte_carlo(r, beta, sigma_r, sigma_beta, *,
     trials = as_int(trials, "trials", minimum=1)
     if ("decorrelated" in methods) != (prior_std is not None):
         raise ValueError("`prior_std` is required with method 'decorrelated' and used by it "
-                         f"only; received methods {methods} and prior_std {_describe(prior_std)}")
+                         f"only; received methods {methods} and prior_std {describe(prior_std)}")
     r, beta, sigma_r, sigma_beta = _polar_iv(r, beta, sigma_r, sigma_beta, strict=True,
                                              trials=trials)
     if prior_std is not None:

@@ -12,17 +12,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.errors import RadarFusionWarning
+from ..engine.geometry import _sigma_beta_iv
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     as_choice,
     as_float_array,
     as_positive,
     broadcast,
     check_size,
+    describe,
 )
-from ..engine.errors import RadarFusionWarning
-from ..engine.geometry import _sigma_beta_iv
 
 #: The conversion methods accepted by :func:`polar_to_cartesian`.
 METHODS = ("linearized", "additive", "multiplicative", "first_order", "first_order_printed")
@@ -37,7 +37,7 @@ METHODS_3D = ("linearized", "additive", "multiplicative", "measurement_condition
 
 #: Largest number of batch elements (broadcast inputs × trials) one call works on at once:
 #: about 256 bytes of working memory each, so one call stays within
-#: :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (1 GiB).
+#: :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` (1 GiB).
 MAX_BATCH = MEMORY_LIMIT // 256
 
 #: Lerro & Bar-Shalom's rule of thumb (as usually quoted): the linearized
@@ -353,10 +353,10 @@ def _prior_iv(prior_xy, prior_cov):
                 or np.any(pc[..., 0, 0] < 0) or np.any(pc[..., 1, 1] < 0)
                 or np.any(det < -1e-12 * scale**2)):
             raise ValueError("`prior_cov` must be symmetric positive semi-definite (..., 2, 2); "
-                             f"received {_describe(pc)}")
+                             f"received {describe(pc)}")
     if np.any(np.hypot(xp[..., 0], xp[..., 1]) == 0):
         raise ValueError("`prior_xy` must not be at the radar (0, 0): its azimuth is undefined; "
-                         f"received {_describe(xp)}")
+                         f"received {describe(xp)}")
     return xp, pc
 
 

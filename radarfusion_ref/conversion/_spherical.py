@@ -7,7 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.errors import RadarFusionWarning
+from ..engine.geometry import _sigma_beta_iv
+from ..engine.validation import (
     MEMORY_LIMIT,
     as_choice,
     as_float_array,
@@ -17,8 +19,6 @@ from ..engine._validation import (
     broadcast,
     check_size,
 )
-from ..engine.errors import RadarFusionWarning
-from ..engine.geometry import _sigma_beta_iv
 from ._consistency import (
     ConversionTrials,
     _as_methods,

@@ -3,7 +3,7 @@ r"""The engine: the general machinery every chapter is built from.
 It imports nothing from the chapter modules or the book kit (an import-linter
 contract in ``pyproject.toml`` holds it to that).
 
-* :mod:`~radarfusion_ref.engine._validation` — the checks at the door of every public
+* :mod:`~radarfusion_ref.engine.validation` — the checks at the door of every public
   function (one message per rule, one seed conversion, one positive-definiteness rule);
 * :mod:`~radarfusion_ref.engine.linalg` — the one squared-Mahalanobis home (pointwise,
   batched and pairwise) and Cholesky factors;
@@ -25,13 +25,13 @@ the door (never rescaled, clamped or passed on as NaN or inf), and inside it the
 results are finite and correct to rounding:
 
 * **lengths** (coordinates, positions, ranges and their differences):
-  :math:`|x| \le` :data:`~radarfusion_ref.engine.linalg.MAX_MAGNITUDE`
+  :math:`|x| \le` :data:`~radarfusion_ref.engine.validation.MAX_MAGNITUDE`
   (:math:`2^{150} \approx 1.4\times 10^{45}`), in any unit — answers do not depend on
   the unit (property tests scale every length by :math:`10^{-3} \ldots 10^{3}`);
 * **variances** (diagonal entries of every covariance): in
   :math:`[2^{-150}, 2^{150}]`, and every covariance passes the one
   positive-definiteness rule (correlation pivots above
-  :data:`~radarfusion_ref.engine.linalg.SINGULAR_RTOL`);
+  :data:`~radarfusion_ref.engine.validation.SINGULAR_RTOL`);
 * **costs** (assignment costs, :math:`\kappa`, log-likelihoods): finite, with the total
   of a chosen assignment representable in float64 (:math:`|\sum| < 1.8\times10^{308}`);
 * **GOSPA**: cut-off :math:`c > 0` and order :math:`p \ge 1`, with :math:`c^p` a normal
@@ -41,6 +41,6 @@ results are finite and correct to rounding:
   interval :math:`(0, 1)`;
 * **rates, periods and counts** (clutter rates, scan periods, time steps, trials):
   positive and finite; any size whose work would exceed
-  :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` bytes (1 GiB) at once is
+  :data:`~radarfusion_ref.engine.validation.MEMORY_LIMIT` bytes (1 GiB) at once is
   refused before anything is allocated, naming the limit and a scalable route.
 """

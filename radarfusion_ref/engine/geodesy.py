@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import _describe, as_float_array
+from .validation import as_float_array, describe
 
 __all__ = ["WGS84_A", "WGS84_F", "geodetic_to_enu"]
 
@@ -48,14 +48,14 @@ def _geodetic_iv(lat, lon, h, origin):
     h = as_float_array(h, "h")
     o = as_float_array(origin, "origin")
     if o.shape != (3,):
-        raise ValueError(f"`origin` must be (lat, lon, h); received {_describe(origin)}")
+        raise ValueError(f"`origin` must be (lat, lon, h); received {describe(origin)}")
     for name, arr, lim in (("lat", lat, 90.0), ("lon", lon, 180.0)):
         if np.any(np.abs(arr) > lim):
             raise ValueError(f"`{name}` must lie in [-{lim:g}, {lim:g}] degrees; received "
-                             f"{_describe(arr)}")
+                             f"{describe(arr)}")
     if abs(o[0]) > 90 or abs(o[1]) > 180:
         raise ValueError(f"`origin` latitude must lie in [-90, 90] and longitude in "
-                         f"[-180, 180]; received {_describe(origin)}")
+                         f"[-180, 180]; received {describe(origin)}")
     try:
         lat, lon, h = np.broadcast_arrays(lat, lon, h)
     except ValueError:

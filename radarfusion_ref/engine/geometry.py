@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import _describe, as_float, as_float_array, as_positive, broadcast
+from .validation import as_float, as_float_array, as_positive, broadcast, describe
 
 __all__ = [
     "SIGMA_BETA_MAX",
@@ -144,8 +144,8 @@ def polar_from(xy, origin=(0.0, 0.0)):
         d = p - o
     if not np.all(np.isfinite(d)):
         raise ValueError("`xy` - `origin` overflows (a coordinate difference beyond "
-                         f"{np.finfo(float).max:.3g} km); received {_describe(p)} and "
-                         f"{_describe(o)}")
+                         f"{np.finfo(float).max:.3g} km); received {describe(p)} and "
+                         f"{describe(o)}")
     r = np.hypot(d[..., 0], d[..., 1])
     if np.any(r <= 0):
         raise ValueError("`xy` must not coincide with the radar at `origin` (range 0); "
@@ -188,7 +188,7 @@ class Geometry:
             if not np.all(np.isfinite(r)) or np.any(r <= 0):
                 raise ValueError(
                     f"`targets` must lie off radar {k}'s site {site.tolist()} at a finite "
-                    f"range (a target at a site has no azimuth); received {_describe(t)} "
+                    f"range (a target at a site has no azimuth); received {describe(t)} "
                     f"(ranges from {float(np.min(r)):.6g} to {float(np.max(r)):.6g} km)")
         object.__setattr__(self, "targets", t)
 

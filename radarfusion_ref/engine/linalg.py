@@ -23,6 +23,12 @@ kernel that trusts them):
 * :func:`is_positive_definite` — the package's one positive-definiteness rule;
 * :func:`cholesky` — a validated Cholesky factor.
 
+The kernels :func:`mahalanobis_sq_kernel` and :func:`mahalanobis_sq_k2_kernel`
+(named ``*_kernel``: they trust their input) are public too, for the chapter
+modules' public functions that validate their own arguments at their door, with
+:func:`radarfusion_ref.engine.validation.as_covariance` and
+:func:`~radarfusion_ref.engine.validation.check_domain`.
+
 .. rubric:: The positive-definiteness rule
 
 A covariance :math:`C` is accepted when it is symmetric (to 1e-9 of its
@@ -30,8 +36,8 @@ largest entry), its variances are positive, and every pivot of the
 :math:`LDL^T` factorisation of its correlation matrix
 :math:`R = D_C^{-1/2} C D_C^{-1/2}` — the variance of each coordinate given the
 preceding ones, as a fraction of its own variance — exceeds
-:data:`SINGULAR_RTOL` (1e-12). A matrix that fails is singular to working
-precision: :math:`\kappa` against it would carry no correct digit. The rule is
+:data:`~radarfusion_ref.engine.validation.SINGULAR_RTOL` (1e-12). A matrix that
+fails is singular to working precision: :math:`\kappa` against it would carry no correct digit. The rule is
 scale-free (a change of unit per coordinate does not change it) and closed
 under sums (a conditional variance of :math:`A + B` is at least the sum of
 those of :math:`A` and :math:`B`), so two accepted report covariances always
@@ -41,11 +47,11 @@ give an accepted :math:`S = \Sigma_1 + \Sigma_2`.
 
 Instead of rescaling, the Mahalanobis functions accept a documented domain and
 refuse input outside it: every coordinate (and every difference) of magnitude
-at most :data:`MAX_MAGNITUDE` (:math:`2^{150} \approx 1.4 \times 10^{45}`) and
-every variance (diagonal entry of a covariance) in
+at most :data:`~radarfusion_ref.engine.validation.MAX_MAGNITUDE`
+(:math:`2^{150} \approx 1.4 \times 10^{45}`) and every variance (diagonal entry of a covariance) in
 :math:`[2^{-150}, 2^{150}]`. Inside it, with pivots above
-:data:`SINGULAR_RTOL` and :math:`k \le 8`, no intermediate of the factorisation
-overflows or becomes subnormal, so :math:`\kappa` is correct to rounding (a few
+:data:`~radarfusion_ref.engine.validation.SINGULAR_RTOL` and :math:`k \le 8`, no
+intermediate of the factorisation overflows or becomes subnormal, so :math:`\kappa` is correct to rounding (a few
 units of :math:`\varepsilon\,\mathrm{cond}(S)` relative) — physical radar
 coordinates in any unit from micrometres to light years lie well inside.
 """
@@ -56,62 +62,33 @@ import math
 
 import numpy as np
 
-from ._validation import (
+from .validation import (
     MEMORY_LIMIT,
-    SINGULAR_RTOL,
-    _describe,
     _pd_mask,
-    _refuse_covariance,
     _symmetric_mask,
+    as_covariance,
     as_float_array,
     as_int,
+    check_domain,
     check_size,
+    describe,
     unwrap,
 )
 
 __all__ = [
-    "MAX_MAGNITUDE",
-    "SINGULAR_RTOL",
     "cholesky",
     "is_positive_definite",
     "mahalanobis_sq",
+    "mahalanobis_sq_k2_kernel",
+    "mahalanobis_sq_kernel",
     "mahalanobis_sq_pairwise",
 ]
 
-#: Largest magnitude of a coordinate or difference, and of a variance (whose
-#: smallest accepted value is its reciprocal): :math:`2^{150}`.
-MAX_MAGNITUDE = 2.0 ** 150
 #: Default pairs per chunk of :func:`mahalanobis_sq_pairwise`: the work buffers stay in cache.
 _PAIR_CHUNK = 65536
 
 
 # --------------------------------------------------------------------------- door checks
-def _check_domain(arr: np.ndarray, name: str) -> None:
-    """Refuse coordinates beyond :data:`MAX_MAGNITUDE` (the numeric domain)."""
-    if arr.size and float(np.max(np.abs(arr))) > MAX_MAGNITUDE:
-        raise ValueError(
-            f"`{name}` must lie within the numeric domain |value| <= 2**150 (about 1.4e45); "
-            f"received {_describe(arr)} (largest magnitude {float(np.max(np.abs(arr))):.6g}); "
-            "change the unit of the coordinates")
-
-
-def _as_cov(value, name: str, k: int | None = None) -> np.ndarray:
-    """A covariance stack that obeys the PD rule and the variance domain, named `name`."""
-    c = as_float_array(value, name, ndim_min=2)
-    if c.shape[-1] != c.shape[-2] or (k is not None and c.shape[-1] != k):
-        want = "(..., k, k)" if k is None else f"(..., {k}, {k})"
-        raise ValueError(f"`{name}` must have shape {want}; received shape {c.shape}")
-    if not (np.all(_symmetric_mask(c)) and np.all(_pd_mask(c))):
-        _refuse_covariance(c, name)
-    var = np.diagonal(c, axis1=-2, axis2=-1)
-    if var.size and (var.max() > MAX_MAGNITUDE or var.min() < 1.0 / MAX_MAGNITUDE):
-        raise ValueError(
-            f"`{name}` must have every variance within the numeric domain [2**-150, 2**150] "
-            f"(about 7e-46 to 1.4e45); received variances from {var.min():.6g} to "
-            f"{var.max():.6g}; change the unit of the coordinates")
-    return c
-
-
 def _refuse_overflow(kappa: np.ndarray, names: str) -> None:
     if kappa.size and not float(np.max(kappa)) < np.inf:
         raise ValueError(
@@ -119,12 +96,18 @@ def _refuse_overflow(kappa: np.ndarray, names: str) -> None:
             "(about 1.8e308); change the unit of the coordinates")
 
 
-def _kappa(d: np.ndarray, s: np.ndarray, names: str, logdet: list | None = None) -> np.ndarray:
-    """kappa = d' S^-1 d for validated ``d (..., k)`` and ``S (..., k, k)``, broadcast.
+def mahalanobis_sq_kernel(d: np.ndarray, s: np.ndarray, names: str,
+                          logdet: list | None = None) -> np.ndarray:
+    r"""Kernel (trusted input): :math:`\kappa = d^T S^{-1} d`, broadcast over leading axes.
 
-    The kernel of :func:`mahalanobis_sq` for callers that validated their own
-    arguments (their names, in `names`, head the overflow refusal); with `logdet` (a
-    list) ``ln det S`` is appended to it.
+    The kernel of :func:`mahalanobis_sq`, for a public function that validated its
+    own arguments at its door: `d` ``(..., k)`` and `s` ``(..., k, k)`` float
+    arrays, `d` checked by :func:`~radarfusion_ref.engine.validation.check_domain`
+    and `s` by :func:`~radarfusion_ref.engine.validation.as_covariance` (or a sum of
+    such covariances: the rule is closed under sums). It checks nothing but
+    overflow: a :math:`\kappa` beyond the largest double is refused with a message
+    headed by `names` (the caller's public argument names, in backticks). With
+    `logdet` (a list), :math:`\ln\det S` is appended to it.
     """
     k = d.shape[-1]
     with np.errstate(under="ignore"):
@@ -138,8 +121,8 @@ def _kappa(d: np.ndarray, s: np.ndarray, names: str, logdet: list | None = None)
 def _mahalanobis_iv(d, cov):
     a = as_float_array(d, "d", ndim_min=1)
     k = a.shape[-1]
-    c = _as_cov(cov, "cov", k)
-    _check_domain(a, "d")
+    c = as_covariance(cov, "cov", dim=k)
+    check_domain(a, "d")
     try:
         np.broadcast_shapes(a.shape[:-1], c.shape[:-2])
     except ValueError:
@@ -154,14 +137,14 @@ def _pairwise_iv(x1, x2, cov1, cov2, chunk_size, out_bytes):
     b = as_float_array(x2, "x2", ndim_min=2, last_dims=(None, k))
     covs = []
     for name, value, x, xname in (("cov1", cov1, a, "x1"), ("cov2", cov2, b, "x2")):
-        c = _as_cov(value, name, k)
+        c = as_covariance(value, name, dim=k)
         c = c[None] if c.ndim == 2 else c                 # one (k, k) matrix: shared
         if c.shape[-3] not in (1, x.shape[-2]):
             raise ValueError(f"`{name}` must hold one {k}x{k} matrix per report of `{xname}` "
                              f"(shape (..., {x.shape[-2]}, {k}, {k}) or ({k}, {k})); "
                              f"received shape {c.shape}")
         covs.append(c)
-        _check_domain(x, xname)
+        check_domain(x, xname)
     c1, c2 = covs
     try:
         lead = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], c1.shape[:-3], c2.shape[:-3])
@@ -217,11 +200,17 @@ def _ldl_kappa(d, s, logdet=None):
     return kappa
 
 
-def _ldl2_shared(delta, s, out):
-    """kappa of 2-D differences against one 2x2 S, in place (the k = 2 case of :func:`_ldl_kappa`).
+def mahalanobis_sq_k2_kernel(delta: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
+    r"""Kernel (trusted input): :math:`\kappa` of many 2-vectors against one 2x2 matrix, in place.
 
-    `delta`: a (2, m) work array of differences (overwritten); `s`: the validated
-    (2, 2) matrix; `out`: (m,) receives kappa = d0 (d0 / s00) + w (w / D2), w = d1 - u d0.
+    The :math:`k = 2` case of :func:`mahalanobis_sq_kernel` without temporaries,
+    for a public function that validated its arguments at its door: `delta`, a
+    ``(2, m)`` work array of differences within the numeric domain (overwritten);
+    `s`, one ``(2, 2)`` covariance accepted by
+    :func:`~radarfusion_ref.engine.validation.as_covariance`; `out`, an ``(m,)``
+    array that receives :math:`\kappa = d_0^2 / s_{00} + w^2 / D_2` with
+    :math:`u = s_{10}/s_{00}`, :math:`D_2 = s_{11} - u s_{10}`,
+    :math:`w = d_1 - u d_0`. Overflow is not checked (the caller does).
     """
     d0, d1 = delta
     u = s[1, 0] / s[0, 0]
@@ -340,7 +329,7 @@ def mahalanobis_sq(d, cov, *, return_logdet=False):
     ----------
     d : array_like, shape (..., k)
         Differences (for two reports, :math:`\hat x_1 - \hat x_2`), each entry
-        of magnitude at most :data:`MAX_MAGNITUDE`.
+        of magnitude at most :data:`~radarfusion_ref.engine.validation.MAX_MAGNITUDE`.
     cov : array_like, shape (..., k, k)
         Their covariances (for two independent reports, :math:`\Sigma_1 +
         \Sigma_2`), each obeying :func:`is_positive_definite`, with variances
@@ -371,10 +360,10 @@ def mahalanobis_sq(d, cov, *, return_logdet=False):
     array([1.25, 1.  ])
     """
     if not isinstance(return_logdet, (bool, np.bool_)):
-        raise TypeError(f"`return_logdet` must be a bool; received {_describe(return_logdet)}")
+        raise TypeError(f"`return_logdet` must be a bool; received {describe(return_logdet)}")
     a, c = _mahalanobis_iv(d, cov)
     ld: list = []
-    kappa = _kappa(a, c, "`d`, `cov`", ld if return_logdet else None)
+    kappa = mahalanobis_sq_kernel(a, c, "`d`, `cov`", ld if return_logdet else None)
     if return_logdet:
         return unwrap(kappa), unwrap(np.broadcast_to(ld[0], kappa.shape))
     return unwrap(kappa)
@@ -425,7 +414,7 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
         If the shapes do not match, an entry is not finite or lies outside the
         numeric domain, a covariance breaks the positive-definiteness rule, the
         planned memory exceeds
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (checked before
+        :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` (checked before
         anything that grows with the pairs is allocated), or a :math:`\kappa`
         exceeds the largest double.
     TypeError
@@ -449,7 +438,7 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
            [0.25]])
     """
     if not isinstance(return_logdet, (bool, np.bool_)):
-        raise TypeError(f"`return_logdet` must be a bool; received {_describe(return_logdet)}")
+        raise TypeError(f"`return_logdet` must be a bool; received {describe(return_logdet)}")
     a, b, c1, c2, lead, chunk = _pairwise_iv(x1, x2, cov1, cov2, chunk_size,
                                              16 if return_logdet else 8)
     with np.errstate(under="ignore"):
@@ -464,8 +453,8 @@ def is_positive_definite(cov):
     A matrix passes when it is symmetric (to 1e-9 of its largest entry), its
     variances are positive and every pivot of the :math:`LDL^T` factorisation
     of its correlation matrix :math:`R = D_C^{-1/2} C D_C^{-1/2}` exceeds
-    :data:`SINGULAR_RTOL`, i.e. no coordinate's variance given the preceding
-    coordinates falls below 1e-12 of its own variance (a matrix that fails is
+    :data:`~radarfusion_ref.engine.validation.SINGULAR_RTOL`, i.e. no coordinate's
+    variance given the preceding coordinates falls below 1e-12 of its own variance (a matrix that fails is
     singular to working precision). NaN entries fail.
 
     Parameters
@@ -500,7 +489,10 @@ def cholesky(cov, name="cov"):
     Parameters
     ----------
     cov : array_like, shape (..., k, k)
-        Covariances obeying :func:`is_positive_definite`.
+        Covariances accepted by the one covariance rule,
+        :func:`radarfusion_ref.engine.validation.as_covariance` (symmetric,
+        positive definite by :func:`is_positive_definite`, variances in
+        :math:`[2^{-150}, 2^{150}]`).
     name : str, optional
         The caller's name for `cov`, used in error messages (default ``"cov"``).
 
@@ -522,10 +514,5 @@ def cholesky(cov, name="cov"):
            [1., 1.]])
     """
     if not isinstance(name, str):
-        raise TypeError(f"`name` must be a string; received {_describe(name)}")
-    c = as_float_array(cov, name, ndim_min=2)
-    if c.shape[-1] != c.shape[-2]:
-        raise ValueError(f"`{name}` must have shape (..., k, k); received shape {c.shape}")
-    if not (np.all(_symmetric_mask(c)) and np.all(_pd_mask(c))):
-        _refuse_covariance(c, name)
-    return np.linalg.cholesky(c)
+        raise TypeError(f"`name` must be a string; received {describe(name)}")
+    return np.linalg.cholesky(as_covariance(cov, name))

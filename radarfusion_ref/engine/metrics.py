@@ -25,16 +25,18 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from ._validation import (
+from .linalg import mahalanobis_sq
+from .montecarlo import Proportion, proportion
+from .validation import (
     MEMORY_LIMIT,
-    _describe,
+    as_covariance,
     as_float_array,
     as_positive,
     as_probability,
+    check_domain,
     check_size,
+    describe,
 )
-from .linalg import _as_cov, _check_domain, mahalanobis_sq
-from .montecarlo import Proportion, proportion
 
 __all__ = ["GospaResult", "NeesResult", "PurityResult", "gospa", "nees", "purity"]
 
@@ -81,7 +83,7 @@ def _number(value, name):
     """A single finite number > 0."""
     v = as_positive(value, name)
     if v.ndim:
-        raise ValueError(f"`{name}` must be a number; received {_describe(value)}")
+        raise ValueError(f"`{name}` must be a number; received {describe(value)}")
     return float(v)
 
 
@@ -98,7 +100,7 @@ def _gospa_iv(x, y, c, p, alpha, parts):
     if _number(alpha, "alpha") != 2.0:
         raise ValueError(f"`alpha` must be 2 (the decomposable GOSPA); received {alpha!r}")
     if not isinstance(parts, (bool, np.bool_)):
-        raise TypeError(f"`parts` must be True or False; received {_describe(parts)}")
+        raise TypeError(f"`parts` must be True or False; received {describe(parts)}")
     n, k = x.shape[0], y.shape[0]
     check_size(8 * 3 * n * k * max(x.shape[1], 1), MEMORY_LIMIT,
                what=f"bytes of the distance matrix of {n} x {k} points (`x`, `y`)",
@@ -241,15 +243,15 @@ def _nees_iv(error, cov, level):
     if e.ndim != 2 or e.shape[0] == 0 or e.shape[1] == 0:
         raise ValueError(f"`error` must hold N >= 1 errors of shape (N, d); received shape "
                          f"{e.shape}")
-    _check_domain(e, "error")
+    check_domain(e, "error")
     P = as_float_array(cov, "cov", ndim_min=3)
     if P.shape != (*e.shape, e.shape[1]):
         raise ValueError(f"`cov` must have shape {(*e.shape, e.shape[1])} (one covariance per "
                          f"error); received shape {P.shape}")
-    P = _as_cov(P, "cov", e.shape[1])              # the PD rule and the variance domain
+    P = as_covariance(P, "cov", dim=e.shape[1])              # the PD rule and the variance domain
     lv = as_probability(level, "level")
     if lv.ndim:
-        raise ValueError(f"`level` must be a number in (0, 1); received {_describe(level)}")
+        raise ValueError(f"`level` must be a number in (0, 1); received {describe(level)}")
     return e, P, float(lv)
 
 
@@ -337,12 +339,12 @@ def _purity_iv(sources, present):
     s = _array_of(sources, "iu")
     if s is None or s.ndim != 2:
         raise TypeError(f"`sources` must be an integer array of shape (G, m); received "
-                        f"{_describe(sources)}")
+                        f"{describe(sources)}")
     if present is None:
         return s, np.ones(s.shape, dtype=bool)
     m = _array_of(present, "b")
     if m is None:
-        raise TypeError(f"`present` must be a boolean array; received {_describe(present)}")
+        raise TypeError(f"`present` must be a boolean array; received {describe(present)}")
     if m.shape != s.shape:
         raise ValueError(f"`present` must have the shape of `sources` {s.shape}; received "
                          f"shape {m.shape}")

@@ -39,9 +39,8 @@ import numpy as np
 from scipy import stats
 
 from ._optional import available, require
-from ._validation import (
+from .validation import (
     MEMORY_LIMIT,
-    _describe,
     as_bool,
     as_choice,
     as_float,
@@ -50,6 +49,7 @@ from ._validation import (
     as_probability,
     as_seed_sequence,
     check_size,
+    describe,
     unwrap,
 )
 
@@ -143,7 +143,7 @@ class Proportion:
         """
         exact = _as_exact(exact, np.shape(self.estimate))
         if np.any((exact < 0) | (exact > 1)):
-            raise ValueError(f"`exact` must be a probability in [0, 1]; received {_describe(exact)}")
+            raise ValueError(f"`exact` must be a probability in [0, 1]; received {describe(exact)}")
         tol = binomial_tolerance(exact, self.trials, sigmas=_as_sigmas(sigmas))
         return bool(np.all(np.abs(np.asarray(self.estimate) - exact) <= tol))
 
@@ -468,14 +468,14 @@ class SweepResult:
         array([0., 5.])
         """
         if not callable(fn):
-            raise TypeError(f"`fn` must be callable; received {_describe(fn)}")
+            raise TypeError(f"`fn` must be callable; received {describe(fn)}")
         arr = self._only(name)
         return np.asarray([fn(a) for a in arr])
 
     def identical(self, other: SweepResult) -> bool:
         """Bit-for-bit equality with another sweep: same points, outputs, dtypes and trials."""
         if not isinstance(other, SweepResult):
-            raise TypeError(f"`other` must be a SweepResult; received {_describe(other)}")
+            raise TypeError(f"`other` must be a SweepResult; received {describe(other)}")
         if (self.points != other.points or self.trials != other.trials
                 or set(self.outputs) != set(other.outputs)):
             return False
@@ -500,7 +500,7 @@ def _grid_value(v, where: str):
             raise ValueError(f"`grid` {where} must be finite; received {v!r}")
         return v
     raise TypeError(f"`grid` {where} must be a number, a bool or a string; "
-                    f"received {_describe(v)}")
+                    f"received {describe(v)}")
 
 
 def _is_1d(values) -> bool:
@@ -521,9 +521,9 @@ def _as_grid(grid):
                                 f"received {key!r}")
             if isinstance(values, (str, bytes, Mapping)) or not hasattr(values, "__len__"):
                 raise TypeError(f"`grid` axis {key!r} must be a 1-D sequence of values; "
-                                f"received {_describe(values)}")
+                                f"received {describe(values)}")
             if not _is_1d(values):
-                raise ValueError(f"`grid` axis {key!r} must be 1-D; received {_describe(values)}")
+                raise ValueError(f"`grid` axis {key!r} must be 1-D; received {describe(values)}")
             if len(values) == 0:
                 raise ValueError(f"`grid` axis {key!r} is empty; every axis needs at least one "
                                  "value")
@@ -544,7 +544,7 @@ def _as_grid(grid):
         for k, point in enumerate(grid):
             if not isinstance(point, Mapping) or not point:
                 raise TypeError(f"`grid` point {k} must be a non-empty dict of parameters; "
-                                f"received {_describe(point)}")
+                                f"received {describe(point)}")
             keys = tuple(point)
             if any(not isinstance(n, str) or not n for n in keys):
                 raise TypeError(f"`grid` point {k} must have str parameter names; "
@@ -557,7 +557,7 @@ def _as_grid(grid):
             rows.append({n: _grid_value(point[n], f"point {k}, {n!r},") for n in first})
         return tuple(rows), first, None
     raise TypeError("`grid` must be a mapping of parameter names to 1-D sequences of values, "
-                    f"or a sequence of dicts; received {_describe(grid)}")
+                    f"or a sequence of dicts; received {describe(grid)}")
 
 
 def unit_rng(root, point, unit) -> np.random.Generator:
@@ -594,7 +594,7 @@ def _unit_rng_iv(root, point, unit) -> tuple[np.random.SeedSequence, int, int]:
     """Validate :func:`unit_rng`'s arguments."""
     if not isinstance(root, np.random.SeedSequence):
         raise TypeError("`root` must be a numpy.random.SeedSequence (the sweep's root); "
-                        f"received {_describe(root)}")
+                        f"received {describe(root)}")
     return root, as_int(point, "point", minimum=0), as_int(unit, "unit", minimum=0)
 
 
@@ -612,7 +612,7 @@ def _as_outputs(out, n: int) -> dict:
             raise TypeError(f"`experiment` output names must be str; received {key!r}")
         if not isinstance(value, (np.ndarray, np.generic, list, tuple)):
             raise TypeError(f"`experiment` must return an array (or a dict of arrays) whose "
-                            f"first axis holds the trials; output {key!r} is {_describe(value)}")
+                            f"first axis holds the trials; output {key!r} is {describe(value)}")
         arr = np.asarray(value)
         if arr.dtype.kind not in _NUMERIC_KINDS:
             raise TypeError(f"`experiment` output {key!r} must be numeric or bool; received "
@@ -708,7 +708,7 @@ def _as_client(client):
     Client = require("distributed", feature="sweep(client=...)").Client
     if not isinstance(client, Client):
         raise TypeError("`client` must be None (run here) or a distributed.Client; received "
-                        f"{_describe(client)}")
+                        f"{describe(client)}")
     if client.status != "running":
         raise ValueError(f"`client` must be a running distributed.Client; its status is "
                          f"{client.status!r} (closed or not connected to its scheduler: "
@@ -766,7 +766,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
         Trials per grid point (≥ 1).
     rng : None, int, numpy.random.SeedSequence or numpy.random.Generator
         The seed (SPEC 7), converted by
-        :func:`radarfusion_ref.engine._validation.as_seed_sequence`. A
+        :func:`radarfusion_ref.engine.validation.as_seed_sequence`. A
         non-negative int or a SeedSequence is used as is (a SeedSequence is not
         advanced: the same one gives the same sweep). A Generator is not shared
         with the tasks: 128 bits drawn from it become the root entropy (this
@@ -807,11 +807,11 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
         If a `grid` axis is empty, not 1-D or holds NaN/inf, the grid is empty or
         exceeds :data:`MAX_POINTS`; `trials` < 1; `block` is not a positive
         multiple of :data:`SEED_BLOCK`; grid points × `trials` exceeds
-        :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` (each trial's
+        :data:`~radarfusion_ref.engine.validation.MEMORY_LIMIT` (each trial's
         result takes at least a byte; refused before any task is built);
         `client` is closed, cannot reach its scheduler or has no workers; or the outputs (points × trials × bytes
         per trial, known after the first task) would exceed
-        :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` — refused before they
+        :data:`~radarfusion_ref.engine.validation.MEMORY_LIMIT` — refused before they
         are allocated.
     ImportError
         If `progress` asks for the bar and tqdm is not installed, or `client` is
@@ -852,7 +852,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
     start_time = time.perf_counter()
     if not callable(experiment):
         raise TypeError(f"`experiment` must be a callable experiment(params, n, rng); "
-                        f"received {_describe(experiment)}")
+                        f"received {describe(experiment)}")
     points, names, grid_shape = _as_grid(grid)
     trials = as_int(trials, "trials", minimum=1)
     block = as_int(block, "block", minimum=1)

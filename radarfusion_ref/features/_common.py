@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import logsumexp
 
-from ..engine._validation import (
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     check_size,
+    describe,
 )
 
 _LOG_2PI = np.log(2.0 * np.pi)
@@ -19,7 +19,7 @@ _LOG_2PI = np.log(2.0 * np.pi)
 MAX_BINS = 10_000
 
 #: Working arrays of one type posterior, each of the output's size (for the
-#: memory limit :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`).
+#: memory limit :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT`).
 _WORK_ARRAYS = 24
 
 
@@ -36,7 +36,7 @@ def _check_memory(shape, n_types, what):
 def _as_flag(value, name):
     """A plain bool option (``log``); refuse strings and numbers, which are always truthy."""
     if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"`{name}` must be True or False; received {_describe(value)}")
+        raise TypeError(f"`{name}` must be True or False; received {describe(value)}")
     return bool(value)
 
 

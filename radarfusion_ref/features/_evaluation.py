@@ -6,16 +6,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine._validation import (
-    _describe,
+from ..engine.montecarlo import MeanEstimate, Proportion, mean, proportion
+from ..engine.scenes import (
+    TypedScene,
+)
+from ..engine.validation import (
     as_choice,
     as_float_array,
     as_int,
     check_size,
-)
-from ..engine.montecarlo import MeanEstimate, Proportion, mean, proportion
-from ..engine.scenes import (
-    TypedScene,
+    describe,
 )
 from ..fusion import fuse
 from ._common import (
@@ -252,12 +252,12 @@ def reliability_curve(prob, outcome, *, bins: int = 10) -> ReliabilityCurve:
     if p.size == 0:
         raise ValueError("`prob` must hold at least one prediction; received an empty array")
     if np.any((p < 0) | (p > 1)):
-        raise ValueError(f"`prob` must lie in [0, 1]; received {_describe(p)} (min {p.min():.6g},"
+        raise ValueError(f"`prob` must lie in [0, 1]; received {describe(p)} (min {p.min():.6g},"
                          f" max {p.max():.6g})")
     o = np.asarray(outcome)
     if o.dtype != bool or o.size != p.size:
         raise ValueError(f"`outcome` must be a boolean array with as many entries as `prob` "
-                         f"({p.size}); received {_describe(outcome)} (dtype {o.dtype}, "
+                         f"({p.size}); received {describe(outcome)} (dtype {o.dtype}, "
                          f"{o.size} entries)")
     which = np.minimum((p * bins).astype(int), bins - 1)
     counts = np.bincount(which, minlength=bins)

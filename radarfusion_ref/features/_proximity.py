@@ -8,17 +8,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
-from ..engine._validation import (
+from ..engine.scenes import (
+    FEATURE_MODELS,
+    TypedScene,
+    _types_iv,
+)
+from ..engine.validation import (
     as_choice,
     as_float_array,
     as_positive,
     broadcast,
     unwrap,
-)
-from ..engine.scenes import (
-    FEATURE_MODELS,
-    TypedScene,
-    _types_iv,
 )
 from ..proximity import proximity_gaussian
 from ._common import (

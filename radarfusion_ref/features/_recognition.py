@@ -7,17 +7,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import expit
 
-from ..engine._validation import (
-    _describe,
+from ..engine.scenes import (
+    FEATURE_MODELS,
+    _types_iv,
+)
+from ..engine.validation import (
     as_choice,
     as_float_array,
     as_positive,
     broadcast,
+    describe,
     unwrap,
-)
-from ..engine.scenes import (
-    FEATURE_MODELS,
-    _types_iv,
 )
 from ._common import (
     _LOG_2PI,
@@ -181,7 +181,7 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
     if log and np.any(np.isinf(out)):
         raise ValueError("the log-likelihood is below the floating-point range (about -1.8e308) "
                          "for some `feature`; use type_posterior for normalised probabilities "
-                         f"(received feature {_describe(f)})")
+                         f"(received feature {describe(f)})")
     return out if log else np.exp(out)
 
 

@@ -6,15 +6,15 @@ import math
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.linalg import mahalanobis_sq_pairwise
+from ..engine.scenes import binding_hypotheses
+from ..engine.validation import (
     MEMORY_LIMIT,
     as_choice,
     as_covariance,
     as_float_array,
     check_size,
 )
-from ..engine.linalg import mahalanobis_sq_pairwise
-from ..engine.scenes import binding_hypotheses
 from ._costs import _finite_costs, _ml_tensor, _reports_iv, _rescale
 
 #: (0-based; the paper's :math:`J_{ij}` is report ``j`` of source ``i``).

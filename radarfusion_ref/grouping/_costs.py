@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.linalg import mahalanobis_sq_pairwise
+from ..engine.validation import (
     MEMORY_LIMIT,
     as_bool,
     as_choice,
@@ -16,7 +17,6 @@ from ..engine._validation import (
     as_int,
     check_size,
 )
-from ..engine.linalg import mahalanobis_sq_pairwise
 
 _COSTS = ("ml", "pairwise")
 

@@ -8,9 +8,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.assignment._dense import _solve_full, dense_work_bytes
+from ..engine.assignment._lagrangian import _solve_candidates
+from ..engine.assignment._milp import _sd_solve
+from ..engine.assignment._results import _gap_of
+from ..engine.assignment._sd import _sd_enumerate
+from ..engine.linalg import mahalanobis_sq_pairwise
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     as_bool,
     as_choice,
     as_covariance,
@@ -20,13 +25,8 @@ from ..engine._validation import (
     as_positive,
     as_probability,
     check_size,
+    describe,
 )
-from ..engine.assignment._dense import _solve_full, dense_work_bytes
-from ..engine.assignment._lagrangian import _solve_candidates
-from ..engine.assignment._milp import _sd_solve
-from ..engine.assignment._results import _gap_of
-from ..engine.assignment._sd import _sd_enumerate
-from ..engine.linalg import mahalanobis_sq_pairwise
 from ..gating import gate_threshold
 from ._costs import (
     _COSTS,
@@ -627,7 +627,7 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         raise ValueError("`median_logdet`=True applies to the ML cost (`cost`='ml') of candidate "
                          "groups: give `p_false_reject` (a gate) or `p_detect` (the dummy "
                          f"index); received cost={cost!r}, p_false_reject={p_false_reject!r}, "
-                         f"p_detect={_describe(p_detect) if p_detect is not None else None}")
+                         f"p_detect={describe(p_detect) if p_detect is not None else None}")
     if with_det:
         xs, cs = _ragged_iv(x, cov)
         det = _detection_iv(len(xs), p_detect, false_density, object_density)

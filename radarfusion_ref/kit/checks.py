@@ -33,8 +33,8 @@ from collections import Counter
 
 import numpy as np
 
-from ..engine._validation import _describe
 from ..engine.montecarlo import MeanEstimate, Proportion
+from ..engine.validation import describe
 
 __all__ = ["CheckError", "check_close", "check_equal", "check_true", "passed", "page_summary",
            "PageSummary", "require", "MonteCarloCheckError", "LOG_ENV"]
@@ -167,7 +167,7 @@ def page_summary() -> PageSummary:
 def _as_what(what) -> str:
     if not isinstance(what, str) or not what.strip():
         raise TypeError(f"`what` must be a non-empty string naming the check; received "
-                        f"{_describe(what)}")
+                        f"{describe(what)}")
     return what
 
 
@@ -176,28 +176,28 @@ def _numeric(value, name: str, what: str) -> np.ndarray:
     if value is None:
         raise TypeError(f"{what}: `{name}` is None; a check needs numbers")
     if isinstance(value, (str, bytes)):
-        raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}")
+        raise TypeError(f"{what}: `{name}` must be numeric; received {describe(value)}")
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError):
-        raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}") from None
+        raise TypeError(f"{what}: `{name}` must be numeric; received {describe(value)}") from None
     if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
-        raise TypeError(f"{what}: `{name}` must be numeric; received {_describe(value)}")
+        raise TypeError(f"{what}: `{name}` must be numeric; received {describe(value)}")
     if np.iscomplexobj(arr):
-        raise TypeError(f"{what}: `{name}` must be real; received complex {_describe(value)} "
+        raise TypeError(f"{what}: `{name}` must be real; received complex {describe(value)} "
                         "(compare real and imaginary parts as two real checks)")
     if arr.size == 0:
         raise CheckError(f"{what}: `{name}` is empty (shape {arr.shape}); an empty "
                          "comparison proves nothing")
     if np.issubdtype(arr.dtype, np.inexact) and not np.all(np.isfinite(arr)):
         bad = int(np.count_nonzero(~np.isfinite(arr)))
-        raise CheckError(f"{what}: `{name}` has {bad} non-finite entries: {_describe(arr)}")
+        raise CheckError(f"{what}: `{name}` has {bad} non-finite entries: {describe(arr)}")
     return arr
 
 
 def _tolerance(value, name: str, *, upper: float | None = None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"`{name}` must be a real number; received {_describe(value)}")
+        raise TypeError(f"`{name}` must be a real number; received {describe(value)}")
     tol = float(value)
     if not np.isfinite(tol) or tol < 0 or (upper is not None and tol >= upper):
         bound = f"[0, {upper:g})" if upper is not None else "[0, inf)"
@@ -322,7 +322,7 @@ def check_equal(value, reference, *, what: str) -> str:
             a = np.asarray(x)
         except ValueError:
             raise TypeError(f"{what}: `{name}` must be a regular array; received "
-                            f"{_describe(x)}") from None
+                            f"{describe(x)}") from None
         if a.size == 0:
             raise CheckError(f"{what}: `{name}` is empty (shape {a.shape}); an empty "
                              "comparison proves nothing")
@@ -330,10 +330,10 @@ def check_equal(value, reference, *, what: str) -> str:
             a = _numeric(a, name, what)
             if np.any(a != np.round(a)):
                 raise CheckError(f"{what}: `{name}` must hold whole numbers or labels; "
-                                 f"received {_describe(a)}")
+                                 f"received {describe(a)}")
         elif a.dtype == object:
             raise TypeError(f"{what}: `{name}` must be an array of integers, booleans or "
-                            f"strings; received {_describe(x)}")
+                            f"strings; received {describe(x)}")
         arrays.append(a)
     v, r = arrays
     _same_shape(v, r, what)
@@ -386,7 +386,7 @@ def check_true(condition, *, what: str) -> str:
         arr = None
     if arr is None or arr.dtype != bool:
         raise TypeError(f"{what}: `condition` must be a bool or a boolean array; received "
-                        f"{_describe(condition)}")
+                        f"{describe(condition)}")
     if arr.size == 0:
         raise CheckError(f"{what}: `condition` is empty; an empty check proves nothing")
     if not np.all(arr):
@@ -438,7 +438,7 @@ def require(estimate: Proportion | MeanEstimate, exact, what: str, *,
         raise TypeError("`estimate` must be a Proportion or a MeanEstimate; received "
                         f"{type(estimate).__name__}")
     if not isinstance(what, str) or not what.strip():
-        raise TypeError(f"`what` must be a non-empty string; received {_describe(what)}")
+        raise TypeError(f"`what` must be a non-empty string; received {describe(what)}")
     if not np.all(np.isfinite(np.asarray(estimate.estimate, dtype=float))):
         raise MonteCarloCheckError(f"{what}: the Monte-Carlo estimate is not finite: {estimate}")
     if not estimate.agrees(exact, sigmas=sigmas):

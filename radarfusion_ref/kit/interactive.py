@@ -34,8 +34,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..engine._optional import require
-from ..engine._validation import _describe, as_float, as_float_array, as_int
 from ..engine.errors import RadarFusionWarning
+from ..engine.validation import as_float, as_float_array, as_int, describe
 
 __all__ = ["controls", "sweep_player", "slider", "MIN_FRAMES", "PLAYER_DPI", "PRINT_DPI",
            "Player"]
@@ -102,7 +102,7 @@ class Player:
 
 def _as_bool(value, name: str) -> bool:
     if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"`{name}` must be True or False; received {_describe(value)}")
+        raise TypeError(f"`{name}` must be True or False; received {describe(value)}")
     return bool(value)
 
 
@@ -113,7 +113,7 @@ def _as_limits(value, name: str) -> tuple[float, float] | None:
     arr = as_float_array(value, name)
     if arr.shape != (2,) or arr[0] == arr[1]:
         raise ValueError(f"`{name}` must be None or a pair (lo, hi) of finite numbers with "
-                         f"lo != hi; received {_describe(value)}")
+                         f"lo != hi; received {describe(value)}")
     return float(arr[0]), float(arr[1])
 
 
@@ -155,14 +155,14 @@ def slider(value: float, lo: float, hi: float, step: float | None = None, *,
     """
     integer = _as_bool(integer, "integer")
     if not isinstance(description, str):
-        raise TypeError(f"`description` must be a string; received {_describe(description)}")
+        raise TypeError(f"`description` must be a string; received {describe(description)}")
     if integer:
         value, lo, hi = (as_int(v, n) for v, n in ((value, "value"), (lo, "lo"), (hi, "hi")))
         step = None if step is None else as_int(step, "step", minimum=1)
     else:
         value, lo, hi = (as_float(v, n) for v, n in ((value, "value"), (lo, "lo"), (hi, "hi")))
         if step is not None and not as_float(step, "step") > 0:
-            raise ValueError(f"`step` must be > 0; received {_describe(step)}")
+            raise ValueError(f"`step` must be > 0; received {describe(step)}")
     if not lo < hi:
         raise ValueError(f"`lo` must be below `hi`; received lo = {lo}, hi = {hi}")
     if not lo <= value <= hi:
@@ -190,7 +190,7 @@ def controls(view: Callable, **widgets_or_values):
         If `view` is not callable.
     """
     if not callable(view):
-        raise TypeError(f"`view` must be callable; received {_describe(view)}")
+        raise TypeError(f"`view` must be callable; received {describe(view)}")
     widgets = require("ipywidgets", feature="controls")
     display = require("IPython.display", feature="controls").display
     for w in widgets_or_values.values():
@@ -392,13 +392,13 @@ def sweep_player(draw: Callable, values: Sequence, *, fig=None, interval: int = 
 
     if not callable(draw):
         raise TypeError(f"`draw` must be callable, called as draw(fig, value); "
-                        f"received {_describe(draw)}")
+                        f"received {describe(draw)}")
     if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-        raise TypeError(f"`values` must be a sequence of swept values; received {_describe(values)}")
+        raise TypeError(f"`values` must be a sequence of swept values; received {describe(values)}")
     values = list(values)
     as_int(len(values), "len(values)", minimum=1)
     if fig is not None and not isinstance(fig, Figure):
-        raise TypeError(f"`fig` must be a matplotlib.figure.Figure or None; received {_describe(fig)}")
+        raise TypeError(f"`fig` must be a matplotlib.figure.Figure or None; received {describe(fig)}")
     interval = as_int(interval, "interval", minimum=1)
     dpi = as_int(dpi, "dpi", minimum=50, maximum=600)
     xlim, ylim = _as_limits(xlim, "xlim"), _as_limits(ylim, "ylim")

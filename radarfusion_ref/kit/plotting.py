@@ -13,15 +13,15 @@ from contextlib import contextmanager
 import matplotlib as mpl
 import numpy as np
 
-from ..engine._validation import (
-    _describe,
+from ..engine.montecarlo import MeanEstimate, Proportion
+from ..engine.validation import (
     as_covariance,
     as_float,
     as_float_array,
     as_int,
     as_positive,
+    describe,
 )
-from ..engine.montecarlo import MeanEstimate, Proportion
 
 __all__ = [
     "BOOK_STYLE",
@@ -82,7 +82,7 @@ def _as_axes(ax, name: str = "ax"):
 
     if not isinstance(ax, Axes):
         raise TypeError(f"`{name}` must be a matplotlib.axes.Axes (e.g. from plt.subplots()); "
-                        f"received {_describe(ax)}")
+                        f"received {describe(ax)}")
     return ax
 
 
@@ -90,7 +90,7 @@ def _as_result(value, cls, name: str, producer: str):
     """`value` itself if it is a `cls` result object, else a TypeError naming it."""
     if not isinstance(value, cls):
         raise TypeError(f"`{name}` must be a {cls.__name__} (from {producer}); "
-                        f"received {_describe(value)}")
+                        f"received {describe(value)}")
     return value
 
 
@@ -118,7 +118,7 @@ def _color(value, name: str):
 
     if value is not None and not is_color_like(value):
         raise ValueError(f"`{name}` must be a matplotlib colour or None; "
-                         f"received {_describe(value)}")
+                         f"received {describe(value)}")
     return value
 
 
@@ -244,7 +244,7 @@ def plot_reports(ax, xy1, xy2, *, truth=None, pairs=None, true_pairs=None,
     true_pairs = None if true_pairs is None else _pairs(true_pairs, "true_pairs",
                                                         len(xy1), len(xy2))
     if isinstance(labels, str) or len(labels) != 2:
-        raise ValueError(f"`labels` must be two strings; received {_describe(labels)}")
+        raise ValueError(f"`labels` must be two strings; received {describe(labels)}")
     if truth is not None:
         t = _points(truth, "truth")
         ax.plot(t[:, 0], t[:, 1], "x", color=SENSOR_COLORS["truth"], ms=7, label="truth")
@@ -268,12 +268,12 @@ def _pairs(value, name: str, n1: int, n2: int) -> list[tuple[int, int]]:
         return []
     if arr.dtype.kind not in "iu" or arr.ndim != 2 or arr.shape[1] != 2:
         raise ValueError(f"`{name}` must be integer index pairs (i, j), shape (k, 2); "
-                         f"received {_describe(value)}")
+                         f"received {describe(value)}")
     arr = arr[(arr[:, 0] >= 0) & (arr[:, 1] >= 0)]      # a negative index: no partner
     bad = (arr[:, 0] >= n1) | (arr[:, 1] >= n2)
     if np.any(bad):
         raise ValueError(f"`{name}` must index existing reports (i < {n1}, j < {n2}); "
-                         f"received {_describe(arr[bad][:3])}")
+                         f"received {describe(arr[bad][:3])}")
     return [(int(i), int(j)) for i, j in arr]
 
 
@@ -400,7 +400,7 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
     if scene is not None:
         if not isinstance(scene, TwoRadarScene):
             raise TypeError("`scene` must be a radarfusion_ref.engine.scenes.TwoRadarScene; "
-                            f"received {_describe(scene)}")
+                            f"received {describe(scene)}")
         if len(reports) or len(covariances) or truth is not None:
             raise ValueError("`scene` cannot be combined with `reports`, `covariances` or "
                              "`truth`; received both")
@@ -413,7 +413,7 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
         reports = list(reports)
     if isinstance(reports, (str, bytes)) or not isinstance(reports, Sequence):
         raise TypeError("`reports` must be a sequence with one (n_k, d) array per source; "
-                        f"received {_describe(reports)}")
+                        f"received {describe(reports)}")
     pts = [np.atleast_2d(as_float_array(r, f"reports[{k}]", ndim_min=1))
            for k, r in enumerate(reports)]
     dims = {p.shape[-1] for p in pts}
@@ -427,7 +427,7 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
         covariances = list(covariances)
     if not isinstance(covariances, Sequence) or len(covariances) not in (0, len(pts)):
         raise ValueError("`covariances` must be empty or hold one entry per source "
-                         f"({len(pts)}); received {_describe(covariances)}")
+                         f"({len(pts)}); received {describe(covariances)}")
     covs = []
     for k, (c, p) in enumerate(zip(covariances, pts, strict=False)):
         c = as_covariance(c, f"covariances[{k}]", dim=d)
@@ -440,14 +440,14 @@ def plot_scene(ax, *, sensors=None, reports=(), covariances=(), labels=(), truth
     labels = list(labels) if labels is not None else []
     if len(labels) not in (0, len(pts)):
         raise ValueError(f"`labels` must be empty or hold one label per source ({len(pts)}); "
-                         f"received {_describe(labels)}")
+                         f"received {describe(labels)}")
     labels = labels or [f"radar {k + 1}" for k in range(len(pts))]
     default = [SENSOR_COLORS["radar1"], SENSOR_COLORS["radar2"]]
     colors = list(colors) if colors is not None else (
         default + [f"C{k}" for k in range(2, len(pts))])
     if len(colors) < len(pts):
         raise ValueError(f"`colors` must hold at least one colour per source ({len(pts)}); "
-                         f"received {_describe(colors)}")
+                         f"received {describe(colors)}")
     markers = "os^vDph<>"
     suffix = f" ($\\pm{n_sigma:g}\\sigma$)" if covs else ""
 
@@ -544,7 +544,7 @@ def plot_fusion_centre(ax, centre, sensors, *, label="fusion centre", colors=Non
     colors = list(colors) if colors is not None else ["0.35"] * len(s)
     if len(colors) < len(s):
         raise ValueError(f"`colors` must hold at least one colour per site ({len(s)}); "
-                         f"received {_describe(colors)}")
+                         f"received {describe(colors)}")
     for xy, col in zip(s, colors[:len(s)], strict=True):
         ax.annotate("", c, xy, arrowprops=dict(arrowstyle="-|>", ls="--", lw=1.1, color=col,
                                                shrinkA=7, shrinkB=9))
@@ -582,7 +582,7 @@ def plot_density(ax, x, pdf, *, samples=None, bins=60, label=None, color=None):
         raise ValueError(f"`x` and `pdf` must have the same shape; received shapes {x.shape} "
                          f"and {pdf.shape}")
     if np.any(pdf < 0):
-        raise ValueError(f"`pdf` must be >= 0; received {_describe(pdf)}")
+        raise ValueError(f"`pdf` must be >= 0; received {describe(pdf)}")
     bins = as_int(bins, "bins", minimum=1, maximum=10_000)
     color = _color(color, "color") or SENSOR_COLORS["theory"]
     if samples is not None:
@@ -638,22 +638,22 @@ def plot_groups(ax, x, cov, groups, correct=None, *, truth=None, colors=None,
     graw = np.asarray(groups)
     if graw.size and (graw.dtype.kind not in "iu" or graw.ndim != 2 or graw.shape[1] != m):
         raise ValueError(f"`groups` must be integer indices of shape (g, m) = (g, {m}); "
-                         f"received {_describe(groups)}")
+                         f"received {describe(groups)}")
     groups = graw.astype(int).reshape(-1, m)
     if np.any((groups < 0) | (groups >= n)):
-        raise ValueError(f"`groups` must pick reports 0 .. {n - 1}; received {_describe(graw)}")
+        raise ValueError(f"`groups` must pick reports 0 .. {n - 1}; received {describe(graw)}")
     if correct is None:
         correct = np.ones(len(groups), bool)
     else:
         craw = np.asarray(correct)
         if craw.dtype.kind != "b" or craw.shape != (len(groups),):
             raise ValueError(f"`correct` must be booleans, one per group, shape ({len(groups)},); "
-                             f"received {_describe(correct)}")
+                             f"received {describe(correct)}")
         correct = craw
     colors = list(colors) if colors is not None else [f"C{i}" for i in range(m)]
     if len(colors) < m:
         raise ValueError(f"`colors` must hold one colour per source ({m}); "
-                         f"received {_describe(colors)}")
+                         f"received {describe(colors)}")
     if truth is not None:
         truth = _points(truth, "truth")
     for i in range(m):

@@ -8,12 +8,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine._validation import (
-    _describe,
+from ..engine.errors import RadarFusionWarning
+from ..engine.validation import (
     as_float_array,
     as_int,
+    describe,
 )
-from ..engine.errors import RadarFusionWarning
 from ._model import (
     BIAS_NAMES,
     RANK_TOL,
@@ -571,7 +571,7 @@ def estimate_biases(sensors, reports, sigma_r, sigma_beta, *, fixed=None, initia
     fx = _fixed_iv(fixed, m)
     max_iter = as_int(max_iter, "max_iter", minimum=1, maximum=10_000)
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < tol < 1):
-        raise ValueError(f"`tol` must be a number in (0, 1); received {_describe(tol)}")
+        raise ValueError(f"`tol` must be a number in (0, 1); received {describe(tol)}")
     lead, n = z.shape[:-3], z.shape[-2]
     _elements(math.prod(lead) * m * n, "reports")
     free = ~fx.ravel()

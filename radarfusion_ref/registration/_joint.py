@@ -8,16 +8,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import gating
-from ..engine._validation import (
-    _describe,
+from ..engine.assignment import Association, solve_2d
+from ..engine.errors import RadarFusionWarning
+from ..engine.montecarlo import proportion
+from ..engine.validation import (
     as_choice,
     as_float_array,
     as_int,
     as_rng,
+    describe,
 )
-from ..engine.assignment import Association, solve_2d
-from ..engine.errors import RadarFusionWarning
-from ..engine.montecarlo import proportion
 from ._estimation import (
     BiasEstimate,
     _information,
@@ -467,7 +467,7 @@ def association_accuracy(sensors, biases, sigma_r, sigma_beta, *, n_objects: int
     reg = as_float_array(region, "region")
     if reg.shape != (2, 2) or np.any(reg[1] <= reg[0]):
         raise ValueError(f"`region` must be [[x_min, y_min], [x_max, y_max]] with max > min; "
-                         f"received {_describe(reg)}")
+                         f"received {describe(reg)}")
     trials = as_int(trials, "trials", minimum=1, maximum=100_000)
     _fixed_iv(fixed, 2)                         # refused here, not swallowed per trial below
     _sigmas_iv(sigma_r, sigma_beta, 2)

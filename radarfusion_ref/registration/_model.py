@@ -7,22 +7,22 @@ import math
 import numpy as np
 
 from .. import conversion
-from ..engine._validation import (
+from ..engine.geometry import _sigma_beta_iv
+from ..engine.linalg import (
+    is_positive_definite,
+    mahalanobis_sq,
+    mahalanobis_sq_pairwise,
+)
+from ..engine.validation import (
+    MAX_MAGNITUDE,
     MEMORY_LIMIT,
-    _describe,
     as_float_array,
     as_int,
     as_positive,
     as_probability,
     as_rng,
     check_size,
-)
-from ..engine.geometry import _sigma_beta_iv
-from ..engine.linalg import (
-    MAX_MAGNITUDE,
-    is_positive_definite,
-    mahalanobis_sq,
-    mahalanobis_sq_pairwise,
+    describe,
 )
 
 #: Names of the three biases of one radar, in the order of the last axis.
@@ -51,7 +51,7 @@ def _sigmas_iv(sigma_r, sigma_beta, m: int) -> tuple[np.ndarray, np.ndarray]:
                     (_sigma_beta_iv(sigma_beta, strict=True), "sigma_beta")):
         if a.ndim > 1 or (a.ndim == 1 and a.shape[0] not in (1, m)):
             raise ValueError(f"`{name}` must be a number or one number per radar, shape ({m},); "
-                             f"received {_describe(a)}")
+                             f"received {describe(a)}")
         out.append(np.broadcast_to(a, (m,)).astype(float))
     return out[0], out[1]
 
@@ -60,10 +60,10 @@ def _biases_iv(biases, name: str = "biases") -> np.ndarray:
     b = as_float_array(biases, name, ndim_min=1, last_dims=(3,))
     if np.any(b[..., 1] <= -1.0):
         raise ValueError(f"`{name}`: the range scale error (entry [..., 1]) must be > -1 so "
-                         f"that ranges stay positive; received {_describe(b)}")
+                         f"that ranges stay positive; received {describe(b)}")
     if np.any(np.abs(b[..., 2]) > np.pi):
         raise ValueError(f"`{name}`: the azimuth offset (entry [..., 2]) must lie in "
-                         f"[-pi, pi] rad; received {_describe(b)}")
+                         f"[-pi, pi] rad; received {describe(b)}")
     return b
 
 
@@ -84,7 +84,7 @@ def _fixed_iv(fixed, m: int) -> np.ndarray:
         arr = np.asarray(None)                  # ragged: refused just below, by name
     if arr.dtype != bool:
         raise TypeError(f"`fixed` must be a boolean array of shape ({m}, 3) (True = bias known "
-                        f"to be zero); received {_describe(fixed)}")
+                        f"to be zero); received {describe(fixed)}")
     if arr.shape != (m, 3):
         raise ValueError(f"`fixed` must have shape ({m}, 3); received shape {arr.shape}")
     if arr.all():
@@ -96,7 +96,7 @@ def _probability_iv(value, name: str, *, open_interval: bool = True) -> float:
     """One probability (a scalar), refused by name otherwise."""
     p = as_probability(value, name, open_interval=open_interval)
     if p.ndim:
-        raise ValueError(f"`{name}` must be a single probability; received {_describe(value)}")
+        raise ValueError(f"`{name}` must be a single probability; received {describe(value)}")
     return float(p)
 
 
@@ -104,7 +104,7 @@ def _polar_reports_iv(reports, name: str, m: int | None = None) -> np.ndarray:
     z = as_float_array(reports, name, ndim_min=2, last_dims=(None, 2))
     if np.any(z[..., 0] <= 0):
         raise ValueError(f"`{name}`: ranges (entry [..., 0]) must be > 0; received "
-                         f"{_describe(z)}")
+                         f"{describe(z)}")
     if np.any(z[..., 0] > MAX_MAGNITUDE):
         raise ValueError(f"`{name}`: ranges (entry [..., 0]) must lie within the numeric domain "
                          f"<= 2**150 (about 1.4e45; see engine.linalg); received a range of "
@@ -120,7 +120,7 @@ def _targets_iv(targets, sensors: np.ndarray, name: str = "targets") -> np.ndarr
     d = t[..., None, :, :] - sensors[:, None, :]
     if np.any(np.hypot(d[..., 0], d[..., 1]) <= 0):
         raise ValueError(f"`{name}`: an object sits exactly on a radar site (zero range); "
-                         f"received {_describe(t)}")
+                         f"received {describe(t)}")
     return t
 
 

@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 
 from .. import conversion, gating
-from ..engine._validation import (
-    as_choice,
-    as_positive,
-    as_probability,
-)
 from ..engine.geometry import (
     Geometry,
     _as_geometry,
     _polar_sigmas_iv,
     _scalar,
+)
+from ..engine.validation import (
+    as_choice,
+    as_positive,
+    as_probability,
 )
 from ._scenario import _METHODS, PAPER
 from ._statistic import pair_statistic

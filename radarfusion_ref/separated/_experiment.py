@@ -9,16 +9,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import gating
-from ..engine._validation import (
-    MEMORY_LIMIT,
-    _describe,
-    as_choice,
-    as_float_array,
-    as_int,
-    as_probability,
-    as_seed_sequence,
-    check_size,
-)
 from ..engine.geometry import (
     MAX_TRIALS,
     Geometry,
@@ -29,6 +19,16 @@ from ..engine.geometry import (
 )
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.montecarlo import Proportion, proportion
+from ..engine.validation import (
+    MEMORY_LIMIT,
+    as_choice,
+    as_float_array,
+    as_int,
+    as_probability,
+    as_seed_sequence,
+    check_size,
+    describe,
+)
 from ._scenario import (
     _JOINT_ALTERNATIVE,
     _METHODS,
@@ -172,7 +172,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     chunk_size : int, optional
         Trials per vectorized chunk (memory ~ 1.5 kB per trial for two
         targets); the working memory of one chunk must stay within
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`. It changes speed and
+        :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT`. It changes speed and
         memory only, never the result.
 
     Returns
@@ -335,7 +335,7 @@ def collect(experiments, label: str, field: str = "per_report") -> Proportion:
         runs = list(experiments)
     except TypeError:
         raise TypeError("`experiments` must be a sequence of ExperimentResult; received "
-                        f"{_describe(experiments)}") from None
+                        f"{describe(experiments)}") from None
     if not runs:
         raise ValueError("`experiments` must hold at least one ExperimentResult; received none")
     for r in runs:
@@ -343,7 +343,7 @@ def collect(experiments, label: str, field: str = "per_report") -> Proportion:
             raise TypeError("`experiments` must hold ExperimentResult objects (from "
                             f"`association_experiment`); received a {type(r).__name__}")
     if not isinstance(label, str):
-        raise TypeError(f"`label` must be a method label (str); received {_describe(label)}")
+        raise TypeError(f"`label` must be a method label (str); received {describe(label)}")
     missing = [k for k, r in enumerate(runs) if label not in r.results]
     as_choice(field, "field", ("per_report", "joint", "joint_ungated", "true_reject",
                                "false_pass", "all_correct"))
@@ -397,7 +397,7 @@ def offset_sweep(offsets_range, offsets_cross, *, methods=("linearized", "additi
         As :func:`association_experiment`.
     rng : None, int, numpy.random.SeedSequence or numpy.random.Generator, optional
         The seed, converted once by the engine's seed recipe
-        (:func:`radarfusion_ref.engine._validation.as_seed_sequence`); the one
+        (:func:`radarfusion_ref.engine.validation.as_seed_sequence`); the one
         root sequence is given to every grid point (common random numbers), so
         the maps are smooth and differences between neighbouring points are not
         masked by independent noise. A point's result is therefore that of

@@ -9,19 +9,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import conversion
-from ..engine._validation import (
-    MEMORY_LIMIT,
-    _describe,
-    as_bool,
-    as_choice,
-    as_float_array,
-    check_size,
-)
 from ..engine.geometry import (
     _scalar,
 )
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.scenes import PolarReports
+from ..engine.validation import (
+    MEMORY_LIMIT,
+    as_bool,
+    as_choice,
+    as_float_array,
+    check_size,
+    describe,
+)
 from ._scenario import (
     _JOINT_ALTERNATIVE,
     _METHODS,
@@ -176,7 +176,7 @@ def pair_statistic(xy1, cov1, xy2, cov2, *, return_logdet: bool = False,
         If shapes do not match, entries are not finite or lie outside the engine's
         numeric domain, a covariance breaks the package's positive-definiteness rule
         (:func:`radarfusion_ref.engine.linalg.is_positive_definite`), or the pairs are
-        too many for :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`.
+        too many for :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT`.
     TypeError
         If an argument is not numeric.
 
@@ -244,7 +244,7 @@ def _as_statistic(statistic) -> np.ndarray:
                          f"{s.shape}")
     if np.any(s < 0):
         raise ValueError(f"`statistic` must be >= 0 (a quadratic form); received "
-                         f"{_describe(s)} (smallest entry {s.min():.6g})")
+                         f"{describe(s)} (smallest entry {s.min():.6g})")
     return s
 
 
@@ -323,7 +323,7 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
         If `statistic` is not square with finite entries >= 0, ``n!`` exceeds
         :data:`MAX_JOINT_PAIRINGS` (``n`` > 7: use
         :func:`radarfusion_ref.engine.assignment.solve_2d`), the work exceeds
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`, `logdet` has another
+        :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT`, `logdet` has another
         shape or non-finite entries, or `threshold` is not positive.
 
     Notes

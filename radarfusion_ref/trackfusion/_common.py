@@ -6,13 +6,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
+    as_covariance,
     as_float_array,
+    check_domain,
     check_size,
+    describe,
 )
-from ..engine.linalg import _as_cov, _check_domain
 
 #: The criteria :func:`covariance_intersection` minimises.
 CRITERIA = ("det", "trace")
@@ -166,7 +167,7 @@ def _as_psd(value, name: str, *, dim: int | None = None) -> np.ndarray:
         raise ValueError(f"`{name}` must have shape {want}; received shape {arr.shape}")
     scale = np.max(np.abs(arr), axis=(-2, -1), keepdims=True)
     if np.any(np.abs(arr - np.swapaxes(arr, -1, -2)) > 1e-9 * np.maximum(scale, 1e-300)):
-        raise ValueError(f"`{name}` must be symmetric; received {_describe(arr)}")
+        raise ValueError(f"`{name}` must be symmetric; received {describe(arr)}")
     low = np.linalg.eigvalsh(_sym(arr))[..., 0]
     if np.any(low < -PSD_RTOL * scale[..., 0, 0]):
         raise ValueError(f"`{name}` must be positive semi-definite; smallest eigenvalue "
@@ -199,10 +200,10 @@ def _pair_iv(x1, P1, x2, P2, P12=None):
     if x2.shape[-1] != d:
         raise ValueError(f"`x1` and `x2` must have the same dimension d (last axis); received "
                          f"shapes {x1.shape} and {x2.shape}")
-    _check_domain(x1, "x1")
-    _check_domain(x2, "x2")
-    P1 = _as_cov(P1, "P1", d)                   # the PD rule and the variance domain
-    P2 = _as_cov(P2, "P2", d)
+    check_domain(x1, "x1")
+    check_domain(x2, "x2")
+    P1 = as_covariance(P1, "P1", dim=d)                   # the PD rule and the variance domain
+    P2 = as_covariance(P2, "P2", dim=d)
     mats = {"x1": x1[..., None], "P1": P1, "x2": x2[..., None], "P2": P2}
     if P12 is not None:
         P12 = as_float_array(P12, "P12", ndim_min=2, last_dims=(d, d))

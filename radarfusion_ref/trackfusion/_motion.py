@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg
 
-from ..engine._validation import (
+from ..engine.tracker._kalman import check_prediction, cv_matrices
+from ..engine.validation import (
     as_choice,
     as_covariance,
     as_float_array,
@@ -16,7 +17,6 @@ from ..engine._validation import (
     as_rng,
     check_size,
 )
-from ..engine.tracker._kalman import check_prediction, cv_matrices
 from ._common import (
     MAX_BATCH,
     MAX_DIM,

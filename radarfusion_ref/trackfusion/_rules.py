@@ -5,14 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..engine._validation import (
-    _describe,
+from ..engine.linalg import is_positive_definite, mahalanobis_sq_kernel
+from ..engine.validation import (
     as_choice,
+    as_covariance,
     as_float_array,
+    check_domain,
     check_size,
+    describe,
     unwrap,
 )
-from ..engine.linalg import _as_cov, _check_domain, _kappa, is_positive_definite
 from ..fusion import fuse_gaussian
 from ._common import (
     _OMEGA_STEPS,
@@ -156,13 +158,13 @@ def _blue_iv(x, covariance):
     if n < 1 or d < 1:
         raise ValueError(f"`x` must have shape (..., n, d) with n, d >= 1 (n estimates of a "
                          f"d-vector); received shape {x.shape}")
-    _check_domain(x, "x")
+    check_domain(x, "x")
     C = as_float_array(covariance, "covariance", ndim_min=2)
     if C.shape[-2:] != (n * d, n * d):
         raise ValueError(f"`covariance` must have shape (..., {n * d}, {n * d}) for `x` of "
                          f"shape {x.shape} (n = {n} estimates of d = {d}); received shape "
                          f"{C.shape}")
-    C = _as_cov(C, "covariance", n * d)                 # the PD rule and the variance domain
+    C = as_covariance(C, "covariance", dim=n * d)      # the PD rule and the variance domain
     try:
         lead = np.broadcast_shapes(x.shape[:-2], C.shape[:-2])
     except ValueError:
@@ -308,8 +310,8 @@ def ci_weight(P1, P2, *, criterion="det"):
 
 def _ci_informations(P1, P2):
     """Validated, broadcast ``P1^-1, P2^-1``."""
-    P1 = _as_cov(P1, "P1")                      # the PD rule and the variance domain
-    P2 = _as_cov(P2, "P2", P1.shape[-1])
+    P1 = as_covariance(P1, "P1")                # the PD rule and the variance domain
+    P2 = as_covariance(P2, "P2", dim=P1.shape[-1])
     try:
         lead = np.broadcast_shapes(P1.shape[:-2], P2.shape[:-2])
     except ValueError:
@@ -386,7 +388,7 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
         w = as_float_array(omega, "omega")
         if np.any((w < 0) | (w > 1)):
             raise ValueError(f"`omega` must lie in the closed interval [0, 1]; received "
-                             f"{_describe(omega)}")
+                             f"{describe(omega)}")
         try:
             w = np.broadcast_to(w, x1.shape[:-1]).astype(float)
         except ValueError:
@@ -461,6 +463,6 @@ def track_statistic(x1, P1, x2, P2, P12=None):
     if not np.all(is_positive_definite(S)):
         raise ValueError("`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x1 - x2) is singular; "
                          "the statistic is undefined")
-    _check_domain(x1, "x1")
-    _check_domain(x2, "x2")
-    return _kappa(x1 - x2, S, "`x1`, `x2`")
+    check_domain(x1, "x1")
+    check_domain(x2, "x2")
+    return mahalanobis_sq_kernel(x1 - x2, S, "`x1`, `x2`")

@@ -8,9 +8,9 @@ import numpy as np
 
 from .. import gating, trackfusion
 from ..engine import assignment
-from ..engine._validation import as_choice, as_float, as_positive
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.tracker._kalman import cv_matrices, predict_kernel
+from ..engine.validation import as_choice, as_float, as_positive
 from ..fusion import fuse_gaussian
 from ._centralised import _reports_iv, track_reports
 from ._motion import axis_q, predict, velocity_sd

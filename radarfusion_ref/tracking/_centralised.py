@@ -13,12 +13,12 @@ from scipy.spatial import cKDTree
 
 from .. import gating
 from ..engine import assignment
-from ..engine._validation import _describe, as_covariance, as_float_array
 from ..engine.errors import RadarFusionWarning
 from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
 from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
 from ..engine.tracker._kalman import predict_kernel, update_kernel
 from ..engine.tracker._score import increments_kernel, window_kernel
+from ..engine.validation import as_covariance, as_float_array, describe
 from ._motion import (
     axis_q,
     imm_gnn_update,
@@ -116,7 +116,7 @@ class _Rows:
 
 def _reports_iv(time, position, covariance, radar, scan, settings):
     if not isinstance(settings, TrackerSettings):
-        raise TypeError(f"`settings` must be a TrackerSettings; received {_describe(settings)}")
+        raise TypeError(f"`settings` must be a TrackerSettings; received {describe(settings)}")
     t = as_float_array(time, "time", ndim_min=1)
     if t.ndim != 1:
         raise ValueError(f"`time` must have shape (N,); received shape {t.shape}")
@@ -135,7 +135,7 @@ def _reports_iv(time, position, covariance, radar, scan, settings):
         a = np.asarray(v) if not isinstance(v, (str, bytes)) and v is not None else None
         if a is None or a.dtype.kind not in "iu" or a.shape != (n,):
             raise TypeError(f"`{name}` must be an integer array of shape ({n},); received "
-                            f"{_describe(v)}")
+                            f"{describe(v)}")
         if n and a.min() < 0:
             raise ValueError(f"`{name}` must be >= 0; received smallest entry {a.min()}")
         out.append(a.astype(np.int64))

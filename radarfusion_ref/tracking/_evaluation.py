@@ -16,17 +16,19 @@ import numpy as np
 from ..capstone.evaluation import gospa_parameters
 from ..capstone.radars import as_radars, coverage_count
 from ..capstone.traffic import Traffic, truth_at
-from ..engine._validation import (
+from ..engine.metrics import NeesResult, gospa, nees
+from ..engine.montecarlo import MeanEstimate, mean
+from ..engine.validation import (
     MEMORY_LIMIT,
-    _describe,
     as_float,
     as_float_array,
     as_int,
     as_positive,
     check_size,
 )
-from ..engine.metrics import NeesResult, gospa, nees
-from ..engine.montecarlo import MeanEstimate, mean
+from ..engine.validation import (
+    describe as _describe,
+)
 from ._settings import TrackHistory
 
 __all__ = ["TrackStates", "TrackingMetrics", "evaluate_tracks", "evaluate_tracks_over_time",

@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine._validation import (
+from ..engine.tracker import sprt_thresholds
+from ..engine.validation import (
     as_bool,
     as_choice,
     as_float,
@@ -15,7 +16,6 @@ from ..engine._validation import (
     as_positive,
     as_probability,
 )
-from ..engine.tracker import sprt_thresholds
 
 #: Association rules of the tracker.
 ASSOCIATIONS = ("gnn", "jpda")

@@ -24,7 +24,8 @@ import math
 import numpy as np
 
 from ..engine._optional import require
-from ..engine._validation import _describe, as_bool, as_choice, as_float_array
+from ..engine.validation import as_bool, as_choice, as_float_array
+from ..engine.validation import describe as _describe
 from ._motion import axis_q, velocity_sd
 from ._settings import TrackerSettings, TrackHistory, _in_unit
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_float, as_float_array, as_probability, check_size
+from ..validation import as_float, as_float_array, as_probability, check_size
 
 
 def _as_gap(gap, name: str = "gap") -> float:
@@ -13,7 +13,7 @@ def _as_gap(gap, name: str = "gap") -> float:
 
 
 def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
-    """:func:`radarfusion_ref.engine._validation.check_size`, with the public argument named in the message."""
+    """:func:`radarfusion_ref.engine.validation.check_size`, with the public argument named in the message."""
     try:
         return check_size(requested, limit, what=what, alternative=alternative)
     except ValueError as exc:

@@ -19,8 +19,8 @@ import warnings
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .._validation import MEMORY_LIMIT, check_size
 from ..errors import RadarFusionWarning
+from ..validation import MEMORY_LIMIT, check_size
 from ._milp import _milp_tuples, _sd_solve
 
 __all__: list[str] = []

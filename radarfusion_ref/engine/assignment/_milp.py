@@ -8,7 +8,7 @@ import numpy as np
 from scipy import sparse
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
-from .._validation import as_int
+from ..validation import as_int
 from ._checks import _limit
 from ._sparse import int32_indices
 

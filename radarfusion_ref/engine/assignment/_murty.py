@@ -10,7 +10,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .._validation import MEMORY_LIMIT, as_int
+from ..validation import MEMORY_LIMIT, as_int
 from ._checks import _as_cost, _exponents, _inverse, _limit, _scaled
 from ._results import KBestAssignments
 

@@ -7,9 +7,8 @@ import math
 
 import numpy as np
 
-from .._validation import (
+from ..validation import (
     MEMORY_LIMIT,
-    _describe,
     as_bool,
     as_choice,
     as_float,
@@ -17,6 +16,7 @@ from .._validation import (
     as_int,
     as_positive,
     check_size,
+    describe,
 )
 from ._checks import _as_gap, _exponents, _limit
 from ._dense import _solve_full, dense_bytes
@@ -71,7 +71,7 @@ def _full_size(m: int, n: int, method: str) -> None:
 
     ``"milp"``: at most :data:`MAX_SD_TUPLES` groups (binary variables of HiGHS).
     ``"lagrangian"``: the tensor and the dense Lagrangian's work arrays within
-    :data:`~radarfusion_ref.engine._validation.MEMORY_LIMIT` bytes.
+    :data:`~radarfusion_ref.engine.validation.MEMORY_LIMIT` bytes.
     """
     if method == "milp":
         _limit(n ** min(m, 64), MAX_SD_TUPLES, name="cost",
@@ -95,20 +95,20 @@ def _as_candidates(candidates, cost, counts):
     """Candidate groups (K, m) of ints >= -1, their finite costs (K,) and the report counts."""
     if candidates is None or isinstance(candidates, (str, bytes, bool, np.bool_)):
         raise TypeError(f"`candidates` must be an integer array of shape (K, m); received "
-                        f"{_describe(candidates)}")
+                        f"{describe(candidates)}")
     T = np.asarray(candidates)
     if T.dtype.kind == "f" and T.size and np.all(np.isfinite(T)) and np.all(np.round(T) == T):
         T = T.astype(np.int64)
     if T.dtype.kind not in "iu":
         raise TypeError(f"`candidates` must be an integer array of shape (K, m) (report indices, "
-                        f"-1 for none); received {_describe(candidates)}")
+                        f"-1 for none); received {describe(candidates)}")
     if T.ndim != 2 or T.shape[0] == 0 or T.shape[1] < 2:
         raise ValueError(f"`candidates` must have shape (K, m) with K >= 1 groups of m >= 2 "
                          f"sources; received shape {T.shape}")
     T = T.astype(np.int64)
     if np.any(T < -1):
         raise ValueError(f"`candidates` entries must be report indices >= 0 or -1 (no report); "
-                         f"received {_describe(candidates)} (smallest entry {int(T.min())})")
+                         f"received {describe(candidates)} (smallest entry {int(T.min())})")
     if np.any(np.all(T < 0, axis=1)):
         k = int(np.flatnonzero(np.all(T < 0, axis=1))[0])
         raise ValueError(f"`candidates`: every group must hold at least one report; row {k} is "
@@ -119,7 +119,7 @@ def _as_candidates(candidates, cost, counts):
                          f"({T.shape[0]},); received shape {c.shape}")
     if not np.all(np.isfinite(c)):
         raise ValueError("`cost` of candidate groups must be finite (leave a forbidden group "
-                         f"out of `candidates`); received {_describe(c)} with "
+                         f"out of `candidates`); received {describe(c)} with "
                          f"{int(np.count_nonzero(~np.isfinite(c)))} non-finite entries")
     m = T.shape[1]
     top = T.max(axis=0) + 1
@@ -129,7 +129,7 @@ def _as_candidates(candidates, cost, counts):
         arr = np.asarray(counts)
         if arr.shape != (m,) or arr.dtype.kind not in "iu":
             raise ValueError(f"`counts` must be {m} integers (reports per source); received "
-                             f"{_describe(counts)}")
+                             f"{describe(counts)}")
         cnt = [int(v) for v in arr]
         if any(ci < ti for ci, ti in zip(cnt, top, strict=True)):
             raise ValueError(f"`counts` must be at least the largest report index + 1 of each "
@@ -254,7 +254,7 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
     if candidates is None:
         if counts is not None:
             raise ValueError("`counts` is for explicit `candidates`; a full tensor has n reports "
-                             f"per source; received {_describe(counts)}")
+                             f"per source; received {describe(counts)}")
         if isinstance(cost, np.ndarray) and cost.ndim >= 2:      # refuse before converting
             _full_size(cost.ndim, cost.shape[0], method)
         c = _as_sd_tensor(cost)

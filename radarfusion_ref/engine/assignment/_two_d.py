@@ -11,7 +11,7 @@ from scipy import sparse
 from scipy.optimize import linear_sum_assignment
 from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
-from .._validation import MEMORY_LIMIT
+from ..validation import MEMORY_LIMIT
 from ._checks import (
     _as_cost,
     _as_miss_cost,

@@ -50,7 +50,7 @@ derives from :class:`Scene`, which reads ``trials``, ``n_objects`` and
 ``dim`` off ``truth``.
 
 *Size.* Scenes are drawn in memory; a request beyond
-:data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` is refused before anything is
+:data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` is refused before anything is
 allocated (draw the trials in batches from generators spawned from one
 :class:`numpy.random.SeedSequence`).
 

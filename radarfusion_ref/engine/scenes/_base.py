@@ -6,13 +6,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._validation import (
-    _describe,
+from ..validation import (
+    MAX_MAGNITUDE,
     as_float_array,
     as_positive,
     check_size,
+    describe,
 )
-from ..linalg import MAX_MAGNITUDE
 
 #: Object placements of the simulators that place objects themselves.
 LAYOUTS = ("line", "uniform")
@@ -42,7 +42,7 @@ def _domain(value: float, *, name: str, what: str) -> None:
     """Refuse a scene whose coordinates or errors would leave the numeric domain.
 
     The simulators place objects and draw errors inside the Mahalanobis functions'
-    domain, magnitudes at most :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`
+    domain, magnitudes at most :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`
     (:math:`2^{150}`), so no position, difference or square overflows.
     """
     if not value <= MAX_MAGNITUDE:
@@ -56,7 +56,7 @@ def _types_iv(type_means, type_vars, priors):
     means = as_float_array(type_means, "type_means")
     if means.ndim != 1 or means.size == 0:
         raise ValueError("`type_means` must be a non-empty 1-D array (one mean per type); "
-                         f"received {_describe(means)}")
+                         f"received {describe(means)}")
     tvars = as_positive(type_vars, "type_vars")
     if tvars.shape != means.shape:
         raise ValueError(f"`type_vars` must have the same shape as `type_means`, {means.shape}; "
@@ -69,9 +69,9 @@ def _types_iv(type_means, type_vars, priors):
         raise ValueError(f"`priors` must have the same shape as `type_means`, {means.shape}; "
                          f"received shape {p.shape}")
     if np.any(p < 0):
-        raise ValueError(f"`priors` must be >= 0; received {_describe(p)}")
+        raise ValueError(f"`priors` must be >= 0; received {describe(p)}")
     if abs(p.sum() - 1.0) > 1e-8:
-        raise ValueError(f"`priors` must sum to 1 (within 1e-8); received {_describe(p)} "
+        raise ValueError(f"`priors` must sum to 1 (within 1e-8); received {describe(p)} "
                          f"(sum {p.sum():.10g})")
     with np.errstate(divide="ignore"):
         return means, tvars, np.log(p)

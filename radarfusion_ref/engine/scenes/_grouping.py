@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import (
+from ..validation import (
     MEMORY_LIMIT,
     as_choice,
     as_covariance,
@@ -133,8 +133,8 @@ def grouping_scene(n_objects: int, n_sources: int, *, spacing: float = 1.0,
         a `cov` or `track_cov` that does not broadcast to its shape or is not
         symmetric positive definite, an unknown `layout`, targets outside the
         numeric domain (``spacing * n_objects`` above
-        :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`, :math:`2^{150}`), or
-        scenes beyond :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`
+        :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`, :math:`2^{150}`), or
+        scenes beyond :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT`
         (checked before `cov` is broadcast).
     TypeError
         A count that is not an integer, or an `rng` that is not a seed or a

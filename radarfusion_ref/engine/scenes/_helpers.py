@@ -6,15 +6,15 @@ import math
 
 import numpy as np
 
-from .._validation import (
+from ..validation import (
+    MAX_MAGNITUDE,
     MEMORY_LIMIT,
-    _describe,
     as_float,
     as_float_array,
     as_positive,
     check_size,
+    describe,
 )
-from ..linalg import MAX_MAGNITUDE
 
 
 # ----------------------------------------------------------------------------- helpers for callers
@@ -50,10 +50,10 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
     ValueError
         If the last dimensions differ or the leading axes do not broadcast, an
         input is not finite, lies outside the numeric domain (a magnitude above
-        :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`, :math:`2^{150}`,
+        :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`, :math:`2^{150}`,
         whose squared differences could overflow) or has fewer than two axes,
         `reports2` holds no report, or the broadcast scenes exceed
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (checked before
+        :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` (checked before
         anything is allocated).
 
     Examples
@@ -78,7 +78,7 @@ def nearest_neighbour_pairing(reports1, reports2) -> np.ndarray:
         if arr.size and not float(np.max(np.abs(arr))) <= MAX_MAGNITUDE:
             raise ValueError(
                 f"`{name}` must lie within the numeric domain |value| <= 2**150 (about "
-                f"1.4e45); received {_describe(arr)} (largest magnitude "
+                f"1.4e45); received {describe(arr)} (largest magnitude "
                 f"{float(np.max(np.abs(arr))):.6g}); change the unit of the coordinates")
     return _nearest(r1, r2)
 

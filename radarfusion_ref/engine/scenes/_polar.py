@@ -6,18 +6,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import (
-    MEMORY_LIMIT,
-    as_int,
-    as_seed_sequence,
-    check_size,
-)
 from ..geometry import (
     MAX_TRIALS,
     Geometry,
     _as_geometry,
     _normal_blocks,
     _polar_sigmas_iv,
+)
+from ..validation import (
+    MEMORY_LIMIT,
+    as_int,
+    as_seed_sequence,
+    check_size,
 )
 from ._base import (
     Scene,
@@ -82,7 +82,7 @@ def polar_scene(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     trials : int, optional
         Number of independent trials, at most
         :data:`radarfusion_ref.engine.geometry.MAX_TRIALS` and such that the reports
-        fit in :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (about 5
+        fit in :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` (about 5
         million trials of two targets; run several calls for more).
     rng : None, int, numpy.random.SeedSequence or numpy.random.Generator, optional
         Source of randomness (SPEC 7). Draws are made per block of

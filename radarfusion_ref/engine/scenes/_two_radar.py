@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import (
+from ..validation import (
     MEMORY_LIMIT,
     as_choice,
     as_float,
@@ -241,9 +241,9 @@ def two_radar_scene(n_objects: int, *, spacing: float, layout: str = "line", sig
         A count below 1, a `spacing` or sigma that is not a positive finite
         number, a scene outside the numeric domain (``spacing * n_objects``,
         `sigma1` or `sigma2` above
-        :data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`, :math:`2^{150}`), an
+        :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`, :math:`2^{150}`), an
         unknown `layout`, or a scene beyond
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT`.
+        :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT`.
     TypeError
         A count that is not an integer, or an `rng` that is not a seed or a
         Generator.
@@ -327,7 +327,7 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, layout: str = "li
         As :func:`two_radar_scene`; a detection probability outside [0, 1], a
         negative or non-finite false-report density, a box volume or expected
         false-report count that overflows the largest double, or false reports beyond
-        :data:`radarfusion_ref.engine._validation.MEMORY_LIMIT` (checked on the
+        :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` (checked on the
         expected count before any draw, and on the drawn count before the
         positions are allocated).
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_choice, as_covariance, as_float_array, as_positive, check_size
+from ..validation import as_choice, as_covariance, as_float_array, as_positive, check_size
 from ._kalman import MAX_BATCH, KalmanEstimate, check_prediction, predict_kernel, update_kernel
 
 #: Tolerance on a sum of probabilities that must be 1.

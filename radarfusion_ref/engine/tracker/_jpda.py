@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import _describe, as_float_array, as_int, check_size
 from ..assignment import k_best_2d
+from ..validation import as_float_array, as_int, check_size, describe
 
 #: Largest number of joint events :func:`jpda_probabilities` enumerates exactly.
 MAX_EVENTS = 2_000_000
@@ -46,14 +46,14 @@ def _jpda_iv(ratio, miss, k):
         raise ValueError(f"`ratio` must be a matrix (tracks, reports); received shape {r.shape}")
     if np.any(r < 0):
         raise ValueError(f"`ratio` must be >= 0 (0: report outside the track's gate); received "
-                         f"{_describe(r)}")
+                         f"{describe(r)}")
     w = as_float_array(miss, "miss", ndim_min=1)
     if w.shape != (r.shape[0],):
         raise ValueError(f"`miss` must have shape ({r.shape[0]},) (one per track); received "
                          f"shape {w.shape}")
     if np.any(w <= 0):
         raise ValueError(f"`miss` must be > 0 (the weight 1 - P_D P_G of a missed track); "
-                         f"received {_describe(w)}")
+                         f"received {describe(w)}")
     if k is not None:
         k = as_int(k, "k", minimum=1)
     return r, w, k

@@ -13,8 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_choice, as_covariance, as_float_array, as_positive, check_size
-from ..linalg import MAX_MAGNITUDE, _kappa
+from ..linalg import mahalanobis_sq_kernel
+from ..validation import (
+    MAX_MAGNITUDE,
+    as_choice,
+    as_covariance,
+    as_float_array,
+    as_positive,
+    check_size,
+)
 
 #: Largest number of batch elements × state entries of one call.
 MAX_BATCH = 1 << 24
@@ -92,7 +99,7 @@ def cv_matrices(dt, q, dim, noise="continuous", per_axis=False):
 def check_prediction(xp, Pp, dt, q) -> None:
     """Refuse, naming `dt` and `q`, a prediction beyond the numeric domain.
 
-    The domain (:data:`radarfusion_ref.engine.linalg.MAX_MAGNITUDE`): coordinates of
+    The domain (:data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`): coordinates of
     magnitude at most :math:`2^{150}`, variances at most :math:`2^{150}`.
     """
     var = np.diagonal(Pp, axis1=-2, axis2=-1)
@@ -127,7 +134,7 @@ def update_kernel(x, P, z, R):
     A = np.eye(x.shape[-1]) - np.concatenate([K, np.zeros(K.shape)], -1)      # I - K H
     Pn = _sym(A @ P @ np.swapaxes(A, -1, -2) + K @ R @ np.swapaxes(K, -1, -2))
     ld: list = []
-    stat = _kappa(nu, S, "`z`, `R`", ld)                              # νᵀ S⁻¹ ν, ln det S
+    stat = mahalanobis_sq_kernel(nu, S, "`z`, `R`", ld)                  # νᵀ S⁻¹ ν, ln det S
     logdet = np.broadcast_to(ld[0], stat.shape)
     return xn, Pn, stat, logdet
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import _describe, as_float, as_float_array, as_int, as_positive, as_probability
+from ..validation import as_float, as_float_array, as_int, as_positive, as_probability, describe
 
 
 @dataclass(frozen=True)
@@ -159,14 +159,14 @@ def m_of_n(hits, m, n):
     [2, -1]
     """
     if isinstance(hits, (str, bytes)) or hits is None:
-        raise TypeError(f"`hits` must be an array of booleans; received {_describe(hits)}")
+        raise TypeError(f"`hits` must be an array of booleans; received {describe(hits)}")
     try:
         h = np.asarray(hits)
     except (TypeError, ValueError):
-        raise TypeError(f"`hits` must be an array of booleans; received {_describe(hits)}") from None
+        raise TypeError(f"`hits` must be an array of booleans; received {describe(hits)}") from None
     if h.dtype != bool or h.ndim < 1:
         raise TypeError(f"`hits` must be an array of booleans with at least one axis; received "
-                        f"{_describe(hits)}")
+                        f"{describe(hits)}")
     n = as_int(n, "n", minimum=1)
     m = as_int(m, "m", minimum=1, maximum=n)
     K = h.shape[-1]

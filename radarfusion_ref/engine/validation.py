@@ -1,9 +1,28 @@
-"""Input validation shared by every public function of the package.
+r"""The doors: input validation shared by every public function of the package.
 
 Each helper checks one argument and raises a :class:`ValueError` or
-:class:`TypeError` whose message names the argument in backticks, states the
-expected form and shows what was received.  Public functions call these at
-their entry point; nothing deeper in the package re-validates.
+:class:`TypeError` whose message names the argument in backticks (the caller
+passes its public name as `name`), states the expected form and shows what was
+received. Public functions call these at their entry point, then a kernel that
+trusts its input; nothing deeper in the package re-validates. Each rule is
+written once, here, and every module of the package (engine, chapter modules,
+book kit) and any user's own code call these functions by their public names.
+
+.. rubric:: The rules
+
+* numbers: :func:`as_float_array` (numeric, finite, shape), :func:`as_float` (one
+  number), :func:`as_int`, :func:`as_bool`, :func:`as_positive`,
+  :func:`as_probability`, :func:`as_choice`;
+* the numeric domain: :func:`check_domain` (lengths of magnitude at most
+  :data:`MAX_MAGNITUDE`);
+* covariances: :func:`as_covariance`, the one covariance rule (square,
+  finite, symmetric, variances in :math:`[2^{-150}, 2^{150}]`, positive
+  definite to :data:`SINGULAR_RTOL`);
+* randomness (SPEC 7): :func:`as_rng`, :func:`as_seed_sequence`;
+* sizes: :func:`check_size` against :data:`MEMORY_LIMIT`, before anything is
+  allocated;
+* messages and results: :func:`describe` (the received value, shortened),
+  :func:`broadcast`, :func:`unwrap`.
 """
 
 from __future__ import annotations
@@ -15,24 +34,40 @@ from collections.abc import Sequence
 import numpy as np
 
 __all__ = [
+    "MAX_MAGNITUDE",
+    "MEMORY_LIMIT",
+    "SINGULAR_RTOL",
+    "as_bool",
+    "as_choice",
+    "as_covariance",
+    "as_float",
     "as_float_array",
+    "as_int",
     "as_positive",
     "as_probability",
-    "as_int",
-    "as_covariance",
-    "as_choice",
-    "as_float",
     "as_rng",
     "as_seed_sequence",
     "broadcast",
-    "unwrap",
+    "check_domain",
     "check_size",
-    "MEMORY_LIMIT",
+    "describe",
+    "unwrap",
 ]
 
 
-def _describe(value) -> str:
-    """Short description of a received value for error messages."""
+def describe(value) -> str:
+    """Short description of a received value, for the end of an error message.
+
+    Small arrays are shown with their shape, larger ones by shape and dtype,
+    anything else by its ``repr`` cut to 80 characters.
+
+    Examples
+    --------
+    >>> describe(np.zeros((100, 3)))
+    'array with shape (100, 3) and dtype float64'
+    >>> describe("abc")
+    "'abc'"
+    """
     if isinstance(value, np.ndarray):
         if value.size <= 6:
             return f"array {np.array2string(value, precision=4)} with shape {value.shape}"
@@ -43,6 +78,9 @@ def _describe(value) -> str:
 
 #: Largest working memory any single call may plan for, in bytes (about 1 GiB).
 MEMORY_LIMIT = 1 << 30
+#: The numeric domain: the largest magnitude of a coordinate or difference, and of a
+#: variance (whose smallest accepted value is its reciprocal), :math:`2^{150}`.
+MAX_MAGNITUDE = 2.0 ** 150
 
 
 def check_size(requested, limit, *, what: str, alternative: str) -> int:
@@ -121,12 +159,12 @@ def as_float_array(value, name: str, *, ndim_min: int = 0, allow_nonfinite: bool
     ValueError: `x` must be finite; received array [ 1. nan] with shape (2,) (1 non-finite entries)
     """
     if isinstance(value, (str, bytes, bool, np.bool_)) or value is None:
-        raise TypeError(f"`{name}` must be a number or an array of numbers; received {_describe(value)}")
+        raise TypeError(f"`{name}` must be a number or an array of numbers; received {describe(value)}")
     try:
         raw = value if isinstance(value, np.ndarray) else np.asarray(value)
     except (TypeError, ValueError):
         raise TypeError(
-            f"`{name}` must be a number or an array of numbers; received {_describe(value)}"
+            f"`{name}` must be a number or an array of numbers; received {describe(value)}"
         ) from None
     # bools and strings (even numeric ones such as "1.5") are not numbers here
     if raw.dtype.kind not in "iuf":
@@ -134,12 +172,12 @@ def as_float_array(value, name: str, *, ndim_min: int = 0, allow_nonfinite: bool
                 "c": "complex numbers"}.get(raw.dtype.kind, f"dtype {raw.dtype}")
         raise TypeError(
             f"`{name}` must be a number or an array of numbers (reals); received {kind}: "
-            f"{_describe(value)}"
+            f"{describe(value)}"
         )
     arr = raw.astype(float, copy=False)
     if arr.ndim < ndim_min:
         raise ValueError(
-            f"`{name}` must have at least {ndim_min} dimension(s); received {_describe(arr)}"
+            f"`{name}` must have at least {ndim_min} dimension(s); received {describe(arr)}"
         )
     if last_dims is not None:
         k = len(last_dims)
@@ -151,7 +189,7 @@ def as_float_array(value, name: str, *, ndim_min: int = 0, allow_nonfinite: bool
     if not allow_nonfinite and not np.all(np.isfinite(arr)):
         bad = int(np.count_nonzero(~np.isfinite(arr)))
         raise ValueError(
-            f"`{name}` must be finite; received {_describe(arr)} ({bad} non-finite entries)"
+            f"`{name}` must be finite; received {describe(arr)} ({bad} non-finite entries)"
         )
     return arr
 
@@ -171,7 +209,7 @@ def as_positive(value, name: str, *, strict: bool = True) -> np.ndarray:
     if np.any(bad):
         op = ">" if strict else ">="
         raise ValueError(
-            f"`{name}` must be {op} 0; received {_describe(value)} (smallest entry {arr.min():.6g})"
+            f"`{name}` must be {op} 0; received {describe(value)} (smallest entry {arr.min():.6g})"
         )
     return arr
 
@@ -192,7 +230,7 @@ def as_probability(value, name: str, *, open_interval: bool = True) -> np.ndarra
     else:
         bad, text = (arr < 0) | (arr > 1), "the closed interval [0, 1]"
     if np.any(bad):
-        raise ValueError(f"`{name}` must lie in {text}; received {_describe(value)}")
+        raise ValueError(f"`{name}` must lie in {text}; received {describe(value)}")
     return arr
 
 
@@ -207,7 +245,7 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
     ValueError: `dof` must be an integer >= 1; received 0
     """
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"`{name}` must be an integer; received {_describe(value)}")
+        raise TypeError(f"`{name}` must be an integer; received {describe(value)}")
     out = int(value)
     if (minimum is not None and out < minimum) or (maximum is not None and out > maximum):
         lo = "" if minimum is None else f" >= {minimum}"
@@ -285,24 +323,52 @@ def _refuse_covariance(arr: np.ndarray, name: str) -> None:
     """Raise the one message of each rule a covariance stack breaks (symmetry, then definiteness)."""
     sym = _symmetric_mask(arr)
     if not np.all(sym):
-        raise ValueError(f"`{name}` must be symmetric; received {_describe(arr)}")
+        raise ValueError(f"`{name}` must be symmetric; received {describe(arr)}")
     pd = _pd_mask(arr)
     if not np.all(pd):
         bad = int(pd.size - np.count_nonzero(pd))
         raise ValueError(
             f"`{name}` must be positive definite and not singular to working precision "
             f"(every pivot of its correlation matrix above {SINGULAR_RTOL:g}); "
-            f"{bad} of {pd.size} matrices are not: {_describe(arr)}")
+            f"{bad} of {pd.size} matrices are not: {describe(arr)}")
 
 
 def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
-    """Stack of symmetric positive-definite matrices with shape ``(..., d, d)``.
+    r"""The one covariance rule: a stack of covariances with shape ``(..., d, d)``.
 
-    Symmetry is checked to a relative tolerance (1e-9 of the largest entry);
-    positive definiteness by the package's one rule
-    (:func:`radarfusion_ref.engine.linalg.is_positive_definite`): every pivot of
-    the LDL^T factorisation of the correlation matrix above :data:`SINGULAR_RTOL`,
-    so a singular or indefinite matrix is reported instead of producing NaN later.
+    Every covariance the package accepts passes this door, in this order:
+
+    1. numeric and finite, at least 2-D, square (``d == dim`` when `dim` is given);
+    2. symmetric to a relative tolerance (1e-9 of the largest entry of each matrix);
+    3. positive definite by the package's one rule
+       (:func:`radarfusion_ref.engine.linalg.is_positive_definite`): positive
+       variances and every pivot of the :math:`LDL^T` factorisation of the
+       correlation matrix above :data:`SINGULAR_RTOL`, so a singular or
+       indefinite matrix is reported instead of producing NaN later;
+    4. every variance (diagonal entry) within the numeric domain
+       :math:`[2^{-150}, 2^{150}]` (:data:`MAX_MAGNITUDE`), where no
+       factorisation of the package overflows or becomes subnormal.
+
+    Parameters
+    ----------
+    value : array_like, shape (..., d, d)
+        The argument as the caller passed it.
+    name : str
+        The caller's public name for it, used in error messages.
+    dim : int, optional
+        Required size ``d`` of the matrices.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., d, d)
+        A float64 array (the input itself when it already is one).
+
+    Raises
+    ------
+    TypeError
+        If `value` is not numeric.
+    ValueError
+        Naming `name`, at the first rule it breaks.
 
     Examples
     --------
@@ -311,16 +377,48 @@ def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
     ...
     ValueError: `cov` must be positive definite and not singular to working precision (every pivot of its correlation matrix above 1e-12); 1 of 1 matrices are not: array [[ 1.  0.]
      [ 0. -1.]] with shape (2, 2)
+    >>> as_covariance(1e-200 * np.eye(2), "R")
+    Traceback (most recent call last):
+    ...
+    ValueError: `R` must have every variance within the numeric domain [2**-150, 2**150] (about 7e-46 to 1.4e45); received variances from 1e-200 to 1e-200; change the unit of the coordinates
     """
     arr = as_float_array(value, name, ndim_min=2)
-    if arr.shape[-1] != arr.shape[-2]:
-        raise ValueError(f"`{name}` must have shape (..., d, d); received shape {arr.shape}")
-    if dim is not None and arr.shape[-1] != dim:
-        raise ValueError(
-            f"`{name}` must have shape (..., {dim}, {dim}); received shape {arr.shape}"
-        )
+    if arr.shape[-1] != arr.shape[-2] or (dim is not None and arr.shape[-1] != dim):
+        want = "(..., d, d)" if dim is None else f"(..., {dim}, {dim})"
+        raise ValueError(f"`{name}` must have shape {want}; received shape {arr.shape}")
     if not (np.all(_symmetric_mask(arr)) and np.all(_pd_mask(arr))):
         _refuse_covariance(arr, name)
+    var = np.diagonal(arr, axis1=-2, axis2=-1)
+    if var.size and (var.max() > MAX_MAGNITUDE or var.min() < 1.0 / MAX_MAGNITUDE):
+        raise ValueError(
+            f"`{name}` must have every variance within the numeric domain [2**-150, 2**150] "
+            f"(about 7e-46 to 1.4e45); received variances from {var.min():.6g} to "
+            f"{var.max():.6g}; change the unit of the coordinates")
+    return arr
+
+
+def check_domain(value, name: str) -> np.ndarray:
+    r"""Lengths within the numeric domain :math:`|x| \le 2^{150}` (:data:`MAX_MAGNITUDE`).
+
+    For coordinates, positions, ranges and their differences: a finite float
+    array (as :func:`as_float_array`) whose every entry has magnitude at most
+    :data:`MAX_MAGNITUDE`, refused naming `name` otherwise.
+
+    Examples
+    --------
+    >>> check_domain([1.0, -2.0], "x")
+    array([ 1., -2.])
+    >>> check_domain([1e50], "x")
+    Traceback (most recent call last):
+    ...
+    ValueError: `x` must lie within the numeric domain |value| <= 2**150 (about 1.4e45); received array [1.e+50] with shape (1,) (largest magnitude 1e+50); change the unit of the coordinates
+    """
+    arr = as_float_array(value, name)
+    if arr.size and float(np.max(np.abs(arr))) > MAX_MAGNITUDE:
+        raise ValueError(
+            f"`{name}` must lie within the numeric domain |value| <= 2**150 (about 1.4e45); "
+            f"received {describe(arr)} (largest magnitude {float(np.max(np.abs(arr))):.6g}); "
+            "change the unit of the coordinates")
     return arr
 
 
@@ -336,7 +434,7 @@ def as_choice(value, name: str, choices: Sequence[str]) -> str:
     """
     if not isinstance(value, str) or value not in choices:
         allowed = ", ".join(repr(c) for c in choices)
-        raise ValueError(f"`{name}` must be one of {allowed}; received {_describe(value)}")
+        raise ValueError(f"`{name}` must be one of {allowed}; received {describe(value)}")
     return value
 
 
@@ -363,14 +461,14 @@ def as_rng(rng) -> np.random.Generator:
     if isinstance(value, (bool, np.bool_)):  # an int to numpy, but never a seed
         raise TypeError(
             "`rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; "
-            f"received {_describe(value)}"
+            f"received {describe(value)}"
         )
     try:
         return np.random.default_rng(value)
     except (TypeError, ValueError):
         raise TypeError(
             "`rng` must be None, an int seed, a SeedSequence or a numpy.random.Generator; "
-            f"received {_describe(value)}"
+            f"received {describe(value)}"
         ) from None
 
 
@@ -402,7 +500,7 @@ def as_seed_sequence(rng) -> np.random.SeedSequence:
     if isinstance(rng, numbers.Integral) and not isinstance(rng, (bool, np.bool_)) and int(rng) >= 0:
         return np.random.SeedSequence(int(rng))
     raise TypeError("`rng` must be None, a non-negative int seed, a numpy.random.SeedSequence "
-                    f"or a numpy.random.Generator; received {_describe(rng)}")
+                    f"or a numpy.random.Generator; received {describe(rng)}")
 
 
 def as_float(value, name: str, *, allow_inf: bool = False) -> float:
@@ -430,10 +528,10 @@ def as_float(value, name: str, *, allow_inf: bool = False) -> float:
     """
     arr = as_float_array(value, name, allow_nonfinite=allow_inf)
     if arr.ndim != 0:
-        raise ValueError(f"`{name}` must be a single number; received {_describe(arr)}")
+        raise ValueError(f"`{name}` must be a single number; received {describe(arr)}")
     x = float(arr)
     if x != x:
-        raise ValueError(f"`{name}` must be a number or +-inf, not NaN; received {_describe(value)}")
+        raise ValueError(f"`{name}` must be a number or +-inf, not NaN; received {describe(value)}")
     return x
 
 
@@ -485,5 +583,5 @@ def as_bool(value, name: str) -> bool:
     TypeError: `binding` must be True or False; received 'no'
     """
     if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"`{name}` must be True or False; received {_describe(value)}")
+        raise TypeError(f"`{name}` must be True or False; received {describe(value)}")
     return bool(value)
