@@ -149,3 +149,264 @@ def test_covariance_rule_is_scale_free_and_refuses_singular_to_precision():
                 with pytest.raises(ValueError, match="`cov` must be positive definite and not "
                                                      "singular to working precision"):
                     v.as_covariance(c, "cov")
+
+
+# --------------------------------------------------------------------------- one covariance rule
+#: Argument names that hold a covariance matrix (or a stack of them) in the public API.
+COVARIANCE_ARGUMENTS = {"cov", "covariance", "covariances", "P", "R", "R1", "R2", "cov1", "cov2",
+                        "P1", "P2", "P1_0", "P2_0", "track_cov", "innovation_cov"}
+#: Names that look like a covariance argument and are not one, each with its reason.
+NOT_COVARIANCES = {
+    "P12": "a cross-covariance: any real matrix",
+    "P12_0": "a cross-covariance: any real matrix",
+    "Q": "process noise: positive semi-definite (a singular Q is legitimate)",
+    "prior_cov": "a prior's covariance: positive semi-definite (zero, the default, is the truth)",
+    "cov_method": "the name of a conversion method",
+}
+#: Public functions that take a covariance yet must not refuse a bad one, with the reason.
+COVARIANCE_EXEMPT = {
+    ("linalg.is_positive_definite", "cov"): "it answers the rule as a mask, False for a bad one",
+}
+
+
+def _public_covariance_parameters():
+    """Every (function, argument) of the public API whose argument looks like a covariance."""
+    import importlib
+    import inspect
+    import pkgutil
+    import re
+
+    import radarfusion_ref
+
+    found, unclassified = {}, []
+    for info in pkgutil.walk_packages(radarfusion_ref.__path__, "radarfusion_ref."):
+        if any(part.startswith("_") for part in info.name.split(".")):
+            continue
+        module = importlib.import_module(info.name)
+        parts = info.name.split(".")[1:]
+        short = ".".join(parts[1:] if parts[0] in ("engine", "kit") else parts)
+        for name in getattr(module, "__all__", []):
+            obj = getattr(module, name)
+            if not inspect.isfunction(obj) or obj.__name__.endswith("_kernel"):
+                continue
+            for arg in inspect.signature(obj).parameters:
+                if arg in COVARIANCE_ARGUMENTS:
+                    found[(f"{short}.{name}", arg)] = obj
+                elif re.search(r"cov|^[PRQ]\d*(_0)?$", arg) and arg not in NOT_COVARIANCES:
+                    unclassified.append(f"{short}.{name}({arg})")
+    return found, unclassified
+
+
+def _bad_covariances(d):
+    """The same bad matrix, d x d, each breaking one clause of the rule (no asymmetry at d = 1)."""
+    eye = np.eye(d)
+    nan, asym, indef = eye.copy(), 2 * eye, eye.copy()
+    nan[0, 0] = np.nan
+    asym[0, -1] = 0.5
+    indef[-1, -1] = -1.0
+    out = {"variance 1e-200": 1e-200 * eye, "variance 1e+200": 1e200 * eye, "NaN": nan,
+           "asymmetric": asym, "indefinite": indef}
+    if d == 1:
+        del out["asymmetric"]
+    return out
+
+
+def _cv_state(n):
+    return np.zeros((n, 4)), np.tile(np.eye(4), (n, 1, 1))
+
+
+def _tracking_reports():
+    t = np.arange(6) * 5.0
+    z = np.c_[100.0 * t, np.zeros(6), np.full(6, 9000.0)]
+    return dict(time=t, position=z, covariance=np.tile(100.0 * np.eye(3), (6, 1, 1)),
+                radar=np.zeros(6, int), scan=np.arange(6))
+
+
+def _valid_calls():
+    """A valid call of each public function that takes a covariance: (function, kwargs, dims).
+
+    `dims` maps each covariance argument to the size d of its matrices.
+    """
+    from radarfusion_ref import (
+        association,
+        conversion,
+        features,
+        fusion,
+        gating,
+        grouping,
+        proximity,
+        separated,
+        trackfusion,
+        tracking,
+    )
+    from radarfusion_ref.engine import linalg, metrics, scenes, tracker
+    from radarfusion_ref.kit import plotting
+
+    eye2, x2 = np.eye(2), np.array([[0.0, 0.0], [1.0, 0.5]])
+    covs2 = np.stack([eye2, 2 * eye2])
+    xg = np.zeros((2, 2, 2))                            # 2 sources x 2 reports x 2-D
+    cg = np.broadcast_to(eye2, (2, 2, 2, 2))
+    m = trackfusion.constant_velocity(1.0, 1.0)
+    h, one = [[1.0, 0.0]], [[1.0]]
+    prob, xi = np.array([0.5, 0.5]), np.zeros((2, 4))
+    Pi = np.tile(np.eye(4), (2, 1, 1))
+    calls = {
+        "association.non_assignment_cost": (
+            association.non_assignment_cost,
+            dict(p_detect1=0.9, p_detect2=0.9, false_density1=1e-3, false_density2=1e-3,
+                 object_density=1e-3, innovation_cov=eye2), {"innovation_cov": 2}),
+        "conversion.nees_per_trial": (conversion.nees_per_trial,
+                                      dict(error=x2, cov=covs2), {"cov": 2}),
+        "linalg.cholesky": (linalg.cholesky, dict(cov=eye2), {"cov": 2}),
+        "linalg.mahalanobis_sq": (linalg.mahalanobis_sq, dict(d=[1.0, 0.0], cov=eye2),
+                                  {"cov": 2}),
+        "linalg.mahalanobis_sq_pairwise": (linalg.mahalanobis_sq_pairwise,
+                                           dict(x1=x2, x2=x2, cov1=covs2, cov2=eye2),
+                                           {"cov1": 2, "cov2": 2}),
+        "metrics.nees": (metrics.nees, dict(error=x2, cov=covs2), {"cov": 2}),
+        "scenes.grouping_scene": (scenes.grouping_scene,
+                                  dict(n_objects=2, n_sources=2, cov=cg, track_cov=covs2,
+                                       rng=1), {"cov": 2, "track_cov": 2}),
+        "tracker.imm_combine": (tracker.imm_combine, dict(probability=prob, x=xi, P=Pi),
+                                {"P": 4}),
+        "tracker.imm_predict": (tracker.imm_predict,
+                                dict(probability=prob, x=xi, P=Pi,
+                                     transition=[[0.9, 0.1], [0.1, 0.9]], dt=1.0,
+                                     q=[0.1, 1.0]), {"P": 4}),
+        "tracker.imm_update": (tracker.imm_update,
+                               dict(probability=prob, x=xi, P=Pi, z=[0.0, 0.0], R=eye2),
+                               {"P": 4, "R": 2}),
+        "tracker.kalman_predict": (tracker.kalman_predict,
+                                   dict(x=np.zeros(4), P=np.eye(4), dt=1.0, q=1.0), {"P": 4}),
+        "tracker.kalman_update": (tracker.kalman_update,
+                                  dict(x=np.zeros(4), P=np.eye(4), z=[0.0, 0.0], R=eye2),
+                                  {"P": 4, "R": 2}),
+        "features.combined_proximity": (
+            features.combined_proximity,
+            dict(x1=[0.0, 0.0], x2=[1.0, 0.0], cov1=eye2, cov2=eye2, feature1=0.0,
+                 feature2=0.5, feature_var1=1.0, feature_var2=1.0), {"cov1": 2, "cov2": 2}),
+        "fusion.fuse_gaussian": (fusion.fuse_gaussian, dict(x=x2, cov=covs2), {"cov": 2}),
+        "fusion.sample_reports_gaussian": (fusion.sample_reports_gaussian,
+                                           dict(truth=[0.0, 0.0], cov=covs2, trials=3, rng=1),
+                                           {"cov": 2}),
+        "gating.gate_mahalanobis_2d": (gating.gate_mahalanobis_2d,
+                                       dict(x1=x2, x2=x2, cov=eye2), {"cov": 2}),
+        "gating.gate_pairwise_2d": (gating.gate_pairwise_2d,
+                                    dict(x1=x2, x2=x2, cov1=covs2, cov2=eye2),
+                                    {"cov1": 2, "cov2": 2}),
+        "gating.gate_sparse_2d": (gating.gate_sparse_2d, dict(x1=x2, x2=x2, cov=eye2),
+                                  {"cov": 2}),
+        "grouping.binding_costs": (grouping.binding_costs,
+                                   dict(x=xg, cov=cg, tracks=np.zeros((2, 2)),
+                                        track_cov=np.broadcast_to(eye2, (2, 2, 2))),
+                                   {"cov": 2, "track_cov": 2}),
+        "grouping.group_bruteforce": (grouping.group_bruteforce, dict(x=xg, cov=cg), {"cov": 2}),
+        "grouping.group_costs": (grouping.group_costs, dict(x=xg, cov=cg), {"cov": 2}),
+        "grouping.group_sd": (grouping.group_sd, dict(x=xg, cov=cg), {"cov": 2}),
+        "grouping.ml_group_cost": (grouping.ml_group_cost, dict(x=np.zeros((2, 2)),
+                                                                cov=np.stack([eye2, eye2])),
+                                   {"cov": 2}),
+        "proximity.log_likelihood_measure_gaussian": (
+            proximity.log_likelihood_measure_gaussian,
+            dict(x1=[0.0, 0.0], x2=[1.0, 0.0], cov1=eye2, cov2=eye2), {"cov1": 2, "cov2": 2}),
+        "proximity.proximity_gaussian": (proximity.proximity_gaussian,
+                                         dict(x1=[0.0, 0.0], x2=[1.0, 0.0], cov1=eye2,
+                                              cov2=eye2), {"cov1": 2, "cov2": 2}),
+        "separated.pair_statistic": (separated.pair_statistic,
+                                     dict(xy1=x2, cov1=covs2, xy2=x2, cov2=covs2),
+                                     {"cov1": 2, "cov2": 2}),
+        "trackfusion.bar_shalom_campo": (trackfusion.bar_shalom_campo,
+                                         dict(x1=[0.0, 0.0], P1=2 * eye2, x2=[1.0, 0.0],
+                                              P2=2 * eye2, P12=0.5 * eye2), {"P1": 2, "P2": 2}),
+        "trackfusion.blue_fusion": (trackfusion.blue_fusion,
+                                    dict(x=np.zeros((2, 2)), covariance=np.eye(4)),
+                                    {"covariance": 4}),
+        "trackfusion.ci_weight": (trackfusion.ci_weight, dict(P1=eye2, P2=2 * eye2),
+                                  {"P1": 2, "P2": 2}),
+        "trackfusion.covariance_intersection": (
+            trackfusion.covariance_intersection,
+            dict(x1=[0.0, 0.0], P1=eye2, x2=[1.0, 0.0], P2=2 * eye2), {"P1": 2, "P2": 2}),
+        "trackfusion.naive_fusion": (trackfusion.naive_fusion,
+                                     dict(x1=[0.0, 0.0], P1=eye2, x2=[1.0, 0.0], P2=2 * eye2),
+                                     {"P1": 2, "P2": 2}),
+        "trackfusion.track_statistic": (trackfusion.track_statistic,
+                                        dict(x1=[0.0, 0.0], P1=eye2, x2=[1.0, 0.0],
+                                             P2=2 * eye2), {"P1": 2, "P2": 2}),
+        "trackfusion.cross_covariance": (
+            trackfusion.cross_covariance,
+            dict(F=m.F, Q=m.Q, H1=h, R1=one, H2=h, R2=one, steps=3, P1_0=eye2, P2_0=eye2),
+            {"R1": 1, "R2": 1, "P1_0": 2, "P2_0": 2}),
+        "trackfusion.simulate_tracks": (
+            trackfusion.simulate_tracks,
+            dict(F=m.F, Q=m.Q, H1=h, R1=one, H2=h, R2=one, steps=3, trials=2, P1_0=eye2,
+                 P2_0=eye2, rng=1), {"R1": 1, "R2": 1, "P1_0": 2, "P2_0": 2}),
+        "tracking.track_reports": (tracking.track_reports, _tracking_reports(),
+                                   {"covariance": 3}),
+        "tracking.track_then_fuse": (tracking.track_then_fuse,
+                                     dict(_tracking_reports(), period=5.0), {"covariance": 3}),
+        "tracking.fuse_then_track": (tracking.fuse_then_track,
+                                     dict(_tracking_reports(), window=5.0), {"covariance": 3}),
+        "plotting.plot_covariance_ellipse": (
+            _on_axes(plotting.plot_covariance_ellipse), dict(mean=[0.0, 0.0], cov=eye2),
+            {"cov": 2}),
+        "plotting.plot_groups": (
+            _on_axes(plotting.plot_groups),
+            dict(x=xg, cov=cg, groups=np.array([[0, 0], [1, 1]])), {"cov": 2}),
+        "plotting.plot_scene": (_on_axes(plotting.plot_scene),
+                                dict(reports=[x2], covariances=[covs2]), {"covariances": 2}),
+    }
+    return calls
+
+
+def _on_axes(fn):
+    """Call a plotting function on a fresh axes (closed afterwards)."""
+    def call(**kwargs):
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots()
+        try:
+            return fn(ax, **kwargs)
+        finally:
+            plt.close(fig)
+    return call
+
+
+def test_every_public_covariance_argument_is_under_the_one_rule():
+    """The table of valid calls covers every public function with a covariance argument."""
+    found, unclassified = _public_covariance_parameters()
+    assert not unclassified, ("arguments named like a covariance, in neither "
+                              f"COVARIANCE_ARGUMENTS nor NOT_COVARIANCES: {unclassified}")
+    calls = _valid_calls()
+    covered = {(q, arg) for q, (_, _, dims) in calls.items() for arg in dims}
+    missing = set(found) - covered - set(COVARIANCE_EXEMPT) - {   # needs the [stonesoup] extra
+        ("tracking.stonesoup_track", "covariance"), ("tracking.stonesoup.stonesoup_track",
+                                                     "covariance")}
+    assert len(found) >= 50, len(found)
+    assert not missing, f"no valid call in _valid_calls() for {sorted(missing)}"
+
+
+def _covariance_cases():
+    calls = _valid_calls()
+    out = []
+    for qualname, (fn, kwargs, dims) in calls.items():
+        for arg, d in dims.items():
+            for label, bad in _bad_covariances(d).items():
+                out.append(pytest.param(fn, kwargs, arg, bad, id=f"{qualname}-{arg}-{label}"))
+    return out
+
+
+@pytest.mark.parametrize(("fn", "kwargs", "arg", "bad"), _covariance_cases())
+def test_the_same_bad_covariance_is_refused_by_name_everywhere(fn, kwargs, arg, bad):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fn(**kwargs)                                   # the valid call passes
+        if arg == "covariances":                      # a list of stacks, one per sensor
+            value = [np.broadcast_to(bad, np.shape(c)).copy() for c in kwargs[arg]]
+        else:
+            value = np.broadcast_to(bad, np.shape(kwargs[arg])).copy()
+        with pytest.raises(ValueError, match=rf"`{arg}(\[\d+\])?` must"):
+            fn(**{**kwargs, arg: value})
