@@ -4,7 +4,8 @@ It imports nothing from the chapter modules or the book kit (an import-linter
 contract in ``pyproject.toml`` holds it to that).
 
 * :mod:`~radarfusion_ref.engine.validation` — the checks at the door of every public
-  function (one message per rule, one seed conversion, one positive-definiteness rule);
+  function, public so that chapter modules and users call them by name (one message per
+  rule, one seed conversion, the one covariance rule, the numeric domain);
 * :mod:`~radarfusion_ref.engine.linalg` — the one squared-Mahalanobis home (pointwise,
   batched and pairwise) and Cholesky factors;
 * :mod:`~radarfusion_ref.engine.assignment` — 2-D assignment (dense, sparse, brute force,
