@@ -3,6 +3,9 @@
 * import-linter's contracts in ``pyproject.toml`` (``[tool.importlinter]``): the kit above
   the chapter modules above the engine, and no import cycle between the modules of any
   package, even through an import inside a function;
+* the chapter modules and the kit use the engine through public names only: no import of
+  a private engine module or object (a leading underscore), and every public engine kernel
+  (``*_kernel``) says that it trusts its input;
 * no module over :data:`MAX_LINES` lines;
 * no chapter page shows a private name through ``literalinclude :pyobject:``;
 * no ``noqa: F401`` re-export outside an ``__init__.py``;
@@ -84,6 +87,106 @@ def test_import_contracts_catch_a_planted_violation(tmp_path):
     assert re.search(r"radarfusion_ref\.fusion(\.\w+)* -> radarfusion_ref\.kit\.checks", text), text
     assert re.search(r"\.(fusion -> \.trackfusion|trackfusion -> \.fusion) \(", text), text
     assert "radarfusion_ref.stray" in text, text
+
+
+# ----------------------------------------------------------------------------- public engine
+def _imported_engine_names(path: Path, package: Path):
+    """Each ``(module, name)`` the file imports from the engine, relative imports resolved.
+
+    ``import radarfusion_ref.engine._x`` gives ``("radarfusion_ref.engine._x", "")``.
+    """
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    # the package a relative import starts from: the file's folder (for an __init__.py too)
+    here = ["radarfusion_ref", *path.relative_to(package).parent.parts]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            base = here[: len(here) - node.level + 1] if node.level else []
+            module = ".".join([*base, *([node.module] if node.module else [])])
+            for alias in node.names:
+                yield node.lineno, module, alias.name
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                yield node.lineno, alias.name, ""
+
+
+def _private_engine_imports(package: Path) -> list[str]:
+    """Imports of a private engine module or object by a chapter module or the kit."""
+    out = []
+    for path in sorted(package.rglob("*.py")):
+        rel = path.relative_to(package)
+        if rel.parts[0] == "engine" or "__pycache__" in rel.parts:
+            continue
+        for line, module, name in _imported_engine_names(path, package):
+            if module != "radarfusion_ref.engine" and not module.startswith(
+                    "radarfusion_ref.engine."):
+                continue
+            dotted = [*module.split(".")[2:], *([name] if name else [])]
+            if any(part.startswith("_") for part in dotted):
+                out.append(f"{rel.as_posix()}:{line}: {module} import {name or '(module)'}")
+    return out
+
+
+def test_chapter_modules_and_kit_import_no_private_engine_name():
+    """The engine's shared parts are its API: chapter modules and the kit use public names."""
+    private = _private_engine_imports(PACKAGE)
+    assert not private, "private engine names imported outside the engine:\n" + "\n".join(
+        private)
+
+
+def test_private_engine_import_detector_sees_planted_imports(tmp_path):
+    """Each kind of private import, planted in a copy of a chapter module and the kit, is seen."""
+    package = tmp_path / "radarfusion_ref"
+    (package / "engine" / "tracker").mkdir(parents=True)
+    (package / "kit").mkdir()
+    (package / "engine" / "__init__.py").write_text("", encoding="utf-8")
+    (package / "engine" / "_hidden.py").write_text("x = 1\n", encoding="utf-8")
+    (package / "engine" / "tracker" / "_kalman.py").write_text("y = 1\n", encoding="utf-8")
+    (package / "fusion.py").write_text(
+        "import numpy as np\n"
+        "from .engine.linalg import _ldl_kappa, mahalanobis_sq\n"   # a private object
+        "from .engine import _hidden\n"                             # a private module by name
+        "from .kit import checks\n", encoding="utf-8")
+    (package / "kit" / "plotting.py").write_text(
+        "def f():\n"
+        "    from ..engine.tracker._kalman import y\n"               # through a private module
+        "    import radarfusion_ref.engine._hidden\n"                # absolute, in a function
+        "    from ..engine.validation import as_float\n", encoding="utf-8")
+    (package / "engine" / "planted.py").write_text(                  # the engine itself may
+        "from ._hidden import x\n", encoding="utf-8")
+    found = _private_engine_imports(package)
+    assert found == [
+        "fusion.py:2: radarfusion_ref.engine.linalg import _ldl_kappa",
+        "fusion.py:3: radarfusion_ref.engine import _hidden",
+        "kit/plotting.py:2: radarfusion_ref.engine.tracker._kalman import y",
+        "kit/plotting.py:3: radarfusion_ref.engine._hidden import (module)",
+    ], found
+
+
+def test_public_engine_kernels_say_they_trust_their_input():
+    """A public kernel skips validation (the fuzz net leaves out a summary opening "Kernel").
+
+    Every public ``*_kernel`` opens its summary with "Kernel", and every such summary says
+    that its input is trusted.
+    """
+    import importlib
+    import inspect
+    import pkgutil
+
+    import radarfusion_ref.engine as engine
+
+    kernels = []
+    for info in pkgutil.walk_packages(engine.__path__, "radarfusion_ref.engine."):
+        if any(part.startswith("_") for part in info.name.split(".")):
+            continue
+        module = importlib.import_module(info.name)
+        for name in getattr(module, "__all__", []):
+            summary = (inspect.getdoc(getattr(module, name)) or "").split("\n\n")[0]
+            if name.endswith("_kernel") or summary.startswith("Kernel"):
+                kernels.append(name)
+                assert summary.startswith("Kernel") and "trusted" in summary, (
+                    f"{info.name}.{name}: its summary does not open with 'Kernel' and say "
+                    f"that its input is trusted: {summary!r}")
+    assert {"mahalanobis_sq_kernel", "predict_kernel", "cv_matrices"} <= set(kernels), kernels
 
 
 # ----------------------------------------------------------------------------- size

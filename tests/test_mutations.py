@@ -390,7 +390,7 @@ MUTATIONS = {
                 o = np.asarray(origin, float)
                 la, lo, hh = np.broadcast_arrays(*(np.asarray(v, float) for v in (lat, lon, h)))
                 d = ecef(la, lo, hh) - ecef(o[0], o[1], o[2])
-                return d @ gd._enu_rotation(o[0], o[1]).T
+                return d @ gd.enu_rotation(o[0], o[1]).T
             return g
         """),
     # a pair beyond the cut-off kept in the assignment at c^p instead of one miss plus one false

@@ -126,7 +126,7 @@ def test_plain_install_imports_engine_and_chapter_modules_without_any_extra(inst
 
 def test_every_optional_package_names_a_declared_extra_that_installs_it():
     tomllib = pytest.importorskip("tomllib")
-    from radarfusion_ref.engine._optional import EXTRAS
+    from radarfusion_ref.engine.optional import EXTRAS
 
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     extras = project["optional-dependencies"]

@@ -398,7 +398,7 @@ def test_vertical_settings_equal_to_the_horizontal_change_nothing(arch):
 
 
 def test_process_noise_per_axis_is_the_closed_form():
-    from radarfusion_ref.engine.tracker._kalman import cv_matrices
+    from radarfusion_ref.engine.tracker import cv_matrices
     from radarfusion_ref.tracking._motion import axis_q, velocity_sd
     s = TrackerSettings(q=50.0, q_vertical=2.0, speed_max=250.0, speed_max_vertical=15.0)
     dt = 3.7
@@ -441,7 +441,7 @@ def test_stonesoup_model_matrices_equal_ours():
     pytest.importorskip("stonesoup")
     import datetime as dt
 
-    from radarfusion_ref.engine.tracker._kalman import cv_matrices
+    from radarfusion_ref.engine.tracker import cv_matrices
     from radarfusion_ref.tracking import stonesoup as ss
     from radarfusion_ref.tracking._motion import axis_q, velocity_sd
     order = np.array([0, 2, 4, 1, 3, 5])              # Stone Soup (x, vx, y, vy, z, vz) -> ours

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import conversion, registration
-from ..engine.geodesy import _enu_rotation
+from ..engine.geodesy import enu_rotation
 from ..engine.validation import (
     MEMORY_LIMIT,
     as_bool,
@@ -140,7 +140,7 @@ def local_rotation(radar) -> np.ndarray:
 
 
 def _rotation(radar):
-    return _enu_rotation(radar.lat, radar.lon) @ _enu_rotation(ORIGIN[0], ORIGIN[1]).T
+    return enu_rotation(radar.lat, radar.lon) @ enu_rotation(ORIGIN[0], ORIGIN[1]).T
 
 
 #: Bytes of :func:`simulate_detections`' work arrays per scan and aircraft (the truth's

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine.errors import RadarFusionWarning
-from ..engine.geometry import _sigma_beta_iv
+from ..engine.geometry import as_sigma_beta
 from ..engine.validation import (
     MEMORY_LIMIT,
     as_choice,
@@ -106,7 +106,7 @@ def _polar_iv(r, beta, sigma_r, sigma_beta, *, strict: bool = False, trials: int
     r = as_positive(r, "r", strict=False)
     beta = as_float_array(beta, "beta")
     sigma_r = as_positive(sigma_r, "sigma_r", strict=strict)
-    sigma_beta = _sigma_beta_iv(sigma_beta, strict=strict)
+    sigma_beta = as_sigma_beta(sigma_beta, strict=strict)
     _check_batch(trials, r=r, beta=beta, sigma_r=sigma_r, sigma_beta=sigma_beta)
     return broadcast(r=r, beta=beta, sigma_r=sigma_r, sigma_beta=sigma_beta)
 
@@ -155,7 +155,7 @@ def conversion_gain(sigma_beta, *, method: str = "linearized"):
     >>> round(float(conversion_gain(0.1, method="multiplicative")), 6)
     1.005013
     """
-    t = _sigma_beta_iv(sigma_beta) ** 2 / 2          # E cos w = e^{-t}
+    t = as_sigma_beta(sigma_beta) ** 2 / 2          # E cos w = e^{-t}
     method = as_choice(method, "method", ALL_METHODS)
     if method == "linearized":        # eq. (1): no correction
         return np.ones_like(t)
@@ -276,7 +276,7 @@ def _variances_iv(r, sigma_r, sigma_beta, method):
             raise ValueError(f"`{name}` must be at most 1e150 here (its square must stay finite); "
                              f"received largest entry {float(np.max(v)):.6g}; "
                              "polar_to_cartesian scales larger values")
-    return r, sigma_r**2, _sigma_beta_iv(sigma_beta) ** 2, method
+    return r, sigma_r**2, as_sigma_beta(sigma_beta) ** 2, method
 
 
 def _truth_variances(method, r, sr2, sigma_beta):
@@ -439,7 +439,7 @@ def _decorrelated_iv(mean_sq_range, sigma_r, sigma_beta, prior_azimuth_var):
         raise ValueError("`sigma_r` must be at most 1e150 here (its square must stay finite); "
                          f"received largest entry {float(np.max(sigma_r)):.6g}")
     sp = as_positive(prior_azimuth_var, "prior_azimuth_var", strict=False)
-    return r_p2, sigma_r**2, _sigma_beta_iv(sigma_beta) ** 2, sp
+    return r_p2, sigma_r**2, as_sigma_beta(sigma_beta) ** 2, sp
 
 
 def _convert_decorrelated(r, beta, sigma_r, sigma_beta, r_p, var_r, var_b):
@@ -731,7 +731,7 @@ def conversion_bias(r, beta, sigma_beta, *, method: str = "linearized") -> np.nd
     method = as_choice(method, "method", ALL_METHODS)
     r, beta, sigma_beta = broadcast(r=as_positive(r, "r", strict=False),
                                     beta=as_float_array(beta, "beta"),
-                                    sigma_beta=_sigma_beta_iv(sigma_beta))
+                                    sigma_beta=as_sigma_beta(sigma_beta))
     _check_batch(1, r=r)
     bf = _bias_factor(method, sigma_beta**2)
     return (bf * r)[..., None] * np.stack([np.cos(beta), np.sin(beta)], axis=-1)
@@ -774,7 +774,7 @@ def nonlinearity_index(r, sigma_r, sigma_beta) -> np.ndarray:
     """
     r = as_positive(r, "r", strict=False)
     sigma_r = as_positive(sigma_r, "sigma_r")
-    sigma_beta = _sigma_beta_iv(sigma_beta)
+    sigma_beta = as_sigma_beta(sigma_beta)
     r, sigma_r, sigma_beta = broadcast(r=r, sigma_r=sigma_r, sigma_beta=sigma_beta)
     (mr, er), (ms, es), (mb, eb) = np.frexp(r), np.frexp(sigma_r), np.frexp(sigma_beta)
     with np.errstate(over="ignore"):

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine.errors import RadarFusionWarning
-from ..engine.geometry import _sigma_beta_iv
+from ..engine.geometry import as_sigma_beta
 from ..engine.validation import (
     MEMORY_LIMIT,
     as_choice,
@@ -61,8 +61,8 @@ def _spherical_iv(r, beta, epsilon, sigma_r, sigma_beta, sigma_epsilon, *, stric
     beta = as_float_array(beta, "beta")
     epsilon = as_float_array(epsilon, "epsilon")
     sigma_r = as_positive(sigma_r, "sigma_r", strict=strict)
-    sigma_beta = _sigma_beta_iv(sigma_beta, strict=strict)
-    sigma_epsilon = _sigma_beta_iv(sigma_epsilon, "sigma_epsilon", strict=strict)
+    sigma_beta = as_sigma_beta(sigma_beta, strict=strict)
+    sigma_epsilon = as_sigma_beta(sigma_epsilon, "sigma_epsilon", strict=strict)
     _check_batch(trials * 4, r=r, beta=beta, epsilon=epsilon, sigma_r=sigma_r,
                  sigma_beta=sigma_beta, sigma_epsilon=sigma_epsilon)
     return broadcast(r=r, beta=beta, epsilon=epsilon, sigma_r=sigma_r, sigma_beta=sigma_beta,

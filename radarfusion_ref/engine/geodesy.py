@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .validation import as_float_array, describe
+from .validation import as_float, as_float_array, describe
 
-__all__ = ["WGS84_A", "WGS84_F", "geodetic_to_enu"]
+__all__ = ["WGS84_A", "WGS84_F", "enu_rotation", "geodetic_to_enu"]
 
 #: WGS-84 semi-major axis :math:`a` (m).
 WGS84_A = 6378137.0
@@ -34,9 +34,36 @@ def _ecef(lat, lon, h):
                      (n * (1.0 - _E2) + h) * np.sin(phi)], axis=-1)
 
 
-def _enu_rotation(lat0, lon0):
-    """Rows: the east, north and up unit vectors at the origin, in Earth-centred axes."""
-    p0, l0 = np.radians(lat0), np.radians(lon0)
+def enu_rotation(lat0, lon0):
+    r"""The rotation from Earth-centred axes to the east-north-up axes at a point.
+
+    Parameters
+    ----------
+    lat0, lon0 : float
+        Geodetic latitude and longitude of the point, in degrees.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3, 3)
+        Rows: the east, north and up unit vectors at the point, in Earth-centred
+        axes, so ``enu_rotation(lat0, lon0) @ d`` gives the east, north and up parts
+        of an Earth-centred vector ``d``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is not a single finite number.
+    TypeError
+        If an argument is not numeric.
+
+    Examples
+    --------
+    >>> enu_rotation(0.0, 0.0)
+    array([[-0.,  1.,  0.],
+           [-0., -0.,  1.],
+           [ 1.,  0.,  0.]])
+    """
+    p0, l0 = np.radians(as_float(lat0, "lat0")), np.radians(as_float(lon0, "lon0"))
     return np.array([[-np.sin(l0), np.cos(l0), 0.0],
                      [-np.sin(p0) * np.cos(l0), -np.sin(p0) * np.sin(l0), np.cos(p0)],
                      [np.cos(p0) * np.cos(l0), np.cos(p0) * np.sin(l0), np.sin(p0)]])
@@ -104,4 +131,4 @@ def geodetic_to_enu(lat, lon, h, *, origin) -> np.ndarray:
     """
     lat, lon, h, o = _geodetic_iv(lat, lon, h, origin)
     d = _ecef(lat, lon, h) - _ecef(o[0], o[1], o[2])          # g - g0
-    return d @ _enu_rotation(o[0], o[1]).T                     # (e, n, u) . (g - g0)
+    return d @ enu_rotation(o[0], o[1]).T                     # (e, n, u) . (g - g0)

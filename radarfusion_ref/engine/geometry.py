@@ -32,6 +32,10 @@ __all__ = [
     "Geometry",
     "radar2_position",
     "polar_from",
+    "as_geometry",
+    "as_polar_sigmas",
+    "as_sigma_beta",
+    "normal_chunks",
 ]
 
 #: Largest angle standard deviation accepted (azimuth or elevation), in radians (≈ 28.6°):
@@ -57,8 +61,21 @@ MAX_TRIALS = 10**8
 
 
 # --------------------------------------------------------------------------- validation
-def _sigma_beta_iv(value, name: str = "sigma_beta", *, strict: bool = False) -> np.ndarray:
-    """The one check of an angle standard deviation: in [0, SIGMA_BETA_MAX] (strict: > 0)."""
+def as_sigma_beta(value, name: str = "sigma_beta", *, strict: bool = False) -> np.ndarray:
+    r"""The door of an angle standard deviation: in [0, SIGMA_BETA_MAX] (``strict``: > 0).
+
+    The package's one check of :math:`\sigma_\beta` (and of an elevation's), shared by
+    the conversion, registration and separated-radar chapters; `name` is the caller's
+    public name for it. A value above :data:`SIGMA_BETA_MAX` is most likely in degrees,
+    and the message says so.
+
+    Examples
+    --------
+    >>> as_sigma_beta(5.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: `sigma_beta` must be an angle standard deviation in radians in [0, 0.5] (SIGMA_BETA_MAX); received largest entry 5 — did you pass degrees? Use np.deg2rad.
+    """
     s = as_positive(value, name, strict=strict)
     if np.any(s > SIGMA_BETA_MAX):
         raise ValueError(
@@ -66,11 +83,6 @@ def _sigma_beta_iv(value, name: str = "sigma_beta", *, strict: bool = False) -> 
             f"{'(' if strict else '['}0, {SIGMA_BETA_MAX}] (SIGMA_BETA_MAX); received largest "
             f"entry {float(np.max(s)):.6g} — did you pass degrees? Use np.deg2rad.")
     return s
-
-
-def _scalar(value, name: str, *, positive: bool = False) -> float:
-    """One finite real number (a 0-d array or Python/numpy scalar), > 0 if `positive`."""
-    return as_float(as_positive(value, name) if positive else value, name)
 
 
 # --------------------------------------------------------------------------- geometry
@@ -175,8 +187,8 @@ class Geometry:
     targets: np.ndarray
 
     def __post_init__(self):
-        object.__setattr__(self, "base", _scalar(self.base, "base", positive=True))
-        object.__setattr__(self, "base_azimuth", _scalar(self.base_azimuth, "base_azimuth"))
+        object.__setattr__(self, "base", as_float(as_positive(self.base, "base"), "base"))
+        object.__setattr__(self, "base_azimuth", as_float(self.base_azimuth, "base_azimuth"))
         t = as_float_array(self.targets, "targets", ndim_min=2, last_dims=(None, 2))
         if t.ndim != 2 or t.shape[0] < 1:
             raise ValueError(f"`targets` must have shape (n, 2) with n >= 1; received shape "
@@ -208,7 +220,8 @@ class Geometry:
         return polar_from(self.targets, self.radar2)
 
 
-def _as_geometry(geometry) -> Geometry:
+def as_geometry(geometry) -> Geometry:
+    """The door of a two-radar geometry: a :class:`Geometry`, refused by name otherwise."""
     if not isinstance(geometry, Geometry):
         raise TypeError("`geometry` must be a Geometry (see "
                         "radarfusion_ref.separated.paper_geometry); received "
@@ -216,10 +229,16 @@ def _as_geometry(geometry) -> Geometry:
     return geometry
 
 
-def _polar_sigmas_iv(sigma_r, sigma_beta, geometry: Geometry) -> tuple[float, float]:
-    """One `sigma_r` (below a tenth of the shortest range) and one `sigma_beta`."""
-    sr = _scalar(sigma_r, "sigma_r", positive=True)
-    sb = _scalar(_sigma_beta_iv(sigma_beta, strict=True), "sigma_beta")
+def as_polar_sigmas(sigma_r, sigma_beta, geometry) -> tuple[float, float]:
+    """The door of one radar noise for a geometry: one `sigma_r` and one `sigma_beta`.
+
+    `sigma_r` positive and below a tenth of the shortest target range of `geometry`
+    (so that measured ranges stay positive), `sigma_beta` by :func:`as_sigma_beta`
+    (strictly positive); returned as floats.
+    """
+    geometry = as_geometry(geometry)
+    sr = as_float(as_positive(sigma_r, "sigma_r"), "sigma_r")
+    sb = as_float(as_sigma_beta(sigma_beta, strict=True), "sigma_beta")
     rmin = min(geometry.polar1[0].min(), geometry.polar2[0].min())
     if rmin < 10 * sr:
         raise ValueError(f"`sigma_r` must be below a tenth of the shortest target range "
@@ -238,8 +257,13 @@ def _normal_blocks(root: np.random.SeedSequence, n: int, trials: int):
             (4, n, min(BLOCK_TRIALS, trials - start)))
 
 
-def _normal_chunks(root: np.random.SeedSequence, n: int, trials: int, chunk: int):
-    """The draws of :func:`_normal_blocks`, regrouped into pieces of `chunk` trials."""
+def normal_chunks(root: np.random.SeedSequence, n: int, trials: int, chunk: int):
+    """Kernel (trusted input): the polar scene's standard normals, in pieces of `chunk` trials.
+
+    The draws of the scene simulator (shape ``(4, n, L)`` per block of
+    :data:`BLOCK_TRIALS` trials, one seed per block spawned from `root`), regrouped so
+    that an experiment streaming them in chunks sees the same numbers as the scene.
+    """
     buf, have = [], 0
     for block in _normal_blocks(root, n, trials):
         while block.shape[-1]:

@@ -38,7 +38,7 @@ from types import MappingProxyType
 import numpy as np
 from scipy import stats
 
-from ._optional import available, require
+from .optional import available, require
 from .validation import (
     MEMORY_LIMIT,
     as_bool,

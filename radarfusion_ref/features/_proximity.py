@@ -11,7 +11,7 @@ from scipy.special import logsumexp
 from ..engine.scenes import (
     FEATURE_MODELS,
     TypedScene,
-    _types_iv,
+    as_type_model,
 )
 from ..engine.validation import (
     as_choice,
@@ -110,7 +110,7 @@ def type_agreement(feature1, feature_var1, feature2, feature_var2, type_means, t
     -1.3863
     """
     f1, v1, f2, v2 = _feature_pair_iv(feature1, feature_var1, feature2, feature_var2)
-    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    means, tvars, log_priors = as_type_model(type_means, type_vars, priors)
     _check_memory(f1.shape, means.size, "type agreement")
     log_p1 = _log_posterior([f1], means,
                             [_log_var_sum(tvars, v1[..., None])], log_priors)
@@ -264,7 +264,7 @@ def combined_proximity(x1, x2, cov1, cov2, feature1, feature2, feature_var1, fea
         if model == "spread":
             kf = np.asarray(type_agreement(f1, v1, f2, v2, type_means, type_vars, priors))
         else:
-            means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+            means, tvars, log_priors = as_type_model(type_means, type_vars, priors)
             _check_memory(f1.shape, means.size, "marginal feature term")
             kf = _marginal_feature_term(f1, v1, f2, v2, means, tvars, log_priors)
         dof = None

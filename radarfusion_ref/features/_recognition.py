@@ -9,7 +9,7 @@ from scipy.special import expit
 
 from ..engine.scenes import (
     FEATURE_MODELS,
-    _types_iv,
+    as_type_model,
 )
 from ..engine.validation import (
     as_choice,
@@ -172,7 +172,7 @@ def type_likelihood(feature, feature_var, type_means, type_vars, *, log: bool = 
     f = as_float_array(feature, "feature")
     v = as_positive(feature_var, "feature_var", strict=False)
     f, v = broadcast(feature=f, feature_var=v)
-    means, tvars, _ = _types_iv(type_means, type_vars, None)
+    means, tvars, _ = as_type_model(type_means, type_vars, None)
     log = _as_flag(log, "log")
     _check_memory(f.shape, means.size, "type likelihood")
     log_var = _log_var_sum(tvars, v[..., None])
@@ -259,7 +259,7 @@ def type_posterior(feature, feature_var, type_means, type_vars, priors=None, *,
     f = as_float_array(feature, "feature")
     v = as_positive(feature_var, "feature_var", strict=False)
     f, v = broadcast(feature=f, feature_var=v)
-    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    means, tvars, log_priors = as_type_model(type_means, type_vars, priors)
     log = _as_flag(log, "log")
     _check_memory(f.shape, means.size, "type posterior")
     # log of the widened variances σ_Πk² + v, then exact differences
@@ -324,7 +324,7 @@ def pair_type_posterior(feature1, feature_var1, feature2, feature_var2, type_mea
     v1 = as_positive(feature_var1, "feature_var1")
     v2 = as_positive(feature_var2, "feature_var2")
     f1, v1, f2, v2 = broadcast(feature1=f1, feature_var1=v1, feature2=f2, feature_var2=v2)
-    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    means, tvars, log_priors = as_type_model(type_means, type_vars, priors)
     _check_memory(f1.shape, means.size, "type posterior")
     log_post = _log_posterior([f1, f2], means, [_log_var_sum(tvars, v1[..., None]),
                                                 _log_var_sum(tvars, v2[..., None])], log_priors)

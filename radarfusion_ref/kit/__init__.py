@@ -10,7 +10,7 @@ It may import the engine, and nothing below it imports the kit.
 * :mod:`~radarfusion_ref.kit.catalog` — the chapter map.
 """
 
-from ..engine._optional import require_installed
+from ..engine.optional import require_installed
 
 # the kit draws with matplotlib and derives with sympy: the `book` extra
 require_installed("matplotlib", "sympy", feature="the book kit (radarfusion_ref.kit)")

@@ -33,8 +33,8 @@ import matplotlib as mpl
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..engine._optional import require
 from ..engine.errors import RadarFusionWarning
+from ..engine.optional import require
 from ..engine.validation import as_float, as_float_array, as_int, describe
 
 __all__ = ["controls", "sweep_player", "slider", "MIN_FRAMES", "PLAYER_DPI", "PRINT_DPI",

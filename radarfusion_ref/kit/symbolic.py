@@ -19,7 +19,7 @@ import typing
 
 import numpy as np
 
-from ..engine._optional import require
+from ..engine.optional import require
 from .checks import CheckError, _check_close, _record
 
 __all__ = ["latex", "use_book_printing", "show", "check_zero", "check_numeric_agreement",

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from .. import conversion
-from ..engine.geometry import _sigma_beta_iv
+from ..engine.geometry import as_sigma_beta
 from ..engine.linalg import (
     is_positive_definite,
     mahalanobis_sq,
@@ -48,7 +48,7 @@ def _sensors_iv(sensors, name: str = "sensors") -> np.ndarray:
 def _sigmas_iv(sigma_r, sigma_beta, m: int) -> tuple[np.ndarray, np.ndarray]:
     out = []
     for a, name in ((as_positive(sigma_r, "sigma_r"), "sigma_r"),
-                    (_sigma_beta_iv(sigma_beta, strict=True), "sigma_beta")):
+                    (as_sigma_beta(sigma_beta, strict=True), "sigma_beta")):
         if a.ndim > 1 or (a.ndim == 1 and a.shape[0] not in (1, m)):
             raise ValueError(f"`{name}` must be a number or one number per radar, shape ({m},); "
                              f"received {describe(a)}")

@@ -7,12 +7,12 @@ import numpy as np
 from .. import conversion, gating
 from ..engine.geometry import (
     Geometry,
-    _as_geometry,
-    _polar_sigmas_iv,
-    _scalar,
+    as_geometry,
+    as_polar_sigmas,
 )
 from ..engine.validation import (
     as_choice,
+    as_float,
     as_positive,
     as_probability,
 )
@@ -61,8 +61,8 @@ def false_pair_noncentrality(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     >>> lam.shape, float(lam[0, 0])
     ((2, 2), 0.0)
     """
-    geo = _as_geometry(geometry)
-    sr, sb = _polar_sigmas_iv(sigma_r, sigma_beta, geo)
+    geo = as_geometry(geometry)
+    sr, sb = as_polar_sigmas(sigma_r, sigma_beta, geo)
     (r1, b1), (r2, b2) = geo.polar1, geo.polar2
     mean1 = geo.targets.copy()
     mean2 = geo.targets.copy()
@@ -119,7 +119,7 @@ def approximate_outcomes(noncentrality, p_false_reject=PAPER["p_false_reject"]):
     lam = as_positive(noncentrality, "noncentrality", strict=False)
     if lam.ndim < 2 or lam.shape[-2:] != (2, 2):
         raise ValueError(f"`noncentrality` must have shape (..., 2, 2); received {lam.shape}")
-    p_lo = _scalar(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
+    p_lo = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
     p = np.asarray(gating.p_false_accept(lam, 2, p_lo), dtype=float)
     a = np.diagonal(p, axis1=-2, axis2=-1)
     b = p[..., [0, 1], [1, 0]]

@@ -12,16 +12,16 @@ from .. import gating
 from ..engine.geometry import (
     MAX_TRIALS,
     Geometry,
-    _as_geometry,
-    _normal_chunks,
-    _polar_sigmas_iv,
-    _scalar,
+    as_geometry,
+    as_polar_sigmas,
+    normal_chunks,
 )
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.montecarlo import Proportion, proportion
 from ..engine.validation import (
     MEMORY_LIMIT,
     as_choice,
+    as_float,
     as_float_array,
     as_int,
     as_probability,
@@ -197,7 +197,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     >>> res["linearized"].per_report.estimate.shape
     (2, 3)
     """
-    geo = _as_geometry(geometry)
+    geo = as_geometry(geometry)
     if geo.targets.shape[0] < 2:
         raise ValueError("`geometry` must hold at least two targets for association; "
                          f"received {geo.targets.shape[0]}")
@@ -205,7 +205,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     check_size(math.factorial(n), MAX_JOINT_PAIRINGS,
                what=f"joint pairings n! (n = {n} targets in `geometry`)",
                alternative=_JOINT_ALTERNATIVE)
-    sr, sb = _polar_sigmas_iv(sigma_r, sigma_beta, geo)
+    sr, sb = as_polar_sigmas(sigma_r, sigma_beta, geo)
     meths = _as_methods(methods)
     n_trials = as_int(trials, "trials", minimum=1)
     check_size(n_trials, MAX_TRIALS, what="trials (`trials`)",
@@ -215,7 +215,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     check_size(per_trial * chunk, MEMORY_LIMIT,
                what=f"bytes of working memory for `chunk_size` = {chunk}",
                alternative=f"a `chunk_size` of at most {MEMORY_LIMIT // per_trial}")
-    p_lo = _scalar(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
+    p_lo = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
     root = as_seed_sequence(rng)
     th = float(gating.gate_threshold(p_lo, 2))
     th_joint = float(gating.gate_threshold(p_lo, 2 * n))
@@ -233,7 +233,7 @@ def association_experiment(geometry: Geometry, *, sigma_r=PAPER["sigma_r"],
     (r1t, b1t), (r2t, b2t) = geo.polar1, geo.polar2
     r_true = np.stack([r1t, r2t])[:, :, None]                # (2, n, 1)
     b_true = np.stack([b1t, b2t])[:, :, None]
-    for z in _normal_chunks(root, n, n_trials, chunk):     # (4, n, m), per-block seeds
+    for z in normal_chunks(root, n, n_trials, chunk):     # (4, n, m), per-block seeds
         m = z.shape[-1]
         # both radars in one array, trial axis last: shape (2, n, m)
         r = r_true + sr * z[0::2]

@@ -9,8 +9,8 @@ import numpy as np
 from .. import conversion
 from ..engine.geometry import (
     Geometry,
-    _scalar,
 )
+from ..engine.validation import as_float, as_positive
 
 CORRECT, WRONG, NO_DECISION = 0, 1, 2
 #: Outcome names, indexed by code (the columns of Table 1).
@@ -97,12 +97,12 @@ def paper_geometry(offset_range=0.0, offset_cross=0.0, *, range1=PAPER["range1"]
     >>> g.radar2
     array([30.,  0.])
     """
-    r1 = _scalar(range1, "range1", positive=True)
-    a1 = _scalar(azimuth1, "azimuth1")
-    dr = _scalar(offset_range, "offset_range")
-    dc = _scalar(offset_cross, "offset_cross")
-    b = _scalar(base, "base", positive=True)
-    b0 = _scalar(base_azimuth, "base_azimuth")
+    r1 = as_float(as_positive(range1, "range1"), "range1")
+    a1 = as_float(azimuth1, "azimuth1")
+    dr = as_float(offset_range, "offset_range")
+    dc = as_float(offset_cross, "offset_cross")
+    b = as_float(as_positive(base, "base"), "base")
+    b0 = as_float(base_azimuth, "base_azimuth")
     u = np.array([np.cos(a1), np.sin(a1)])
     v = np.array([-u[1], u[0]])
     t1 = r1 * u

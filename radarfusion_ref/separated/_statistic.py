@@ -9,16 +9,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import conversion
-from ..engine.geometry import (
-    _scalar,
-)
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.scenes import PolarReports
 from ..engine.validation import (
     MEMORY_LIMIT,
     as_bool,
     as_choice,
+    as_float,
     as_float_array,
+    as_positive,
     check_size,
     describe,
 )
@@ -284,7 +283,7 @@ def per_report_outcome(statistic, threshold) -> np.ndarray:
     array([0, 2], dtype=int8)
     """
     s = _as_statistic(statistic)
-    th = _scalar(threshold, "threshold", positive=True)
+    th = as_float(as_positive(threshold, "threshold"), "threshold")
     passed = s < th
     n_pass = passed.sum(axis=-1)
     true_pass = np.diagonal(passed, axis1=-2, axis2=-1)
@@ -355,7 +354,7 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
     check_size(_joint_bytes(n, s.size // (n * n)), MEMORY_LIMIT,
                what="bytes of pairing costs for `statistic`",
                alternative="smaller batches of `statistic`")
-    th = None if threshold is None else _scalar(threshold, "threshold", positive=True)
+    th = None if threshold is None else as_float(as_positive(threshold, "threshold"), "threshold")
     perms = np.array(list(itertools.permutations(range(n))))      # identity first
     rows = np.arange(n)
     sum_s = s[..., rows, perms].sum(axis=-1)                       # (..., n!)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg
 
-from ..engine.tracker._kalman import check_prediction, cv_matrices
+from ..engine.tracker import check_prediction, cv_matrices
 from ..engine.validation import (
     as_choice,
     as_covariance,

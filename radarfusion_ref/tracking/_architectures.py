@@ -9,7 +9,7 @@ import numpy as np
 from .. import gating, trackfusion
 from ..engine import assignment
 from ..engine.linalg import mahalanobis_sq_pairwise
-from ..engine.tracker._kalman import cv_matrices, predict_kernel
+from ..engine.tracker import cv_matrices, predict_kernel
 from ..engine.validation import as_choice, as_float, as_positive
 from ..fusion import fuse_gaussian
 from ._centralised import _reports_iv, track_reports

@@ -15,9 +15,15 @@ from .. import gating
 from ..engine import assignment
 from ..engine.errors import RadarFusionWarning
 from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
-from ..engine.tracker._jpda import event_bound, exact_kernel, kbest_kernel
-from ..engine.tracker._kalman import predict_kernel, update_kernel
-from ..engine.tracker._score import increments_kernel, window_kernel
+from ..engine.tracker import (
+    event_bound,
+    exact_kernel,
+    increments_kernel,
+    kbest_kernel,
+    predict_kernel,
+    update_kernel,
+    window_kernel,
+)
 from ..engine.validation import as_covariance, as_float_array, describe
 from ._motion import (
     axis_q,

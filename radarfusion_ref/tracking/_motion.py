@@ -11,13 +11,13 @@ import functools
 import numpy as np
 
 from ..engine.linalg import mahalanobis_sq
-from ..engine.tracker._imm import (
+from ..engine.tracker import (
     combine_kernel,
     imm_predict_kernel,
     imm_update_kernel,
+    increments_kernel,
+    predict_kernel,
 )
-from ..engine.tracker._kalman import predict_kernel
-from ..engine.tracker._score import increments_kernel
 
 
 def axis_q(s) -> np.ndarray:

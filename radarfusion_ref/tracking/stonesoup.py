@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from ..engine._optional import require
+from ..engine.optional import require
 from ..engine.validation import as_bool, as_choice, as_float_array
 from ..engine.validation import describe as _describe
 from ._motion import axis_q, velocity_sd

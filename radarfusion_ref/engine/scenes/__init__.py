@@ -60,11 +60,11 @@ The geometry of :func:`polar_scene` (two radars, targets at given places) is
 Also here: :func:`binding_hypotheses` (every binding of m sources' reports to n
 tracks, in the order of :meth:`GroupingScene.true_hypothesis`),
 :func:`nearest_neighbour_pairing` (the naive rule the book starts from) and
-:func:`ellipse_covariance` (a 2-D covariance from its ellipse).
+:func:`ellipse_covariance` (a 2-D covariance from its ellipse) and :func:`as_type_model`
+(the door of a type description, shared with the feature rules of chapter 5).
 """
 
-from ._base import FEATURE_MODELS, LAYOUTS, Scene
-from ._base import _types_iv as _types_iv  # the type description's door, shared with features
+from ._base import FEATURE_MODELS, LAYOUTS, Scene, as_type_model
 from ._grouping import MAX_BINDING_HYPOTHESES, GroupingScene, binding_hypotheses, grouping_scene
 from ._helpers import ellipse_covariance, nearest_neighbour_pairing
 from ._polar import PolarReports, polar_scene
@@ -95,4 +95,5 @@ __all__ = [
     "binding_hypotheses",
     "nearest_neighbour_pairing",
     "ellipse_covariance",
+    "as_type_model",
 ]

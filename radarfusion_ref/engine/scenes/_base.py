@@ -51,8 +51,40 @@ def _domain(value: float, *, name: str, what: str) -> None:
                          "change the unit of the coordinates")
 
 
-def _types_iv(type_means, type_vars, priors):
-    """Validate the type description; return means, variances and log priors, each (K,)."""
+def as_type_model(type_means, type_vars, priors=None):
+    r"""The door of a type description: K types, each a Gaussian feature with a prior.
+
+    Shared by the typed scenes and the feature rules of chapter 5.
+
+    Parameters
+    ----------
+    type_means : array_like, shape (K,)
+        The feature's mean for each type (at least one type).
+    type_vars : array_like, shape (K,)
+        Its variance for each type, positive.
+    priors : array_like, shape (K,), optional
+        The types' prior probabilities, non-negative and summing to 1 (within
+        1e-8); equal priors if omitted.
+
+    Returns
+    -------
+    tuple of numpy.ndarray, each shape (K,)
+        The means, the variances and the log priors (``-inf`` for a zero prior).
+
+    Raises
+    ------
+    ValueError, TypeError
+        Naming the argument that breaks its rule.
+
+    Examples
+    --------
+    >>> as_type_model([0.0, 3.0], [1.0, 1.0])[2]
+    array([-0.69314718, -0.69314718])
+    >>> as_type_model([0.0, 3.0], [1.0, 1.0], [0.5, 0.6])
+    Traceback (most recent call last):
+    ...
+    ValueError: `priors` must sum to 1 (within 1e-8); received array [0.5 0.6] with shape (2,) (sum 1.1)
+    """
     means = as_float_array(type_means, "type_means")
     if means.ndim != 1 or means.size == 0:
         raise ValueError("`type_means` must be a non-empty 1-D array (one mean per type); "

@@ -9,9 +9,9 @@ import numpy as np
 from ..geometry import (
     MAX_TRIALS,
     Geometry,
-    _as_geometry,
     _normal_blocks,
-    _polar_sigmas_iv,
+    as_geometry,
+    as_polar_sigmas,
 )
 from ..validation import (
     MEMORY_LIMIT,
@@ -130,8 +130,8 @@ def polar_scene(geometry: Geometry, *, sigma_r, sigma_beta, trials: int = 1,
     >>> rep.r1.shape, rep.trials
     ((3, 2), 3)
     """
-    geo = _as_geometry(geometry)
-    sr, sb = _polar_sigmas_iv(sigma_r, sigma_beta, geo)
+    geo = as_geometry(geometry)
+    sr, sb = as_polar_sigmas(sigma_r, sigma_beta, geo)
     n = as_int(trials, "trials", minimum=1)
     check_size(n, MAX_TRIALS, what="trials (`trials`)",
                alternative="several calls with spawned seeds")

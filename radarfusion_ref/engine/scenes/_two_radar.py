@@ -24,7 +24,7 @@ from ._base import (
     Scene,
     _domain,
     _limit,
-    _types_iv,
+    as_type_model,
 )
 
 
@@ -461,7 +461,7 @@ def typed_scene(n_objects: int, *, spacing: float, layout: str = "line", sigma1:
     >>> s.features2.shape, s.types.shape, s.n_types
     ((4, 3), (4, 3), 2)
     """
-    means, tvars, log_priors = _types_iv(type_means, type_vars, priors)
+    means, tvars, log_priors = as_type_model(type_means, type_vars, priors)
     fs1 = as_float(as_positive(feature_sigma1, "feature_sigma1"), "feature_sigma1")
     fs2 = as_float(as_positive(feature_sigma2, "feature_sigma2"), "feature_sigma2")
     model = as_choice(model, "model", FEATURE_MODELS)

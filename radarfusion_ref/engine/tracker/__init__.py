@@ -13,6 +13,14 @@ The one home of the formulas a tracker is built from; the chapter module
 * :func:`imm_mixing`, :func:`imm_predict`, :func:`imm_update`, :func:`imm_combine` — the
   interacting multiple model filter of constant-velocity modes of different process noise.
 
+The kernels under these doors (:func:`cv_matrices`, :func:`predict_kernel`,
+:func:`update_kernel`, :func:`check_prediction`, :func:`increments_kernel`,
+:func:`window_kernel`, :func:`event_bound`, :func:`exact_kernel`, :func:`kbest_kernel`,
+:func:`combine_kernel`, :func:`imm_predict_kernel`, :func:`imm_update_kernel`) are public
+for the chapter modules' trackers, which validate a whole scenario once at their own door
+and then run these per scan; each says "trusted input" in its summary: it does not
+validate its arguments.
+
 .. rubric:: References
 
 .. [1] R. W. Sittler, "An optimal data association problem in surveillance theory",
@@ -30,10 +38,43 @@ The one home of the formulas a tracker is built from; the chapter module
 
 from __future__ import annotations
 
-from ._imm import ImmEstimate, ImmMixing, imm_combine, imm_mixing, imm_predict, imm_update
-from ._jpda import MAX_EVENTS, JpdaProbabilities, jpda_probabilities
-from ._kalman import KalmanEstimate, KalmanUpdate, kalman_predict, kalman_update
-from ._score import SprtThresholds, m_of_n, score_increments, sprt_thresholds
+from ._imm import (
+    ImmEstimate,
+    ImmMixing,
+    combine_kernel,
+    imm_combine,
+    imm_mixing,
+    imm_predict,
+    imm_predict_kernel,
+    imm_update,
+    imm_update_kernel,
+)
+from ._jpda import (
+    MAX_EVENTS,
+    JpdaProbabilities,
+    event_bound,
+    exact_kernel,
+    jpda_probabilities,
+    kbest_kernel,
+)
+from ._kalman import (
+    KalmanEstimate,
+    KalmanUpdate,
+    check_prediction,
+    cv_matrices,
+    kalman_predict,
+    kalman_update,
+    predict_kernel,
+    update_kernel,
+)
+from ._score import (
+    SprtThresholds,
+    increments_kernel,
+    m_of_n,
+    score_increments,
+    sprt_thresholds,
+    window_kernel,
+)
 
 __all__ = [
     "MAX_EVENTS",
@@ -43,14 +84,26 @@ __all__ = [
     "KalmanEstimate",
     "KalmanUpdate",
     "SprtThresholds",
+    "check_prediction",
+    "combine_kernel",
+    "cv_matrices",
+    "event_bound",
+    "exact_kernel",
     "imm_combine",
     "imm_mixing",
     "imm_predict",
+    "imm_predict_kernel",
     "imm_update",
+    "imm_update_kernel",
+    "increments_kernel",
     "jpda_probabilities",
     "kalman_predict",
     "kalman_update",
+    "kbest_kernel",
     "m_of_n",
+    "predict_kernel",
     "score_increments",
     "sprt_thresholds",
+    "update_kernel",
+    "window_kernel",
 ]

@@ -60,7 +60,11 @@ def _jpda_iv(ratio, miss, k):
 
 
 def event_bound(ratio) -> int:
-    r"""An upper bound on the number of joint events: :math:`\prod_i (1 + \deg i)`."""
+    r"""Kernel (trusted input): a bound on the number of joint events.
+
+    :math:`\prod_i (1 + \deg i)`, the degree of track :math:`i` being its number of
+    gated reports (positive entries of its row of `ratio`).
+    """
     return math.prod(1 + int(c) for c in np.count_nonzero(ratio > 0, axis=1))
 
 

@@ -69,7 +69,7 @@ def _sym(a):
 
 
 def cv_matrices(dt, q, dim, noise="continuous", per_axis=False):
-    """Kernel: ``(F, Q)`` of the constant-velocity model broadcast over `dt` and `q` (trusted).
+    """Kernel (trusted input): ``(F, Q)`` of the constant-velocity model, broadcast over `dt`, `q`.
 
     With `per_axis`, `q` holds one intensity per coordinate on its last axis (shape
     ``(..., dim)``) and :math:`Q` is block-diagonal per coordinate with those intensities.
@@ -97,7 +97,7 @@ def cv_matrices(dt, q, dim, noise="continuous", per_axis=False):
 
 
 def check_prediction(xp, Pp, dt, q) -> None:
-    """Refuse, naming `dt` and `q`, a prediction beyond the numeric domain.
+    """Kernel (trusted input): refuse, naming `dt` and `q`, a prediction beyond the numeric domain.
 
     The domain (:data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`): coordinates of
     magnitude at most :math:`2^{150}`, variances at most :math:`2^{150}`.
