@@ -293,7 +293,7 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
     # eq. (7)
     kappa = mahalanobis_sq_kernel((a - b)[..., None], (v1 + v2)[..., None, None],
-                   "`x1`, `x2`")
+                                  "`x1`, `x2`")
     if kind == "profile":
         # -kappa/2 - ln(2 pi sigma_1 sigma_2)
         return unwrap(-0.5 * kappa - _LOG_2PI

@@ -336,13 +336,14 @@ def test_dense_lagrangian_huge_costs_are_scaled_exactly():
 
 
 def test_dense_lagrangian_stall_warns_with_the_proved_gap():
-    from radarfusion_ref.engine.assignment._dense import _solve_full
+    from radarfusion_ref.engine.assignment._dense import sd_dense_lagrangian_kernel
     from radarfusion_ref.engine.errors import RadarFusionWarning
 
     c = np.random.default_rng(5).uniform(size=(5, 5, 5))     # a true duality gap
     opt = brute_sd_tensor(c)
     with pytest.warns(RadarFusionWarning, match=r"`gap`.*stalled at a proved gap"):
-        groups, total, lb, hist = _solve_full(c, gap=1e-9, max_iter=20, exact_limit=0)
+        groups, total, lb, hist = sd_dense_lagrangian_kernel(c, gap=1e-9, max_iter=20,
+                                                             exact_limit=0)
     assert hist.shape[1] == 2 and np.all(hist[:, 0] <= hist[:, 1])
     assert_grouping(groups, 3, 5)
     assert lb <= opt + 1e-12 <= total + 2e-12

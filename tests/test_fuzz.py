@@ -49,6 +49,7 @@ SKIP = {
     # test_validation.py
     "validation.describe", "validation.unwrap", "validation.check_size",
     "validation.as_rng", "validation.as_seed_sequence", "validation.as_bool",
+    "assignment.as_threshold",           # None means "no gate"; refusals in test_assignment.py
 }
 #: The doors take the caller's public name for the value they check (and its choices): the
 #: net gives them a fixed name, garbage as the value, and requires that name in the message.

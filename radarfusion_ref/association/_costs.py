@@ -7,9 +7,6 @@ import warnings
 
 import numpy as np
 
-from ..engine.assignment._checks import (
-    _limit,
-)
 from ..engine.errors import RadarFusionWarning
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.validation import (
@@ -21,6 +18,7 @@ from ..engine.validation import (
     as_positive,
     as_probability,
     broadcast,
+    check_size,
     describe,
 )
 
@@ -276,9 +274,9 @@ def proximity_matrix(reports1, reports2, sigma1, sigma2, *, logdet: bool = False
     n1, n2, d = r1.shape[-2], r2.shape[-2], r1.shape[-1]
     per_report = sd1.ndim > 0 or sd2.ndim > 0
     per_pair = d + d * d if per_report else d
-    _limit(math.prod(batch) * n1 * n2 * per_pair * 8 * 4, MEMORY_LIMIT, name="reports1",
-           what=f"bytes of pair differences ({math.prod(batch)} x {n1} x {n2} pairs, d = {d})",
-           alternative="fewer trials per call (split the batch)")
+    check_size(math.prod(batch) * n1 * n2 * per_pair * 8 * 4, MEMORY_LIMIT, name="reports1",
+               what=f"bytes of pair differences ({math.prod(batch)} x {n1} x {n2} pairs, d = {d})",
+               alternative="fewer trials per call (split the batch)")
     eye = np.eye(d)
     if not per_report:
         v1, v2 = float(sd1) ** 2, float(sd2) ** 2

@@ -8,10 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..engine import assignment
-from ..engine.assignment._checks import (
-    _as_cost,
-    _as_threshold,
-)
+from ..engine.assignment import as_cost, as_threshold
 from ..engine.montecarlo import Proportion, proportion
 from ..engine.validation import (
     as_choice,
@@ -121,8 +118,8 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     c, truth = _kappa_truth_iv(kappa, truth)
     if c.ndim != 3:
         raise ValueError(f"`kappa` must have shape (trials, n1, n2); received shape {c.shape}")
-    th = _as_threshold(threshold)
-    jth = _as_threshold(joint_threshold, "joint_threshold")
+    th = as_threshold(threshold)
+    jth = as_threshold(joint_threshold, "joint_threshold")
     pw = associate_pointwise(c, th, order="scan")
     gr = associate_pointwise(c, th, order="best_first")
     jt = assignment.solve_2d(c)
@@ -164,7 +161,7 @@ _RULES = ("scan", "greedy", "joint")
 
 def _kappa_truth_iv(kappa, truth):
     """`kappa` (..., n1, n2) and the true partners `truth` (..., n1): one check for both."""
-    c = _as_cost(kappa, "kappa")
+    c = as_cost(kappa, "kappa")
     t = _as_decisions(truth, "truth")
     if t.shape != c.shape[:-1]:
         raise ValueError(f"`truth` must have shape (..., n1) = {c.shape[:-1]} to match `kappa`; "

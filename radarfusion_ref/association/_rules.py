@@ -9,19 +9,19 @@ import numpy as np
 
 from ..engine import assignment
 from ..engine.assignment import (
+    BLOCK_BYTES,
     MAX_HYPOTHESES,
     Association,
+    as_cost,
+    as_threshold,
+    cost_exponents,
+    injections,
+    make_association,
+    scale_costs,
 )
-from ..engine.assignment._checks import (
-    _as_cost,
-    _as_threshold,
-    _exponents,
-    _limit,
-    _scaled,
-)
-from ..engine.assignment._two_d import _BLOCK_BYTES, _injections, _make_result
 from ..engine.validation import (
     as_choice,
+    check_size,
     describe,
 )
 
@@ -106,8 +106,8 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
     >>> associate_pointwise(c, 1.0, order="best_first").row_to_col
     array([1, 0])
     """
-    c = _as_cost(cost)
-    th = _as_threshold(threshold)
+    c = as_cost(cost)
+    th = as_threshold(threshold)
     order = as_choice(order, "order", ("scan", "best_first"))
     n1, n2 = c.shape[-2:]
     batch = c.shape[:-2]
@@ -136,7 +136,7 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
             row_to_col[b, i] = j
             view[b, i, :] = np.inf
             view[b, :, j] = np.inf
-    return _make_result(c, row_to_col.reshape(*batch, n1), None)
+    return make_association(c, row_to_col.reshape(*batch, n1), None)
 
 
 # --------------------------------------------------------------------------- marginals
@@ -188,23 +188,23 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
     array([[0.8808, 0.1192],
            [0.1192, 0.8808]])
     """
-    c = _as_cost(cost)
+    c = as_cost(cost)
     if c.ndim != 2:
         raise ValueError(f"`cost` must be a single matrix (n1, n2); received shape {c.shape}")
     n1, n2 = c.shape
     transpose = n1 > n2
     w = c.T if transpose else c
     a, b = w.shape
-    e = int(_exponents(c))
-    ws = _scaled(w, e)                  # exact; hypothesis sums of scaled costs cannot overflow
+    e = int(cost_exponents(c))
+    ws = scale_costs(w, e)                  # exact; hypothesis sums of scaled costs cannot overflow
     p = np.zeros((a, b))
     if k is None:
-        _limit(math.perm(b, a), MAX_HYPOTHESES, name="cost",
-               what=f"joint hypotheses to enumerate exactly (a {n1} x {n2} matrix)",
-               alternative="association_probabilities(cost, k=...) (Murty's k best)")
-        hyps = _injections(a, b)                             # int8, cached, read-only
+        check_size(math.perm(b, a), MAX_HYPOTHESES, name="cost",
+                   what=f"joint hypotheses to enumerate exactly (a {n1} x {n2} matrix)",
+                   alternative="association_probabilities(cost, k=...) (Murty's k best)")
+        hyps = injections(a, b)                             # int8, cached, read-only
         rows = np.arange(a)
-        chunk = max(1, _BLOCK_BYTES // (8 * a))
+        chunk = max(1, BLOCK_BYTES // (8 * a))
         blocks = range(0, hyps.shape[0], chunk)
         best = min(float(ws[rows, hyps[s0:s0 + chunk]].sum(axis=1).min()) for s0 in blocks)
         if not np.isfinite(best):

@@ -83,7 +83,7 @@ MEMORY_LIMIT = 1 << 30
 MAX_MAGNITUDE = 2.0 ** 150
 
 
-def check_size(requested, limit, *, what: str, alternative: str) -> int:
+def check_size(requested, limit, *, what: str, alternative: str, name: str | None = None) -> int:
     """Refuse work whose size exceeds a documented limit, before anything is allocated.
 
     Parameters
@@ -97,11 +97,14 @@ def check_size(requested, limit, *, what: str, alternative: str) -> int:
         What is counted, with its unit ("hypotheses n!", "bytes of pair costs").
     alternative : str
         The scalable route to use instead.
+    name : str, optional
+        The public argument whose value sets the size; the message then opens with it
+        in backticks.
 
     Raises
     ------
     ValueError
-        Naming the limit, the size asked for and the alternative.
+        Naming the limit, the size asked for and the alternative (and `name`).
 
     Examples
     --------
@@ -111,11 +114,16 @@ def check_size(requested, limit, *, what: str, alternative: str) -> int:
     Traceback (most recent call last):
     ...
     ValueError: refused: 479001600 hypotheses n! requested, above the limit of 1000000; use solve_2d (linear assignment) instead
+    >>> check_size(2**40, MEMORY_LIMIT, what="bytes", alternative="batches", name="trials")
+    Traceback (most recent call last):
+    ...
+    ValueError: `trials`: refused: 1099511627776 bytes requested, above the limit of 1073741824; use batches instead
     """
     requested, limit = int(requested), int(limit)
     if requested > limit:
-        raise ValueError(f"refused: {requested} {what} requested, above the limit of {limit}; "
-                         f"use {alternative} instead")
+        head = "" if name is None else f"`{name}`: "
+        raise ValueError(f"{head}refused: {requested} {what} requested, above the limit of "
+                         f"{limit}; use {alternative} instead")
     return requested
 
 

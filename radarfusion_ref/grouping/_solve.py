@@ -8,11 +8,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine.assignment._dense import _solve_full, dense_work_bytes
-from ..engine.assignment._lagrangian import _solve_candidates
-from ..engine.assignment._milp import _sd_solve
-from ..engine.assignment._results import _gap_of
-from ..engine.assignment._sd import _sd_enumerate
+from ..engine.assignment import (
+    dense_work_bytes,
+    relative_gap,
+    sd_candidates_kernel,
+    sd_dense_lagrangian_kernel,
+    sd_enumerate_kernel,
+    sd_milp_kernel,
+)
 from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.validation import (
     MEMORY_LIMIT,
@@ -181,7 +184,7 @@ def group_bruteforce(x, cov, *, cost: str = "ml", max_groupings: int = 10**7) ->
     check_size(G, MAX_GROUPINGS, what=f"groupings (n!)**(m-1) (`x` with n = {n}, m = {m})",
                alternative="group_sd (the exact S-D assignment integer program)")
     tensor = _tensor(xb, cb, cost).reshape(B, -1)
-    best, groups = _sd_enumerate(tensor, m, n)                 # assignment's enumeration
+    best, groups = sd_enumerate_kernel(tensor, m, n)                 # assignment's enumeration
     if not np.all(np.isfinite(best)):
         raise ValueError(
             "`x` and `cov`: the total cost of every grouping overflows the floating-point "
@@ -639,10 +642,10 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         counts = [xi.shape[0] for xi in xs]
         T, c = _scene_candidates(xs, cs, cost=cost, gamma=gamma, det=det,
                                   median_logdet=median_logdet)
-        chosen, total, lb, hist = _solve_candidates(
+        chosen, total, lb, hist = sd_candidates_kernel(
             T, c, counts, dummy=True, method=method, gap=gap, max_iter=max_iter,
             time_limit=time_limit, why=why)
-        gp = _gap_of(total, lb)
+        gp = relative_gap(total, lb)
         return GroupingResult(_groups_from_tuples(T[chosen]), total, cost, method, None,
                               lb, gp, hist, gp == 0.0)
     xb, cb, batch = _reports_iv(x, cov)
@@ -666,7 +669,7 @@ def group_sd(x, cov, *, cost: str = "ml", relaxation: bool = True,
         elif p_lo is None:
             # the full tensor: dense Lagrangian
             c = _tensor(x_b, cov_b, cost)[0]
-            T, totals[b], lbs[b], hist = _solve_full(
+            T, totals[b], lbs[b], hist = sd_dense_lagrangian_kernel(
                 c, gap=gap, max_iter=max_iter, time_limit=time_limit,
                 name="x", exact_limit=MAX_CANDIDATE_GROUPS,
                 hint="a gate (`p_false_reject`)")
@@ -721,16 +724,16 @@ def _full_tensor_size(m, n, d, method):
 def _scene_milp(c, m, n, relaxation, time_limit, b):
     """Exact S-D of one scene's full cost tensor (flat); the scene named in errors."""
     try:
-        return _sd_solve(c, m, n, relaxation=relaxation, time_limit=time_limit)
+        return sd_milp_kernel(c, m, n, relaxation=relaxation, time_limit=time_limit)
     except RuntimeError as exc:
         raise RuntimeError(f"scene {b}: {exc}") from None
 
 
 def _scene_candidates_solve(T, c, counts, method, gap, max_iter, time_limit, why, b, batch):
-    """:func:`radarfusion_ref.engine.assignment._lagrangian._solve_candidates` for one scene."""
+    """:func:`radarfusion_ref.engine.assignment.sd_candidates_kernel` for one scene."""
     try:
-        return _solve_candidates(T, c, counts, dummy=False, method=method, gap=gap,
-                                 max_iter=max_iter, time_limit=time_limit, why=why)
+        return sd_candidates_kernel(T, c, counts, dummy=False, method=method, gap=gap,
+                                    max_iter=max_iter, time_limit=time_limit, why=why)
     except ValueError as exc:
         raise ValueError(f"scene {b}: {exc}" if batch else str(exc)) from None
 

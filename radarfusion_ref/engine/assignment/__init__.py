@@ -21,6 +21,16 @@ costs from reports and call the functions here.
   of a full tensor by enumerating the :math:`(n!)^{m-1}` groupings;
   :func:`sd_constraint_matrix` — the constraints of the S-D integer program.
 
+.. rubric:: Doors and kernels for the chapter modules
+
+The association and grouping chapters build their own rules from the solvers' parts,
+public here: the doors :func:`as_cost` and :func:`as_threshold`; the kernels (trusted
+input) :func:`cost_exponents` and :func:`scale_costs` (exact power-of-two scaling),
+:func:`injections` and :data:`BLOCK_BYTES` (the enumerations), :func:`make_association`,
+:func:`relative_gap`, :func:`dense_work_bytes`, and the S-D solvers' kernels
+:func:`sd_milp_kernel`, :func:`sd_dense_lagrangian_kernel`, :func:`sd_candidates_kernel` and
+:func:`sd_enumerate_kernel`.
+
 .. rubric:: One result vocabulary
 
 Every result — :class:`Association` (2-D), :class:`KBestAssignments` (ranked
@@ -71,19 +81,32 @@ is a stored ``+inf``, NaN or ``-inf`` in a sparse matrix.
 
 from __future__ import annotations
 
-from ._milp import MAX_SD_TUPLES, sd_constraint_matrix
+from ._checks import as_cost, as_threshold, cost_exponents, scale_costs
+from ._dense import dense_work_bytes, sd_dense_lagrangian_kernel
+from ._lagrangian import sd_candidates_kernel
+from ._milp import MAX_SD_TUPLES, sd_constraint_matrix, sd_milp_kernel
 from ._murty import MAX_K_BEST, k_best_2d
-from ._results import AssignmentResult, Association, KBestAssignments, SDAssignment
-from ._sd import MAX_SD_GROUPINGS, solve_sd, solve_sd_bruteforce
+from ._results import (
+    AssignmentResult,
+    Association,
+    KBestAssignments,
+    SDAssignment,
+    relative_gap,
+)
+from ._sd import MAX_SD_GROUPINGS, sd_enumerate_kernel, solve_sd, solve_sd_bruteforce
 from ._two_d import (
+    BLOCK_BYTES,
     MAX_HYPOTHESES,
     MAX_PARTIAL_MATCHINGS,
     MAX_SCORED_HYPOTHESES,
+    injections,
+    make_association,
     solve_2d,
     solve_2d_bruteforce,
 )
 
 __all__ = [
+    "BLOCK_BYTES",
     "MAX_HYPOTHESES",
     "MAX_K_BEST",
     "MAX_PARTIAL_MATCHINGS",
@@ -94,8 +117,20 @@ __all__ = [
     "AssignmentResult",
     "KBestAssignments",
     "SDAssignment",
+    "as_cost",
+    "as_threshold",
+    "cost_exponents",
+    "dense_work_bytes",
+    "injections",
     "k_best_2d",
+    "make_association",
+    "relative_gap",
+    "scale_costs",
+    "sd_candidates_kernel",
     "sd_constraint_matrix",
+    "sd_dense_lagrangian_kernel",
+    "sd_enumerate_kernel",
+    "sd_milp_kernel",
     "solve_2d",
     "solve_2d_bruteforce",
     "solve_sd",

@@ -1,10 +1,15 @@
-"""Input checks and exact power-of-two scaling shared by the assignment solvers (private)."""
+"""Input checks and exact power-of-two scaling shared by the assignment solvers.
+
+The doors :func:`as_cost` and :func:`as_threshold` and the kernels :func:`cost_exponents`
+and :func:`scale_costs` are public names of :mod:`radarfusion_ref.engine.assignment`, for the
+chapter modules that build their own assignment rules from them.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..validation import as_float, as_float_array, as_probability, check_size
+from ..validation import as_float, as_float_array, as_probability
 
 
 def _as_gap(gap, name: str = "gap") -> float:
@@ -12,16 +17,8 @@ def _as_gap(gap, name: str = "gap") -> float:
     return as_float(as_probability(gap, name), name)
 
 
-def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
-    """:func:`radarfusion_ref.engine.validation.check_size`, with the public argument named in the message."""
-    try:
-        return check_size(requested, limit, what=what, alternative=alternative)
-    except ValueError as exc:
-        raise ValueError(f"`{name}`: {exc}") from None
-
-
-def _exponents(c: np.ndarray, *extra: float) -> np.ndarray:
-    """Binary exponents ``e`` (per matrix) with ``|finite entries| < 2**e``.
+def cost_exponents(c: np.ndarray, *extra: float) -> np.ndarray:
+    """Kernel (trusted input): binary exponents ``e`` (per matrix), ``|finite entries| < 2**e``.
 
     The solvers work on ``ldexp(cost, -e)``: a power-of-two scaling is exact,
     keeps every finite entry below 1 in magnitude, so no sum or difference of
@@ -34,14 +31,21 @@ def _exponents(c: np.ndarray, *extra: float) -> np.ndarray:
     return np.frexp(top)[1]
 
 
-def _scaled(c: np.ndarray, e: np.ndarray | int) -> np.ndarray:
-    """``c * 2**-e`` per matrix (`e` one exponent per matrix, or one for all; exact;
-    ``+inf`` stays ``+inf``)."""
+def scale_costs(c: np.ndarray, e: np.ndarray | int) -> np.ndarray:
+    """Kernel (trusted input): ``c * 2**-e`` per matrix, exact (``+inf`` stays ``+inf``).
+
+    `e`: one exponent per matrix (from :func:`cost_exponents`), or one for all.
+    """
     return np.ldexp(c, -np.asarray(e)[..., None, None])
 
 
-def _as_cost(cost, name: str = "cost") -> np.ndarray:
-    """Cost matrices ``(..., n1, n2)``: finite or ``+inf``; NaN, ``-inf`` and empty refused."""
+def as_cost(cost, name: str = "cost") -> np.ndarray:
+    """The door of cost matrices ``(..., n1, n2)``: finite or ``+inf``, not empty.
+
+    NaN and ``-inf`` are refused.
+
+    `name` is the caller's public name for the argument.
+    """
     arr = as_float_array(cost, name, ndim_min=2, allow_nonfinite=True)
     if arr.shape[-1] == 0 or arr.shape[-2] == 0:
         raise ValueError(
@@ -60,8 +64,11 @@ def _as_cost(cost, name: str = "cost") -> np.ndarray:
     return arr
 
 
-def _as_threshold(threshold, name: str = "threshold") -> float:
-    """A gate: a number > 0; ``+inf`` and None both mean "no gate" (returned as ``+inf``)."""
+def as_threshold(threshold, name: str = "threshold") -> float:
+    """The door of a gate: a number > 0; ``+inf`` and None both mean "no gate" (``+inf``).
+
+    `name` is the caller's public name for the argument.
+    """
     if threshold is None:
         return np.inf
     value = as_float(threshold, name, allow_inf=True)

@@ -21,7 +21,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ..errors import RadarFusionWarning
 from ..validation import MEMORY_LIMIT, check_size
-from ._milp import _milp_tuples, _sd_solve
+from ._milp import _milp_tuples, sd_milp_kernel
 
 __all__: list[str] = []
 
@@ -31,7 +31,7 @@ _EPS = np.finfo(float).eps
 _TOP = 8
 
 #: Bytes of one block of the full pass over the tensor (cache-sized).
-_BLOCK_BYTES = 1 << 21
+BLOCK_BYTES = 1 << 21
 
 #: Iterations without a better dual value before the target level drops.
 _STALL = 10
@@ -56,7 +56,7 @@ _PATIENCE = 50
 
 
 def dense_work_bytes(m: int, n: int) -> int:
-    """Bytes the dense Lagrangian allocates beside the float64 tensor itself.
+    """Kernel (trusted input): bytes the dense Lagrangian allocates beside the tensor itself.
 
     The short lists of smallest entries (values, their leading index, the next
     value: ``(2 _TOP + 1) n^2`` words), the gathered columns of the chosen pairs
@@ -66,7 +66,7 @@ def dense_work_bytes(m: int, n: int) -> int:
     """
     lead = n ** (m - 2)
     return 8 * ((2 * _TOP + 1) * n * n + 4 * lead * n + (m - 1) * lead + 6 * n * n) \
-        + n**m + 4 * _BLOCK_BYTES
+        + n**m + 4 * BLOCK_BYTES
 
 
 def dense_bytes(m: int, n: int) -> int:
@@ -98,7 +98,7 @@ class _Dense:
         self.lead = np.indices((n,) * (m - 2)).reshape(m - 2, L)   # sources 0..m-3 of each L
         self.stride = np.array([n ** (m - 1 - i) for i in range(m)], dtype=np.int64)
         self.u = np.zeros((m - 2, n))
-        self.block = max(1, _BLOCK_BYTES // (8 * n * n))
+        self.block = max(1, BLOCK_BYTES // (8 * n * n))
         self.top: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         if L > 2 * _TOP:
             self._shortlist()
@@ -120,7 +120,7 @@ class _Dense:
         vals = np.empty((K, n, n))
         idx = np.empty((K, n, n), dtype=np.int64)
         nxt = np.empty((n, n))
-        rows = max(1, _BLOCK_BYTES // (8 * self.L * n))
+        rows = max(1, BLOCK_BYTES // (8 * self.L * n))
         for a0 in range(0, n, rows):
             a1 = min(n, a0 + rows)
             chunk = np.moveaxis(c3[:, a0:a1, :], 0, -1)          # (rows, n, L) view
@@ -313,9 +313,11 @@ def _run(s, gap, max_iter):
     return reached() or s.optimal
 
 
-def _solve_full(c, *, gap, max_iter, time_limit=None, name="cost", exact_limit=10**6,
-                hint="gated candidate groups"):
-    """The S-D assignment of a full tensor ``(n,) * m`` to a proved relative gap.
+def sd_dense_lagrangian_kernel(c, *, gap, max_iter, time_limit=None, name="cost",
+                               exact_limit=10**6, hint="gated candidate groups"):
+    """Kernel (trusted input): the S-D assignment of a full tensor ``(n,) * m`` to a gap.
+
+    To a proved relative gap (the Lagrangian on the full tensor).
 
     `c` holds finite costs or ``+inf`` (a forbidden group). ``m = 2`` is solved
     exactly (one linear assignment). For ``m >= 3`` the dense Lagrangian runs
@@ -378,7 +380,7 @@ def _solve_full(c, *, gap, max_iter, time_limit=None, name="cost", exact_limit=1
 def _exact(c, m, n, time_limit, name, upper):
     """Flat indices of the optimal groups (HiGHS) of a full tensor with finite or +inf costs."""
     if np.all(np.isfinite(c)):
-        chosen, _ = _sd_solve(c.ravel(), m, n, time_limit=time_limit)
+        chosen, _ = sd_milp_kernel(c.ravel(), m, n, time_limit=time_limit)
         return chosen
     flat = np.flatnonzero(np.isfinite(c.ravel()))
     T = np.array(np.unravel_index(flat, c.shape)).T.astype(np.int64)

@@ -352,9 +352,9 @@ class _Infeasible(Exception):
     """The candidate groups admit no grouping."""
 
 
-def _solve_candidates(T, c, counts, *, dummy, method, gap, max_iter, time_limit, why,
-                      name="x", hint=None):
-    """Solve one scene's S-D problem over explicit candidates, cluster by cluster.
+def sd_candidates_kernel(T, c, counts, *, dummy, method, gap, max_iter, time_limit, why,
+                         name="x", hint=None):
+    """Kernel (trusted input): one scene's S-D problem over candidates, cluster by cluster.
 
     Returns (chosen tuple indices, cost, lower bound, history (iterations, 2) or None).
     """

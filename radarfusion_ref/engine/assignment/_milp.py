@@ -8,8 +8,7 @@ import numpy as np
 from scipy import sparse
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
-from ..validation import as_int
-from ._checks import _limit
+from ..validation import as_int, check_size
 from ._sparse import int32_indices
 
 __all__ = ["MAX_SD_TUPLES", "sd_constraint_matrix"]
@@ -81,9 +80,9 @@ def sd_constraint_matrix(m, n):
     """
     m, n = as_int(m, "m", minimum=2), as_int(n, "n", minimum=1)
     # n**64 > the limit for n >= 2
-    _limit(n ** min(m, 64), MAX_SD_TUPLES, name="n",
-           what=f"candidate groups n**m (n = {n}, m = {m})",
-           alternative="gated candidate groups "
+    check_size(n ** min(m, 64), MAX_SD_TUPLES, name="n",
+               what=f"candidate groups n**m (n = {n}, m = {m})",
+               alternative="gated candidate groups "
                        "(solve_sd with `candidates`)")
     # t_i of every candidate group t
     t = np.indices((n,) * m).reshape(m, -1)
@@ -126,8 +125,8 @@ def _sd_solve_once(c, m, n, *, relaxation=True, time_limit=None):
     return chosen, integral
 
 
-def _sd_solve(c_raw, m, n, *, relaxation=True, time_limit=None):
-    """Solve the S-D assignment for a flat cost vector over the n**m tuples.
+def sd_milp_kernel(c_raw, m, n, *, relaxation=True, time_limit=None):
+    """Kernel (trusted input): the S-D assignment of a flat cost vector over n**m tuples.
 
     Returns the flat indices of the n chosen tuples and whether the LP
     relaxation's solution was already integral. With costs above

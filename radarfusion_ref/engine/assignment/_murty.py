@@ -10,8 +10,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..validation import MEMORY_LIMIT, as_int
-from ._checks import _as_cost, _exponents, _inverse, _limit, _scaled
+from ..validation import MEMORY_LIMIT, as_int, check_size
+from ._checks import _inverse, as_cost, cost_exponents, scale_costs
 from ._results import KBestAssignments
 
 __all__ = ["MAX_K_BEST", "k_best_2d"]
@@ -136,21 +136,21 @@ def k_best_2d(cost, k) -> KBestAssignments:
     >>> r.row_to_col.tolist(), r.cost.tolist()
     ([[1, 0], [0, 1]], [4.0, 6.0])
     """
-    c = _as_cost(cost)
+    c = as_cost(cost)
     if c.ndim != 2:
         raise ValueError(f"`cost` must be a single matrix (n1, n2); received shape {c.shape}")
     k = as_int(k, "k", minimum=1)
-    _limit(k, MAX_K_BEST, name="k", what="ranked hypotheses",
-           alternative="association_probabilities(cost) (exact, small n) or fewer hypotheses")
+    check_size(k, MAX_K_BEST, name="k", what="ranked hypotheses",
+               alternative="association_probabilities(cost) (exact, small n) or fewer hypotheses")
     n1, n2 = c.shape
     b0 = max(n1, n2)
-    _limit(_MURTY_BYTES_PER_NODE * k * b0 * b0, MEMORY_LIMIT, name="k",
-           what=f"bytes of Murty sub-problems (about {_MURTY_BYTES_PER_NODE} k n^2 for k = {k}, "
-                f"n = {b0})",
-           alternative="a smaller `k`, or solve_2d for the best hypothesis alone")
+    check_size(_MURTY_BYTES_PER_NODE * k * b0 * b0, MEMORY_LIMIT, name="k",
+               what=f"bytes of Murty sub-problems (about {_MURTY_BYTES_PER_NODE} k n^2 "
+                    f"for k = {k}, n = {b0})",
+               alternative="a smaller `k`, or solve_2d for the best hypothesis alone")
     transpose = n1 > n2
-    e = int(_exponents(c))
-    work = _scaled(c.T if transpose else c, e)             # exact power-of-two scaling
+    e = int(cost_exponents(c))
+    work = scale_costs(c.T if transpose else c, e)             # exact power-of-two scaling
     a, b = work.shape                                      # a <= b real rows
     square = np.zeros((b, b))
     square[:a] = work

@@ -43,8 +43,8 @@ class AssignmentResult(Protocol):
     exact: bool
 
 
-def _gap_of(total, lower):
-    """Proved relative gap (cost - lower bound) / max(|cost|, 1), never negative."""
+def relative_gap(total, lower):
+    """Kernel (trusted input): the relative gap (cost - lower bound) / max(|cost|, 1), >= 0."""
     return max(0.0, (float(total) - float(lower)) / max(abs(float(total)), 1.0))
 
 

@@ -18,11 +18,11 @@ from ..validation import (
     check_size,
     describe,
 )
-from ._checks import _as_gap, _exponents, _limit
-from ._dense import _solve_full, dense_bytes
-from ._lagrangian import _solve_candidates
-from ._milp import MAX_SD_TUPLES, _sd_solve
-from ._results import SDAssignment, _gap_of
+from ._checks import _as_gap, cost_exponents
+from ._dense import dense_bytes, sd_dense_lagrangian_kernel
+from ._lagrangian import sd_candidates_kernel
+from ._milp import MAX_SD_TUPLES, sd_milp_kernel
+from ._results import SDAssignment, relative_gap
 
 __all__ = ["MAX_SD_GROUPINGS", "solve_sd", "solve_sd_bruteforce"]
 
@@ -74,16 +74,16 @@ def _full_size(m: int, n: int, method: str) -> None:
     :data:`~radarfusion_ref.engine.validation.MEMORY_LIMIT` bytes.
     """
     if method == "milp":
-        _limit(n ** min(m, 64), MAX_SD_TUPLES, name="cost",
-               what=f"binary variables (groups n**m = {n}**{m} of the full tensor) for the "
+        check_size(n ** min(m, 64), MAX_SD_TUPLES, name="cost",
+                   what=f"binary variables (groups n**m = {n}**{m} of the full tensor) for the "
                     "integer program",
-               alternative=f"method='lagrangian' (full tensors up to {MEMORY_LIMIT} bytes with "
+                   alternative=f"method='lagrangian' (full tensors up to {MEMORY_LIMIT} bytes with "
                            "its work arrays), or gated candidate groups (`candidates`)")
     else:
-        _limit(dense_bytes(m, n) if m <= 64 else 8 * n ** 64, MEMORY_LIMIT, name="cost",
-               what=f"bytes of the full tensor (n**m = {n}**{m} groups, 8 bytes each) and the "
+        check_size(dense_bytes(m, n) if m <= 64 else 8 * n ** 64, MEMORY_LIMIT, name="cost",
+                   what=f"bytes of the full tensor (n**m = {n}**{m} groups, 8 bytes each) and the "
                     "Lagrangian's work arrays",
-               alternative="gated candidate groups (`candidates`: memory follows their count, "
+                   alternative="gated candidate groups (`candidates`: memory follows their count, "
                            "not n**m)")
 
 
@@ -138,9 +138,9 @@ def _as_candidates(candidates, cost, counts):
         raise ValueError(f"`candidates`: every source must have at least one report; report "
                          f"counts {cnt}")
     # one constraint row, label and offset per report: sized by the counts, not by K
-    _limit(_COUNT_BYTES * sum(cnt), MEMORY_LIMIT, name="counts",
-           what=f"bytes of per-report work arrays ({sum(cnt)} reports over {m} sources)",
-           alternative="counts equal to the reports the candidate groups name (the default)")
+    check_size(_COUNT_BYTES * sum(cnt), MEMORY_LIMIT, name="counts",
+               what=f"bytes of per-report work arrays ({sum(cnt)} reports over {m} sources)",
+               alternative="counts equal to the reports the candidate groups name (the default)")
     return T, c, cnt
 
 
@@ -264,25 +264,25 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
         if finite == 0:
             raise ValueError("`cost` has no finite group: no grouping exists")
         if method == "milp" and finite == c.size:
-            chosen, integral = _sd_solve(c.ravel(), m, n, relaxation=relaxation,
-                                         time_limit=time_limit)
+            chosen, integral = sd_milp_kernel(c.ravel(), m, n, relaxation=relaxation,
+                                              time_limit=time_limit)
             T = np.array(np.unravel_index(chosen, c.shape)).T
             total = float(c.ravel()[chosen].sum())
             lb, hist = total, None
         elif method == "lagrangian" and (m == 2 or 2 * finite >= c.size):
-            T, total, lb, hist = _solve_full(c, gap=g, max_iter=max_iter, time_limit=time_limit,
-                                             name="cost", exact_limit=MAX_SD_TUPLES,
-                                             hint="gated candidate groups (`candidates`)")
+            T, total, lb, hist = sd_dense_lagrangian_kernel(
+                c, gap=g, max_iter=max_iter, time_limit=time_limit, name="cost",
+                exact_limit=MAX_SD_TUPLES, hint="gated candidate groups (`candidates`)")
             chosen = np.ravel_multi_index(tuple(T.T), c.shape)
         else:                                   # mostly forbidden: the finite groups only
-            _limit(_candidate_words(m) * 8 * finite, MEMORY_LIMIT, name="cost",
-                   what=f"bytes of the {finite} finite groups of the {n}**{m} tensor as "
+            check_size(_candidate_words(m) * 8 * finite, MEMORY_LIMIT, name="cost",
+                       what=f"bytes of the {finite} finite groups of the {n}**{m} tensor as "
                         "candidate groups",
-                   alternative="gated candidate groups (`candidates`) built without the tensor")
+                       alternative="gated candidate groups (`candidates`) built without the tensor")
             flat = np.flatnonzero(np.isfinite(c.ravel()))
             T = np.array(np.unravel_index(flat, c.shape)).T.astype(np.int64)
             cc = c.ravel()[flat]
-            sel, total, lb, hist = _solve_candidates(
+            sel, total, lb, hist = sd_candidates_kernel(
                 T, cc, [n] * m, dummy=False, method=method, gap=g, max_iter=max_iter,
                 time_limit=time_limit, why="+inf entries of `cost`", name="cost",
                 hint=_SD_HINT)
@@ -290,7 +290,7 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
     else:
         T_all, cc, cnt = _as_candidates(candidates, cost, counts)
         dummy = bool(np.any(T_all < 0))
-        sel, total, lb, hist = _solve_candidates(
+        sel, total, lb, hist = sd_candidates_kernel(
             T_all, cc, cnt, dummy=dummy, method=method, gap=g, max_iter=max_iter,
             time_limit=time_limit, why="the given candidate groups", name="candidates",
             hint=_SD_HINT)
@@ -299,13 +299,15 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
         raise ValueError("`cost`: the total cost of the best grouping lies beyond the float "
                          "range; divide the costs by a common factor")
     T, order = _sorted_groups(np.asarray(T, dtype=np.int64))
-    gp = _gap_of(total, lb)
+    gp = relative_gap(total, lb)
     return SDAssignment(T, np.asarray(chosen)[order], float(total), float(min(lb, total)), gp,
                         hist, gp == 0.0, method, integral)
 
 
-def _sd_enumerate(tensor: np.ndarray, m: int, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Best grouping of each of B flat tensors (B, n**m) by enumeration.
+def sd_enumerate_kernel(tensor: np.ndarray, m: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Kernel (trusted input): the best grouping of each of B flat tensors (B, n**m).
+
+    By enumeration.
 
     Returns (best totals (B,), groups (B, n, m), rows sorted by source 0);
     ties go to the first grouping in enumeration order.
@@ -382,8 +384,8 @@ def solve_sd_bruteforce(cost) -> SDAssignment:
     check_size(math.factorial(n) ** (m - 1), MAX_SD_GROUPINGS,
                what=f"groupings (n!)**(m-1) of `cost` (n = {n}, m = {m})",
                alternative="solve_sd (the exact integer program, or the Lagrangian relaxation)")
-    e = int(_exponents(c.reshape(1, -1)))
-    best, groups = _sd_enumerate(np.ldexp(c.reshape(1, -1), -e), m, n)   # exact scaling
+    e = int(cost_exponents(c.reshape(1, -1)))
+    best, groups = sd_enumerate_kernel(np.ldexp(c.reshape(1, -1), -e), m, n)   # exact scaling
     if not np.isfinite(best[0]):
         raise ValueError("`cost`: every grouping uses a forbidden (+inf) group: no grouping exists")
     with np.errstate(over="ignore"):

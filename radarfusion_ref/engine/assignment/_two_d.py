@@ -11,15 +11,14 @@ from scipy import sparse
 from scipy.optimize import linear_sum_assignment
 from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
-from ..validation import MEMORY_LIMIT
+from ..validation import MEMORY_LIMIT, check_size
 from ._checks import (
-    _as_cost,
     _as_miss_cost,
-    _as_threshold,
-    _exponents,
     _inverse,
-    _limit,
-    _scaled,
+    as_cost,
+    as_threshold,
+    cost_exponents,
+    scale_costs,
 )
 from ._results import Association
 from ._sparse import int32_indices
@@ -51,11 +50,16 @@ MAX_SCORED_HYPOTHESES = 200_000_000
 
 
 #: Working memory of one vectorized block of the enumerations, in bytes.
-_BLOCK_BYTES = 1 << 25
+BLOCK_BYTES = 1 << 25
 
 
-def _make_result(cost: np.ndarray, row_to_col: np.ndarray, miss_cost: float | None):
-    """Assemble an :class:`Association` (total cost computed from the decisions)."""
+def make_association(cost: np.ndarray, row_to_col: np.ndarray, miss_cost: float | None):
+    """Kernel (trusted input): an :class:`Association` from decisions, its total computed.
+
+    `cost` ``(..., n1, n2)`` and `row_to_col` ``(..., n1)`` (-1 for unassigned) as a solver
+    returns them; the total adds `miss_cost` per unassigned row and column when given, and
+    a total beyond the float range is refused naming `cost`.
+    """
     n1, n2 = cost.shape[-2:]
     col_to_row = _inverse(row_to_col, n2)
     assigned = row_to_col >= 0
@@ -84,8 +88,8 @@ def _work_costs(c: np.ndarray, allowed: np.ndarray, miss: float | None):
     so that the working matrices cannot overflow.
     """
     n1, n2 = c.shape[-2:]
-    e = _exponents(c, *(() if miss is None else (miss,)))
-    c = _scaled(c, e)
+    e = cost_exponents(c, *(() if miss is None else (miss,)))
+    c = scale_costs(c, e)
     if miss is not None:
         miss = np.ldexp(miss, -e)[..., None, None]    # per matrix, same scale as its costs
         # Partial matching with a cost `miss` per unassigned report: a pair is worth
@@ -188,11 +192,11 @@ def _solve_sparse(csr, th: float, miss: float | None) -> np.ndarray:
 def _associate_sparse(cost, threshold, miss_cost) -> Association:
     """:func:`solve_2d` for a scipy.sparse matrix of gated pair costs."""
     csr = _as_sparse_cost(cost)
-    th = _as_threshold(threshold)
+    th = as_threshold(threshold)
     miss = _as_miss_cost(miss_cost)
     n1, n2 = csr.shape
-    _limit(24 * (csr.nnz + n1), MEMORY_LIMIT, name="cost", what="bytes of the sparse graph",
-           alternative="a tighter gate (fewer stored pairs)")
+    check_size(24 * (csr.nnz + n1), MEMORY_LIMIT, name="cost", what="bytes of the sparse graph",
+               alternative="a tighter gate (fewer stored pairs)")
     row_to_col = _solve_sparse(csr, th, miss)
     assigned = row_to_col >= 0
     # the chosen pairs' stored costs: canonical CSR keys row * n2 + col are sorted
@@ -313,7 +317,7 @@ def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
     if sparse.issparse(cost):
         # gated, scipy.sparse
         return _associate_sparse(cost, threshold, miss_cost)
-    c, gate, c0 = (_as_cost(cost), _as_threshold(threshold),
+    c, gate, c0 = (as_cost(cost), as_threshold(threshold),
                    _as_miss_cost(miss_cost))
     allowed = (c < gate) & np.isfinite(c)       # the gate: kappa < gamma
     # one plain assignment per matrix
@@ -325,7 +329,7 @@ def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
         # drop pairs not allowed / not worth it
         keep = useful[b][rows, cols]
         row_to_col[b][rows[keep]] = cols[keep]
-    return _make_result(c, row_to_col, c0)
+    return make_association(c, row_to_col, c0)
 
 
 # --------------------------------------------------------------------------- 2-D brute force
@@ -347,8 +351,11 @@ def _permutations(n: int) -> np.ndarray:
 
 
 @lru_cache(maxsize=16)
-def _injections(n1: int, n2: int) -> np.ndarray:
-    """All ``n2! / (n2 - n1)!`` injective maps rows -> columns (n1 <= n2)."""
+def injections(n1: int, n2: int) -> np.ndarray:
+    """Kernel (trusted input): all ``n2! / (n2 - n1)!`` injective maps rows -> columns.
+
+    For ``n1 <= n2``, as a cached read-only int8 array (check the count first).
+    """
     if n1 == n2:
         return _permutations(n1)
     out = np.array(list(itertools.permutations(range(n2), n1)), dtype=np.int8).reshape(-1, n1)
@@ -419,8 +426,8 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
     >>> solve_2d_bruteforce([[0.5, 0.1], [0.2, 3.0]]).row_to_col
     array([1, 0])
     """
-    c = _as_cost(cost)
-    th = _as_threshold(threshold)
+    c = as_cost(cost)
+    th = as_threshold(threshold)
     miss = _as_miss_cost(miss_cost)
     n1, n2 = c.shape[-2:]
     batch = c.shape[:-2]
@@ -433,25 +440,26 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
     if simple:
         transpose = n1 > n2
         a, b = min(n1, n2), max(n1, n2)
-        count = _limit(math.perm(b, a), MAX_HYPOTHESES, name="cost",
-                       what=f"joint hypotheses (n!-type count for a {n1} x {n2} matrix)",
-                       alternative="solve_2d (exact linear assignment, O(n^3))")
+        count = check_size(math.perm(b, a), MAX_HYPOTHESES, name="cost",
+                           what=f"joint hypotheses (n!-type count for a {n1} x {n2} matrix)",
+                           alternative="solve_2d (exact linear assignment, O(n^3))")
     else:
-        count = _limit(_n_partial(n1, n2), MAX_PARTIAL_MATCHINGS, name="cost",
-                       what=f"partial matchings (gated or with a miss cost, {n1} x {n2} matrix)",
-                       alternative="solve_2d (exact linear assignment, O(n^3))")
-    _limit(nb * count, MAX_SCORED_HYPOTHESES, name="cost",
-           what=f"hypotheses to score over a batch of {nb} matrices",
-           alternative="solve_2d (exact linear assignment, O(n^3))")
-    e = _exponents(flat, *(() if miss is None else (miss,)))
-    scaled = _scaled(flat, e)                         # exact; sums of n entries cannot overflow
+        count = check_size(_n_partial(n1, n2), MAX_PARTIAL_MATCHINGS, name="cost",
+                           what=f"partial matchings (gated or with a miss cost, {n1} x {n2} "
+                                "matrix)",
+                           alternative="solve_2d (exact linear assignment, O(n^3))")
+    check_size(nb * count, MAX_SCORED_HYPOTHESES, name="cost",
+               what=f"hypotheses to score over a batch of {nb} matrices",
+               alternative="solve_2d (exact linear assignment, O(n^3))")
+    e = cost_exponents(flat, *(() if miss is None else (miss,)))
+    scaled = scale_costs(flat, e)                         # exact; sums of n entries cannot overflow
     if simple:
         work = np.swapaxes(scaled, 1, 2) if transpose else scaled
-        hyps = _injections(a, b)
+        hyps = injections(a, b)
         best = np.full(nb, np.inf)
         best_k = np.zeros(nb, dtype=int)
         idx = np.arange(a)
-        chunk = max(1, _BLOCK_BYTES // (8 * a * nb))   # bounded memory per block
+        chunk = max(1, BLOCK_BYTES // (8 * a * nb))   # bounded memory per block
         for start in range(0, hyps.shape[0], chunk):
             h = hyps[start:start + chunk]
             tot = work[:, idx, h].sum(axis=-1)            # (nb, chunk)
@@ -462,7 +470,7 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
             best_k[better] = start + k[better]
         chosen = hyps[best_k].astype(int)                 # (nb, a)
         out = _inverse(chosen, n1) if transpose else chosen
-        return _make_result(c, out.reshape(*batch, n1), None)
+        return make_association(c, out.reshape(*batch, n1), None)
 
     hyps = _partial_matchings(n1, n2).astype(int)         # (H, n1)
     used = hyps >= 0
@@ -481,6 +489,6 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
             top = npairs[ok].max()
             score = np.where(ok & (npairs == top), total, np.inf)
         out[t] = hyps[int(np.argmin(score))]
-    return _make_result(c, out.reshape(*batch, n1), miss)
+    return make_association(c, out.reshape(*batch, n1), miss)
 
 

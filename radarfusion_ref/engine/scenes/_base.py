@@ -10,7 +10,6 @@ from ..validation import (
     MAX_MAGNITUDE,
     as_float_array,
     as_positive,
-    check_size,
     describe,
 )
 
@@ -30,14 +29,6 @@ _TWO_RADAR_COPIES = 5
 
 
 # ----------------------------------------------------------------------------- helpers
-def _limit(requested, limit, *, name: str, what: str, alternative: str) -> int:
-    """:func:`check_size`, with the public argument named in the message."""
-    try:
-        return check_size(requested, limit, what=what, alternative=alternative)
-    except ValueError as exc:
-        raise ValueError(f"`{name}`: {exc}") from None
-
-
 def _domain(value: float, *, name: str, what: str) -> None:
     """Refuse a scene whose coordinates or errors would leave the numeric domain.
 

@@ -15,6 +15,7 @@ from ..validation import (
     as_positive,
     as_probability,
     as_rng,
+    check_size,
 )
 from ._base import (
     _SCENE_COPIES,
@@ -23,7 +24,6 @@ from ._base import (
     LAYOUTS,
     Scene,
     _domain,
-    _limit,
     as_type_model,
 )
 
@@ -273,9 +273,9 @@ def two_radar_scene(n_objects: int, *, spacing: float, layout: str = "line", sig
     _domain(spacing * n, name="spacing", what=f"`spacing` x `n_objects` ({n})")
     _domain(s1, name="sigma1", what="`sigma1`")
     _domain(s2, name="sigma2", what="`sigma2`")
-    _limit(8 * _TWO_RADAR_COPIES * trials * n * dim, MEMORY_LIMIT, name="trials",
-           what=f"bytes of scenes ({trials} trials x {n} objects x dim {dim})",
-           alternative="fewer `trials` per call (draw the trials in batches)")
+    check_size(8 * _TWO_RADAR_COPIES * trials * n * dim, MEMORY_LIMIT, name="trials",
+               what=f"bytes of scenes ({trials} trials x {n} objects x dim {dim})",
+               alternative="fewer `trials` per call (draw the trials in batches)")
     rng = as_rng(rng)
 
     if layout == "line":
@@ -375,18 +375,18 @@ def two_radar_clutter_scene(n_objects: int, *, spacing: float, layout: str = "li
         if not math.isfinite(lam * volume):
             raise ValueError(f"`{name}` times the box's volume ({volume:.6g}) overflows the "
                              f"largest double; received {lam:.6g}")
-        _limit(math.ceil(lam * volume) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name=name,
-               what=f"bytes of false reports (expected {lam * volume:.3g} per trial, "
+        check_size(math.ceil(lam * volume) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name=name,
+                   what=f"bytes of false reports (expected {lam * volume:.3g} per trial, "
                     f"{t} trials, d = {d})",
-               alternative="fewer `trials` per call (draw the trials in batches)")
+                   alternative="fewer `trials` per call (draw the trials in batches)")
 
     def build(reports, owners, pd, lam):
         detected = rng.random((t, n)) < pd
         nfalse = rng.poisson(lam * volume, size=t)
         fmax = int(nfalse.max()) if t else 0
-        _limit((n + fmax) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name="trials",
-               what=f"bytes of reports ({n} objects + up to {fmax} false reports per trial)",
-               alternative="fewer `trials` per call (draw the trials in batches)")
+        check_size((n + fmax) * t * d * 8 * _SCENE_COPIES, MEMORY_LIMIT, name="trials",
+                   what=f"bytes of reports ({n} objects + up to {fmax} false reports per trial)",
+                   alternative="fewer `trials` per call (draw the trials in batches)")
         fpos = low + (high - low) * rng.random((t, fmax, d))
         fvalid = np.arange(fmax)[None, :] < nfalse[:, None]
         allpos = np.concatenate([reports, fpos], axis=1)
