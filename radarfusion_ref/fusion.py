@@ -234,7 +234,7 @@ def _gaussian_iv(x, cov):
     if cov.shape[-2:] != (d, d):
         raise ValueError(f"`cov` must have shape (..., m, {d}, {d}) to match `x` with shape "
                          f"{x.shape}; received shape {cov.shape}")
-    cov = as_covariance(cov, "cov")
+    cov = as_covariance(cov, "cov", domain=False)   # rescaled exactly: any float
     try:
         lead = np.broadcast_shapes(x.shape[:-1], cov.shape[:-2])
     except ValueError:
@@ -675,7 +675,7 @@ def sample_reports_gaussian(truth, cov, *, trials: int, rng=None) -> np.ndarray:
     if cov.shape[-2:] != (truth.shape[-1],) * 2:
         raise ValueError(f"`cov` must have shape (..., k, {truth.shape[-1]}, {truth.shape[-1]}) "
                          f"to match `truth` with shape {truth.shape}; received shape {cov.shape}")
-    cov = as_covariance(cov, "cov")
+    cov = as_covariance(cov, "cov", domain=False)   # drawn by scale: any float
     trials = as_int(trials, "trials", minimum=1)
     rng = as_rng(rng)
     try:

@@ -170,8 +170,8 @@ def proximity(x1, x2, var1, var2):
     array([0., 1.])
     """
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
-    return unwrap(mahalanobis_sq_kernel((a - b)[..., None], (v1 + v2)[..., None, None],
-                                        "`x1`, `x2`"))
+    return unwrap(mahalanobis_sq_kernel((a - b)[..., None],
+                                        (v1 + v2)[..., None, None], "`x1`, `x2`"))
 
 
 def proximity_gaussian(x1, x2, cov1, cov2):
@@ -292,8 +292,8 @@ def log_likelihood_measure(x1, x2, var1, var2, *, kind="profile"):
     kind = as_choice(kind, "kind", _KINDS)
     a, b, v1, v2 = _scalar_iv(x1, x2, var1, var2)
     # eq. (7)
-    kappa = mahalanobis_sq_kernel((a - b)[..., None], (v1 + v2)[..., None, None],
-                                  "`x1`, `x2`")
+    kappa = mahalanobis_sq_kernel((a - b)[..., None],
+                                  (v1 + v2)[..., None, None], "`x1`, `x2`")
     if kind == "profile":
         # -kappa/2 - ln(2 pi sigma_1 sigma_2)
         return unwrap(-0.5 * kappa - _LOG_2PI

@@ -400,8 +400,7 @@ def test_binding_costs_outside_the_domain_names_its_own_arguments():
     c = np.broadcast_to(eye, (2, 2, 2, 2))
     with pytest.raises(ValueError, match=r"^`x` and `tracks` must lie within the numeric domain"):
         binding_costs(x, c, np.full((2, 2), 1e300), np.broadcast_to(eye, (2, 2, 2)))
-    # the one covariance rule at the door names the argument that breaks it
-    with pytest.raises(ValueError, match=r"^`track_cov` must have every variance"):
+    with pytest.raises(ValueError, match=r"^`cov` and `track_cov` must have every variance"):
         binding_costs(x, c, np.zeros((2, 2)), np.broadcast_to(1e300 * eye, (2, 2, 2)))
 
 

@@ -163,6 +163,14 @@ NOT_COVARIANCES = {
     "prior_cov": "a prior's covariance: positive semi-definite (zero, the default, is the truth)",
     "cov_method": "the name of a conversion method",
 }
+#: Functions whose kernels rescale exactly and are tested over the whole float range
+#: (``as_covariance(..., domain=False)``): a variance of 1e-200 or 1e+200 gives a finite
+#: answer, or a refusal naming the argument if the answer leaves the float range.
+WHOLE_FLOAT_RANGE = {
+    "association.non_assignment_cost", "fusion.fuse_gaussian", "fusion.sample_reports_gaussian",
+    "grouping.binding_costs", "grouping.group_bruteforce", "grouping.group_costs",
+    "grouping.group_sd", "grouping.ml_group_cost",
+}
 #: Public functions that take a covariance yet must not refuse a bad one, with the reason.
 COVARIANCE_EXEMPT = {
     ("linalg.is_positive_definite", "cov"): "it answers the rule as a mask, False for a bad one",
@@ -393,12 +401,28 @@ def _covariance_cases():
     for qualname, (fn, kwargs, dims) in calls.items():
         for arg, d in dims.items():
             for label, bad in _bad_covariances(d).items():
-                out.append(pytest.param(fn, kwargs, arg, bad, id=f"{qualname}-{arg}-{label}"))
+                whole = qualname in WHOLE_FLOAT_RANGE and label.startswith("variance")
+                out.append(pytest.param(fn, kwargs, arg, bad, whole,
+                                        id=f"{qualname}-{arg}-{label}"))
     return out
 
 
-@pytest.mark.parametrize(("fn", "kwargs", "arg", "bad"), _covariance_cases())
-def test_the_same_bad_covariance_is_refused_by_name_everywhere(fn, kwargs, arg, bad):
+def _finite(result) -> bool:
+    """Every number a result holds (fields of a dataclass, arrays, scalars) is finite."""
+    import dataclasses
+
+    if dataclasses.is_dataclass(result):
+        return all(_finite(getattr(result, f.name)) for f in dataclasses.fields(result))
+    if isinstance(result, (tuple, list)):
+        return all(_finite(r) for r in result)
+    arr = np.asarray(result)
+    return arr.dtype.kind not in "fc" or bool(np.all(np.isfinite(arr)))
+
+
+@pytest.mark.parametrize(("fn", "kwargs", "arg", "bad", "whole_range"), _covariance_cases())
+def test_the_same_bad_covariance_is_refused_by_name_everywhere(fn, kwargs, arg, bad,
+                                                               whole_range):
+    """Refused naming the argument; a whole-float-range function may answer, finitely."""
     import warnings
 
     with warnings.catch_warnings():
@@ -408,5 +432,13 @@ def test_the_same_bad_covariance_is_refused_by_name_everywhere(fn, kwargs, arg, 
             value = [np.broadcast_to(bad, np.shape(c)).copy() for c in kwargs[arg]]
         else:
             value = np.broadcast_to(bad, np.shape(kwargs[arg])).copy()
+        if whole_range:
+            try:
+                result = fn(**{**kwargs, arg: value})
+            except ValueError as exc:
+                assert f"`{arg}`" in str(exc), exc
+            else:
+                assert _finite(result), f"a variance of {bad[0, 0]:g} gave a non-finite result"
+            return
         with pytest.raises(ValueError, match=rf"`{arg}(\[\d+\])?` must"):
             fn(**{**kwargs, arg: value})

@@ -45,7 +45,7 @@ def _non_assignment_iv(p_detect1, p_detect2, false_density1, false_density2, obj
         s = as_positive(s, "innovation_cov")
         logdet = np.log(2 * np.pi) + np.log(s)                 # no overflow of 2 pi S
     else:
-        s = as_covariance(s, "innovation_cov")
+        s = as_covariance(s, "innovation_cov", domain=False)
         d = s.shape[-1]
         # ln det S = 2 sum ln sd_i + ln det R with the correlation matrix R: no overflow or
         # underflow whatever the variances' scales (1e-300 beside 1e300 included).

@@ -61,7 +61,7 @@ MAX_TRIALS = 10**8
 
 
 # --------------------------------------------------------------------------- validation
-def as_sigma_beta(value, name: str = "sigma_beta", *, strict: bool = False) -> np.ndarray:
+def as_sigma_beta(sigma_beta, name: str = "sigma_beta", *, strict: bool = False) -> np.ndarray:
     r"""The door of an angle standard deviation: in [0, SIGMA_BETA_MAX] (``strict``: > 0).
 
     The package's one check of :math:`\sigma_\beta` (and of an elevation's), shared by
@@ -76,7 +76,7 @@ def as_sigma_beta(value, name: str = "sigma_beta", *, strict: bool = False) -> n
     ...
     ValueError: `sigma_beta` must be an angle standard deviation in radians in [0, 0.5] (SIGMA_BETA_MAX); received largest entry 5 — did you pass degrees? Use np.deg2rad.
     """
-    s = as_positive(value, name, strict=strict)
+    s = as_positive(sigma_beta, name, strict=strict)
     if np.any(s > SIGMA_BETA_MAX):
         raise ValueError(
             f"`{name}` must be an angle standard deviation in radians in "

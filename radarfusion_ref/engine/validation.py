@@ -341,7 +341,7 @@ def _refuse_covariance(arr: np.ndarray, name: str) -> None:
             f"{bad} of {pd.size} matrices are not: {describe(arr)}")
 
 
-def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
+def as_covariance(value, name: str, *, dim: int | None = None, domain: bool = True) -> np.ndarray:
     r"""The one covariance rule: a stack of covariances with shape ``(..., d, d)``.
 
     Every covariance the package accepts passes this door, in this order:
@@ -355,7 +355,11 @@ def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
        indefinite matrix is reported instead of producing NaN later;
     4. every variance (diagonal entry) within the numeric domain
        :math:`[2^{-150}, 2^{150}]` (:data:`MAX_MAGNITUDE`), where no
-       factorisation of the package overflows or becomes subnormal.
+       factorisation of the package overflows or becomes subnormal — unless
+       ``domain=False``: a public function whose kernel rescales its covariances
+       exactly (by powers of two) and is documented and tested over the whole float
+       range (the Gaussian fusion, the grouping costs, the non-assignment cost) takes
+       any variance a float can hold, and refuses a result that leaves the float range.
 
     Parameters
     ----------
@@ -365,6 +369,9 @@ def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
         The caller's public name for it, used in error messages.
     dim : int, optional
         Required size ``d`` of the matrices.
+    domain : bool, optional
+        Apply rule 4, the variance domain (default). ``False`` only for a caller
+        that rescales, as above.
 
     Returns
     -------
@@ -397,7 +404,7 @@ def as_covariance(value, name: str, *, dim: int | None = None) -> np.ndarray:
     if not (np.all(_symmetric_mask(arr)) and np.all(_pd_mask(arr))):
         _refuse_covariance(arr, name)
     var = np.diagonal(arr, axis1=-2, axis2=-1)
-    if var.size and (var.max() > MAX_MAGNITUDE or var.min() < 1.0 / MAX_MAGNITUDE):
+    if domain and var.size and (var.max() > MAX_MAGNITUDE or var.min() < 1.0 / MAX_MAGNITUDE):
         raise ValueError(
             f"`{name}` must have every variance within the numeric domain [2**-150, 2**150] "
             f"(about 7e-46 to 1.4e45); received variances from {var.min():.6g} to "

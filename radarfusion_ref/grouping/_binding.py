@@ -108,7 +108,7 @@ def binding_costs(x, cov, tracks, track_cov, *, cost: str = "paper") -> np.ndarr
         raise ValueError(
             f"`track_cov` must have shape (..., {n}, {d}, {d}); received shape {tc.shape}"
         )
-    tc = as_covariance(tc, "track_cov", dim=d)
+    tc = as_covariance(tc, "track_cov", dim=d, domain=False)
     try:
         batch = np.broadcast_shapes(batch_x, t.shape[:-2], tc.shape[:-3])
     except ValueError:

@@ -58,7 +58,7 @@ def _reports_iv(x, cov):
             f"`cov` must have shape (..., {m}, {n}, {d}, {d}) (one covariance per report of `x`, "
             f"broadcastable); received shape {c.shape} for `x` of shape {arr.shape}"
         )
-    c = as_covariance(c, "cov", dim=d)
+    c = as_covariance(c, "cov", dim=d, domain=False)
     xb = np.broadcast_to(arr, (*batch, m, n, d)).reshape(-1, m, n, d)
     if math.prod(c.shape[:-4]) == 1:
         cb = np.broadcast_to(c.reshape(c.shape[-4:]), (m, n, d, d))[None]
@@ -98,7 +98,7 @@ def _group_iv(x, cov):
     if len(cov) != len(xs):
         raise ValueError(f"`cov` must hold one covariance per report of `x` (m = {len(xs)}); "
                          f"received {len(cov)}")
-    covs = [as_covariance(c, "cov", dim=d) for c in cov]
+    covs = [as_covariance(c, "cov", dim=d, domain=False) for c in cov]
     try:
         np.broadcast_shapes(*(a.shape[:-1] for a in xs), *(c.shape[:-2] for c in covs))
     except ValueError:

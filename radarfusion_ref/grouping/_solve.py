@@ -279,7 +279,8 @@ def _ragged_iv(x, cov):
                 f"`cov` of source {i} must have shape ({xi.shape[0]}, {d}, {d}) or ({d}, {d}); "
                 f"received shape {ci.shape}"
             )
-        cs.append(as_covariance(np.broadcast_to(ci, (xi.shape[0], d, d)), "cov", dim=d))
+        cs.append(as_covariance(np.broadcast_to(ci, (xi.shape[0], d, d)), "cov", dim=d,
+                                domain=False))
     return xs, cs
 
 
