@@ -32,7 +32,10 @@ results are finite and correct to rounding:
 * **variances** (diagonal entries of every covariance): in
   :math:`[2^{-150}, 2^{150}]`, and every covariance passes the one
   positive-definiteness rule (correlation pivots above
-  :data:`~radarfusion_ref.engine.validation.SINGULAR_RTOL`);
+  :data:`~radarfusion_ref.engine.validation.SINGULAR_RTOL`) — both checked by the one
+  covariance rule, :func:`~radarfusion_ref.engine.validation.as_covariance`; the functions
+  whose kernels rescale exactly (the Gaussian fusion, the grouping costs, the
+  non-assignment cost) take any variance a float holds, and say so;
 * **costs** (assignment costs, :math:`\kappa`, log-likelihoods): finite, with the total
   of a chosen assignment representable in float64 (:math:`|\sum| < 1.8\times10^{308}`);
 * **GOSPA**: cut-off :math:`c > 0` and order :math:`p \ge 1`, with :math:`c^p` a normal
