@@ -539,13 +539,20 @@ def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):
         return
     order = pairs[np.argsort(pair_lab[pairs], kind="stable")]
     cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
-    for a, b in itertools.pairwise(cut):
-        p = order[a:b]
+    first, t_o, r_o = cut[:-1], ti[order], rj[order]
+    # a cluster of one track or of one report: its pair of largest gain over the track's
+    # miss, if positive (the assignment of such a cluster), for every such cluster at once
+    simple = ((np.minimum.reduceat(t_o, first) == np.maximum.reduceat(t_o, first))
+              | (np.minimum.reduceat(r_o, first) == np.maximum.reduceat(r_o, first)))
+    gain = inc_pair[order] - inc[t_o]
+    cluster = np.repeat(np.arange(first.size), np.diff(cut))
+    best = np.lexsort((-gain, cluster))[first]           # largest gain first per cluster
+    pick = simple & (gain[best] > 0.0)
+    take[order[best[pick]]] = True
+    for c in np.flatnonzero(~simple):
+        p = order[cut[c]:cut[c + 1]]
         rows, cols = np.unique(ti[p], return_inverse=True)
         rep, rcol = np.unique(rj[p], return_inverse=True)
-        if p.size == 1:                                  # one track, one report
-            take[p] = inc_pair[p] > inc[rows]
-            continue
         nt, nm = rows.size, rep.size
         cost = np.full((nt, nm + nt), np.inf)
         cost[cols, rcol] = -inc_pair[p]
