@@ -329,12 +329,12 @@ def test_radar_lengths_beyond_the_domain_are_refused_by_field(field):
 
 # --------------------------------------------------------------------------- S-D assignment
 def test_sd_counts_beyond_memory_are_refused_before_allocation():
-    from radarfusion_ref.engine.assignment import solve_sd
+    from radarfusion_ref.engine.assignment import assign_s_lists
 
     # counts of 10**9 reports per source asked numpy for 2.79 GiB of per-report masks
     with pytest.raises(ValueError, match=r"^`counts`: refused: .*3000000000 reports"):
-        solve_sd(np.zeros(1), np.zeros((1, 3), int), counts=[10**9] * 3)
-    ok = solve_sd(np.zeros(2), np.array([[0, 0, 0], [1, 1, 1]]), counts=[2, 2, 2])
+        assign_s_lists(np.zeros(1), np.zeros((1, 3), int), counts=[10**9] * 3)
+    ok = assign_s_lists(np.zeros(2), np.array([[0, 0, 0], [1, 1, 1]]), counts=[2, 2, 2])
     assert ok.groups.tolist() == [[0, 0, 0], [1, 1, 1]]
 
 

@@ -68,7 +68,7 @@ class DecisionComparison:
         Greedy best-first with the same gate.
     joint : Proportion
         Joint ML (the 2-D assignment of
-        :func:`~radarfusion_ref.engine.assignment.solve_2d`), followed by the paper's joint
+        :func:`~radarfusion_ref.engine.assignment.assign_two_lists`), followed by the paper's joint
         test (:math:`\kappa_n^* < \gamma_n`, the :math:`\chi^2_n` gate; rejection counts as
         a wrong decision).
     joint_ml : Proportion
@@ -106,7 +106,7 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     Raises
     ------
     ValueError
-        For an invalid `kappa` (see :func:`~radarfusion_ref.engine.assignment.solve_2d`), a
+        For an invalid `kappa` (see :func:`~radarfusion_ref.engine.assignment.assign_two_lists`), a
         `truth` of the wrong shape or with indices out of range, or a threshold <= 0.
     TypeError
         For a non-integer `truth`.
@@ -125,7 +125,7 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     jth = _as_threshold(joint_threshold, "joint_threshold")
     pw = associate_pointwise(c, th, order="scan")
     gr = associate_pointwise(c, th, order="best_first")
-    jt = assignment.solve_2d(c)
+    jt = assignment.assign_two_lists(c)
     ok_j = all_correct(jt.row_to_col, truth)
     passed = np.asarray(jt.cost) < jth
     return DecisionComparison(
@@ -204,7 +204,7 @@ def outcome_by_gate(kappa, truth, rule: str):
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
     if rule == "joint":
-        res = _named(assignment.solve_2d, c)
+        res = _named(assignment.assign_two_lists, c)
         right = all_correct(res.row_to_col, t)
         wrong = _wrong_pair(res.row_to_col, t)
         total = np.asarray(res.cost)
@@ -255,7 +255,7 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
     rule : {"scan", "greedy", "joint"}
         The paper's pointwise scan (:func:`associate_pointwise`,
         ``order="scan"``), greedy best-first (``order="best_first"``), or
-        joint ML (:func:`~radarfusion_ref.engine.assignment.solve_2d`) followed by the
+        joint ML (:func:`~radarfusion_ref.engine.assignment.assign_two_lists`) followed by the
         joint test.
     gate : float
         The per-pair gate :math:`\gamma` of a pointwise rule, or the gate
@@ -386,7 +386,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
         raise ValueError("`gates` must be given for `rule` = 'scan': its error rates need not be "
                          "monotone in the gate, so only a scored grid is exact")
     if rule == "joint":
-        stat = np.asarray(assignment.solve_2d(c).cost, dtype=float).ravel()
+        stat = np.asarray(assignment.assign_two_lists(c).cost, dtype=float).ravel()
     else:
         stat = c[np.isfinite(c)]
     vals = np.unique(stat[np.isfinite(stat)])

@@ -69,10 +69,10 @@ def check_size(requested, limit, *, what: str, alternative: str) -> int:
     --------
     >>> import math
     >>> check_size(math.factorial(12), 10**6, what="hypotheses n!",
-    ...            alternative="solve_2d (linear assignment)")
+    ...            alternative="assign_two_lists (linear assignment)")
     Traceback (most recent call last):
     ...
-    ValueError: refused: 479001600 hypotheses n! requested, above the limit of 1000000; use solve_2d (linear assignment) instead
+    ValueError: refused: 479001600 hypotheses n! requested, above the limit of 1000000; use assign_two_lists (linear assignment) instead
     """
     requested, limit = int(requested), int(limit)
     if requested > limit:

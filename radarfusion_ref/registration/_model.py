@@ -517,7 +517,7 @@ def cost_matrix(sensors, reports1, reports2, sigma_r, sigma_beta, *, biases=None
         :math:`\kappa_{ij} = \Delta_{ij}^{\mathsf T}(\Sigma_{1i} + \Sigma_{2j})^{-1}\Delta_{ij}`,
         eq. ``eq-proximity``, with the converted reports and their linearized
         covariances (:func:`to_cartesian`); the input of
-        :func:`radarfusion_ref.engine.assignment.solve_2d`.
+        :func:`radarfusion_ref.engine.assignment.assign_two_lists`.
 
     Raises
     ------

@@ -36,7 +36,7 @@ def _link(x1, P1, x2, P2, gamma, kept=None):
     kappa = np.atleast_2d(mahalanobis_sq_pairwise(x1, x2, P1, P2))
     if kept is not None:
         kappa = np.where(kept & (kappa < gamma), kappa - gamma, kappa)
-    return assignment.solve_2d(kappa, threshold=gamma).row_to_col
+    return assignment.assign_two_lists(kappa, threshold=gamma).row_to_col
 
 
 def _identities(groups, ident, next_id):

@@ -198,7 +198,7 @@ def track_reports(time, position, covariance, radar, scan, *,
 
     * ``"gnn"`` — the assignment that maximises the summed score increments
       :math:`\ln\frac{P_D\mathcal N(\boldsymbol\nu; 0, S)}{\lambda}` (hit) and
-      :math:`\ln(1 - P_D)` (miss), by :func:`radarfusion_ref.engine.assignment.solve_2d`
+      :math:`\ln(1 - P_D)` (miss), by :func:`radarfusion_ref.engine.assignment.assign_two_lists`
       on :math:`[\,-\Delta L_{ij} \mid \operatorname{diag}(-\ln(1 - P_D))\,]`;
     * ``"jpda"`` — each track is updated with the mixture of its gated reports weighted by
       :func:`radarfusion_ref.engine.tracker.jpda_probabilities` (exact up to
@@ -490,7 +490,7 @@ class _Tracker:
         cand_id = np.concatenate([lv.ids[old], ids[fresh]])
         kappa = mahalanobis_sq_pairwise(lv.x[new, :3], cand_x, lv.P[new, :3, :3], cand_P)
         before = cand_hit[None, :] < lv.born[new][:, None]
-        link = assignment.solve_2d(np.where(before, np.atleast_2d(kappa), np.inf),
+        link = assignment.assign_two_lists(np.where(before, np.atleast_2d(kappa), np.inf),
                                    threshold=self.gamma_relink).row_to_col
         merged, gone = [], []
         for i, j in zip(new, link, strict=True):
@@ -557,5 +557,5 @@ def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):
         cost = np.full((nt, nm + nt), np.inf)
         cost[cols, rcol] = -inc_pair[p]
         cost[np.arange(nt), nm + np.arange(nt)] = -inc[rows]
-        choice = assignment.solve_2d(cost).row_to_col
+        choice = assignment.assign_two_lists(cost).row_to_col
         take[p[choice[cols] == rcol]] = True
