@@ -1298,9 +1298,9 @@ def test_calibrate_gate_scan_needs_a_grid_and_refuses_unreachable_targets():
     assert _loop_outcome(k, truth, "scan", g)[1].mean() <= 0.1
     with pytest.raises(ValueError, match="`gates`"):
         A.calibrate_gate(k, truth, "scan", 0.1)
-    with pytest.raises(ValueError, match="`alpha`"):
+    with pytest.raises(ValueError, match="`target`"):
         A.calibrate_gate(k, truth, "greedy", 0.0, error="false_reject", gates=[1e-3, 1e-2])
-    with pytest.raises(ValueError, match="`alpha`"):
+    with pytest.raises(ValueError, match="`target`"):
         A.calibrate_gate(k, truth, "greedy", 1.5)
     with pytest.raises(ValueError, match="`gates`"):
         A.calibrate_gate(k, truth, "greedy", 0.1, gates=[2.0, 1.0])

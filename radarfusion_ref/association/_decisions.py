@@ -300,25 +300,25 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
     return outcome_by_gate(c, t, rule)(gate)
 
 
-def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept",
+def calibrate_gate(kappa, truth, rule: str, target, *, error: str = "false_accept",
                    gates=None) -> float:
-    r"""The gate at which a rule's empirical error rate on these trials meets `alpha`.
+    r"""The gate at which a rule's empirical error rate on these trials meets `target`.
 
     Parameters
     ----------
     kappa, truth, rule
         As in :func:`decision_outcome` (the calibration trials).
-    alpha : float
+    target : float
         Target rate in [0, 1].
     error : {"false_accept", "false_reject"}, optional
         ``"false_accept"`` (default): the **widest** gate whose false-accept
-        rate (share of trials with a wrong pair accepted) is at most `alpha`.
+        rate (share of trials with a wrong pair accepted) is at most `target`.
         ``"false_reject"``: the **narrowest** gate whose rejection rate (share
         of trials with nothing wrong accepted but some true pair not) is at
-        most `alpha`.
+        most `target`.
     gates : array_like, shape (k,), optional
         Candidate gates (> 0, increasing); every one is scored and the
-        widest (narrowest) one meeting `alpha` is returned. None (default):
+        widest (narrowest) one meeting `target` is returned. None (default):
         the exact answer among all gates, found by bisection over the
         breakpoints of the rate — just above each distinct :math:`\kappa`
         (pointwise rules) or each trial's summed :math:`\kappa` of the
@@ -335,9 +335,9 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     Raises
     ------
     ValueError
-        As :func:`decision_outcome`; for `alpha` outside [0, 1], an unknown
+        As :func:`decision_outcome`; for `target` outside [0, 1], an unknown
         `error`, `gates` that are empty, not > 0 or not increasing, no
-        `gates` with ``rule="scan"``, or no candidate gate meeting `alpha`
+        `gates` with ``rule="scan"``, or no candidate gate meeting `target`
         (the message gives the best rate reached; never a clamped gate).
 
     Notes
@@ -356,7 +356,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     True
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
-    a = as_float(as_probability(alpha, "alpha", open_interval=False), "alpha")
+    a = as_float(as_probability(target, "target", open_interval=False), "target")
     error = as_choice(error, "error", ("false_accept", "false_reject"))
     outcome = outcome_by_gate(c, t, rule)
     wide = error == "false_accept"
@@ -376,7 +376,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
         ok = np.flatnonzero(rates <= a)
         if ok.size == 0:
             raise ValueError(
-                f"`alpha` = {a:g} is not reached by any of the `gates`: "
+                f"`target` = {a:g} is not reached by any of the `gates`: "
                 f"the lowest {error.replace('_', '-')} rate is "
                 f"{rates.min():.4g} (at gate "
                 f"{cand[int(np.argmin(rates))]:.4g}); pass "
@@ -397,14 +397,14 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     lo, hi = 0, cand.size - 1
     if wide:
         if rate(cand[0]) > a:
-            raise ValueError(f"`alpha` = {a:g} is below the false-accept rate "
+            raise ValueError(f"`target` = {a:g} is below the false-accept rate "
                              f"{rate(cand[0]):.4g} of the narrowest gate {cand[0]:.4g}")
         while lo < hi:                                  # largest index with rate <= a
             mid = (lo + hi + 1) // 2
             lo, hi = (mid, hi) if rate(cand[mid]) <= a else (lo, mid - 1)
         return float(cand[lo])
     if rate(cand[-1]) > a:
-        raise ValueError(f"`alpha` = {a:g} is below the rejection rate {rate(cand[-1]):.4g} "
+        raise ValueError(f"`target` = {a:g} is below the rejection rate {rate(cand[-1]):.4g} "
                          "even without a gate")
     while lo < hi:                                      # smallest index with rate <= a
         mid = (lo + hi) // 2

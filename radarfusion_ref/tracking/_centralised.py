@@ -114,7 +114,7 @@ class _Rows:
         return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated)
 
 
-def _reports_iv(time, position, covariance, radar, scan, settings):
+def _reports_iv(time, position, cov, radar, scan, settings):
     if not isinstance(settings, TrackerSettings):
         raise TypeError(f"`settings` must be a TrackerSettings; received {_describe(settings)}")
     t = as_float_array(time, "time", ndim_min=1)
@@ -127,9 +127,9 @@ def _reports_iv(time, position, covariance, radar, scan, settings):
     z = as_float_array(position, "position", ndim_min=2, last_dims=(3,))
     if z.shape != (n, 3):
         raise ValueError(f"`position` must have shape ({n}, 3); received shape {z.shape}")
-    R = as_covariance(covariance, "covariance", dim=3) if n else np.zeros((0, 3, 3))
+    R = as_covariance(cov, "cov", dim=3) if n else np.zeros((0, 3, 3))
     if R.shape != (n, 3, 3):
-        raise ValueError(f"`covariance` must have shape ({n}, 3, 3); received shape {R.shape}")
+        raise ValueError(f"`cov` must have shape ({n}, 3, 3); received shape {R.shape}")
     out = []
     for name, v in (("radar", radar), ("scan", scan)):
         a = np.asarray(v) if not isinstance(v, (str, bytes)) and v is not None else None
@@ -142,7 +142,7 @@ def _reports_iv(time, position, covariance, radar, scan, settings):
     return t, z, R, out[0], out[1]
 
 
-def track_reports(time, position, covariance, radar, scan, *,
+def track_reports(time, position, cov, radar, scan, *,
                   settings=None) -> TrackHistory:
     r"""Architecture (a): every report, in time order, updates one tracker.
 
@@ -156,7 +156,7 @@ def track_reports(time, position, covariance, radar, scan, *,
     position : array_like, shape (N, 3)
         Reports in the common east-north-up frame, finite, in units of
         `settings.length_unit` metres (default: m).
-    covariance : array_like, shape (N, 3, 3)
+    cov : array_like, shape (N, 3, 3)
         Each report's own error covariance (that unit squared), positive definite.
     radar : array_like of int, shape (N,)
         The radar of each report: any integers (≥ 0), only compared with each other.
@@ -237,12 +237,12 @@ def track_reports(time, position, covariance, radar, scan, *,
     >>> t = np.repeat(np.arange(6) * 5.0, 1)
     >>> z = np.c_[100.0 * t, np.zeros(6), np.full(6, 9000.0)]
     >>> h = track_reports(t, z, np.tile(np.eye(3) * 100.0, (6, 1, 1)), np.zeros(6, int),
-    ...                   np.arange(6), settings=TrackerSettings(alpha=0.01))
+    ...                   np.arange(6), settings=TrackerSettings(p_false_confirm=0.01))
     >>> int(h.n_confirmed), bool(h.confirmed[-1]), round(float(h.state[-1, 3]))
     (1, True, 100)
     """
     settings = TrackerSettings() if settings is None else settings
-    t, z, R, radar, scan = _reports_iv(time, position, covariance, radar, scan, settings)
+    t, z, R, radar, scan = _reports_iv(time, position, cov, radar, scan, settings)
     if not t.size:
         return _Rows().history(0)
     u = settings.length_unit
