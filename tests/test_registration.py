@@ -505,3 +505,15 @@ def test_joint_registration_decisions_do_not_depend_on_the_length_unit(exponent,
     assert got.iterations == ref.iterations and got.converged == ref.converged
     units = np.array([k, 1.0, 1.0])
     np.testing.assert_allclose(got.biases / units, ref.biases, rtol=1e-6, atol=1e-12)
+
+
+def test_a_report_at_the_radar_site_is_named_not_the_sigmas():
+    """A report next to its radar (range r with r*sigma_beta < 1e-6 sigma_r) has a singular
+    covariance whatever the sigmas: the refusal names that report's argument and index."""
+    sites = [[0.0, 0.0], [50.0, 0.0]]
+    for k, (r1, r2) in enumerate((([[1e-20, 0.3], [30.0, 0.2]], [[50.0, 3.1]]),
+                                   ([[30.0, 0.2]], [[40.0, 3.1], [1e-9, 1.0]]))):
+        with pytest.raises(ValueError, match=rf"`reports{k + 1}`: report \(\d+,\) is at range"):
+            rg.cost_matrix(sites, r1, r2, 0.1, 1e-3)
+    # a short but resolvable range is scored, not refused
+    assert np.all(np.isfinite(rg.cost_matrix(sites, [[1e-3, 0.3]], [[50.0, 3.1]], 0.1, 1e-3)))
