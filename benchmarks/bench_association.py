@@ -5,15 +5,15 @@ one run and reported both in seconds and as ratios against a baseline measured
 alongside it:
 
 1. brute-force enumeration of the n! joint hypotheses vs the linear assignment
-   (``solve_2d``) for n = 4 ... 10 (n = 10 only if n = 9 took under 1.5 s);
+   (``assign_two_lists``) for n = 4 ... 10 (n = 10 only if n = 9 took under 1.5 s);
 2. the assignment alone for n = 100, 1000, 3000 (target: n = 1000 under 0.2 s);
 3. Murty's k = 100 best assignments at n = 50 vs 100 separate assignments of
    the same size (target: within 10x);
-4. (issue 13) gated sparse association: ``gating.gate_sparse_2d`` (k-d tree)
-   plus ``solve_2d`` on the sparse matrix of gated pairs, for n up to
+4. (issue 13) gated sparse association: ``gating.gate_sparse`` (k-d tree)
+   plus ``assign_two_lists`` on the sparse matrix of gated pairs, for n up to
    10 000 reports per radar (target: gating plus assignment of n = 10 000 in
    under 2 s), against the dense route (``proximity_matrix``, gate, dense
-   ``solve_2d``) at the largest n whose dense working memory fits in
+   ``assign_two_lists``) at the largest n whose dense working memory fits in
    ``MEMORY_LIMIT`` (peak measured with ``tracemalloc`` at a small n and
    scaled by n^2); decisions compared wherever both run.
 
@@ -65,23 +65,23 @@ def main():
             print(f"{n:>4} {'skipped':>9} (n = 9 took {last_brute:.2f} s)")
             break
         c = kappa_matrix(n, rng)
-        brute = assignment.solve_2d_bruteforce(c)
-        joint = assignment.solve_2d(c)
+        brute = assignment.assign_two_lists_bruteforce(c)
+        joint = assignment.assign_two_lists(c)
         if not np.array_equal(brute.row_to_col, joint.row_to_col):
             raise AssertionError(f"brute force and assignment disagree at n = {n}")
         reps = 3 if n >= 9 else 5
-        tb = best_time(lambda c=c: assignment.solve_2d_bruteforce(c), reps)
-        ta = best_time(lambda c=c: assignment.solve_2d(c), 50)
+        tb = best_time(lambda c=c: assignment.assign_two_lists_bruteforce(c), reps)
+        ta = best_time(lambda c=c: assignment.assign_two_lists(c), 50)
         last_brute = tb
         print(f"{n:>4} {math.factorial(n):>9} "
               f"{tb:>16.5f} {ta:>15.6f} {tb / ta:>9.0f}")
 
-    print("\n2. Linear assignment alone (scipy.optimize.linear_sum_assignment via solve_2d)")
+    print("\n2. Linear assignment alone (scipy.optimize.linear_sum_assignment via assign_two_lists)")
     print(f"{'n':>6} {'time [s]':>10} {'x time(n=100)':>14} {'(n/100)^3':>10}")
     base = None
     for n in (100, 1000, 3000):
         c = kappa_matrix(n, rng)
-        t = best_time(lambda c=c: assignment.solve_2d(c), 5 if n <= 1000 else 1)
+        t = best_time(lambda c=c: assignment.assign_two_lists(c), 5 if n <= 1000 else 1)
         base = base or t
         flag = ""
         if n == 1000:
@@ -91,8 +91,8 @@ def main():
     print("\n3. Murty's k best (k = 100, n = 50) vs k separate assignments of the same size")
     c = kappa_matrix(50, rng)
     k = 100
-    kb = assignment.k_best_2d(c, k)
-    t_murty = best_time(lambda: assignment.k_best_2d(c, k), 5)
+    kb = assignment.k_best_two_lists(c, k)
+    t_murty = best_time(lambda: assignment.k_best_two_lists(c, k), 5)
 
     def separate():
         for _ in range(k):
@@ -104,7 +104,7 @@ def main():
     print(f"  {k} separate assignments: {t_sep:.4f} s")
     print(f"  ratio {ratio:.1f}  target <= 10x: {'met' if ratio <= 10 else 'NOT met'}")
     rnd = rng.random((50, 50))
-    t_murty_r = best_time(lambda: assignment.k_best_2d(rnd, k), 5)
+    t_murty_r = best_time(lambda: assignment.k_best_two_lists(rnd, k), 5)
     t_sep_r = best_time(lambda: [linear_sum_assignment(rnd) for _ in range(k)], 5)
     print(f"  (uniform random costs: Murty {t_murty_r:.4f} s, separate {t_sep_r:.4f} s, "
           f"ratio {t_murty_r / t_sep_r:.1f})")
@@ -118,14 +118,14 @@ def gated_scene(n, rng):
 
 def sparse_route(x1, x2, th):
     """Gating (k-d tree) plus the sparse assignment."""
-    gated = gating.gate_sparse_2d(x1, x2, 2 * SIGMA**2 * np.eye(2), p_false_reject=P_LO)
-    return assignment.solve_2d(gated, threshold=th), gated.nnz
+    gated = gating.gate_sparse(x1, x2, 2 * SIGMA**2 * np.eye(2), p_false_reject=P_LO)
+    return assignment.assign_two_lists(gated, threshold=th), gated.nnz
 
 
 def dense_route(x1, x2, th):
     """Every pair's kappa, the gate as +inf, the dense assignment."""
     kappa = association.proximity_matrix(x1, x2, SIGMA, SIGMA)
-    return assignment.solve_2d(np.where(kappa < th, kappa, np.inf), threshold=th)
+    return assignment.assign_two_lists(np.where(kappa < th, kappa, np.inf), threshold=th)
 
 
 def dense_peak_bytes_per_pair(rng, n=500):

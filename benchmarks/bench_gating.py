@@ -4,7 +4,7 @@ Run ``python benchmarks/bench_gating.py [--quick]``. Everything is measured in
 this one run, on one core (the process is pinned to one CPU where the OS
 allows it; numpy's element-wise ufuncs are single-threaded anyway):
 
-1. ``gating.gate_mahalanobis_2d`` — chunked, in-place ufuncs, the 2x2
+1. ``gating.gate_mahalanobis`` — chunked, in-place ufuncs, the 2x2
    LDL^T kernel of ``engine.linalg`` — for 10^6 and 10^7 pairs sharing one S = C1 + C2;
 2. plain numpy broadcasting: ``proximity.proximity_gaussian`` (the same
    kernel, no chunking) and the textbook ``einsum`` + ``np.linalg.solve``;
@@ -18,7 +18,7 @@ allows it; numpy's element-wise ufuncs are single-threaded anyway):
 7. per-report covariances in the Monte-Carlo layout of chapter 07 (issue 13):
    T = 10^5 trials, n = 10 reports per radar, all n^2 pairs, every report
    with its own 2x2 covariance — ``linalg.mahalanobis_sq_pairwise`` and
-   ``gating.gate_pairwise_2d`` against ``proximity.proximity_gaussian`` with the
+   ``gating.gate_pairwise`` against ``proximity.proximity_gaussian`` with the
    covariances broadcast per report (the baseline) and
    ``separated.pair_statistic``; rates by wall clock and by CPU time (the
    machine is shared), and the ratio against the baseline.
@@ -49,7 +49,7 @@ P_LO = 0.01
 S = np.array([[1.3, 0.4], [0.4, 0.7]])      # S = C1 + C2, shared by all pairs
 C1 = np.array([[0.8, 0.3], [0.3, 0.4]])
 C2 = S - C1
-KERNEL = "chunked kernel (gate_mahalanobis_2d)"
+KERNEL = "chunked kernel (gate_mahalanobis)"
 
 
 def pin_one_core() -> str:
@@ -144,10 +144,10 @@ def per_report_section(rng, trials, n, repeats):
     ref = baseline()
     rel = float(np.max(np.abs(kappa - ref) / ref))
     same_sep = np.array_equal(kappa, separated.pair_statistic(x1, c1, x2, c2))
-    if not np.array_equal(gating.gate_pairwise_2d(x1, x2, c1, c2), ref < th) and rel > 1e-12:
+    if not np.array_equal(gating.gate_pairwise(x1, x2, c1, c2), ref < th) and rel > 1e-12:
         raise AssertionError("per-report kernel disagrees with proximity_gaussian")
     methods = {
-        "gate_pairwise_2d": lambda: gating.gate_pairwise_2d(x1, x2, c1, c2),
+        "gate_pairwise": lambda: gating.gate_pairwise(x1, x2, c1, c2),
         "mahalanobis_sq_pairwise (kappa)": lambda: linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2),
         "separated.pair_statistic": lambda: separated.pair_statistic(x1, c1, x2, c2),
         "proximity_gaussian, broadcast (baseline)": lambda: baseline() < th,
@@ -199,7 +199,7 @@ def main(argv=None):
     n_py, n_sp = 200_000, 20_000
     y1 = rng.normal(size=(n_py, 2))
     y2 = y1 + rng.normal(size=(n_py, 2)) * 1.5
-    ref = gating.gate_mahalanobis_2d(y1, y2, S)
+    ref = gating.gate_mahalanobis(y1, y2, S)
     l1, l2, sl = y1.tolist(), y2.tolist(), S.tolist()
     if python_loop(l1, l2, sl, th) != ref.tolist():
         raise AssertionError("pure-Python loop disagrees with the kernel")
@@ -220,12 +220,12 @@ def main(argv=None):
     for n in sizes:
         x1 = rng.normal(size=(n, 2))
         x2 = x1 + rng.normal(size=(n, 2)) * 1.5
-        kern = gating.gate_mahalanobis_2d(x1, x2, S)
+        kern = gating.gate_mahalanobis(x1, x2, S)
         if not (np.array_equal(kern, numpy_plain(x1, x2, th))
                 and np.array_equal(kern, numpy_einsum(x1, x2, S, th))):
             raise AssertionError("vectorized methods disagree")
         methods = {
-            KERNEL: lambda a=x1, b=x2: gating.gate_mahalanobis_2d(a, b, S),
+            KERNEL: lambda a=x1, b=x2: gating.gate_mahalanobis(a, b, S),
             "plain numpy (proximity_gaussian)": lambda a=x1, b=x2: numpy_plain(a, b, th),
             "numpy einsum + linalg.solve": lambda a=x1, b=x2: numpy_einsum(a, b, S, th),
         }
@@ -256,7 +256,7 @@ def main(argv=None):
     results["per_report"] = rates
     print("\ntargets (issue 13, per-report covariances):")
     base = rates["proximity_gaussian, broadcast (baseline)"][0]
-    for name in ("gate_pairwise_2d", "mahalanobis_sq_pairwise (kappa)"):
+    for name in ("gate_pairwise", "mahalanobis_sq_pairwise (kappa)"):
         wall, cpu = rates[name]
         print(f"  {name}: {wall / 1e6:.1f} M pairs/s wall ({cpu / 1e6:.1f} by CPU time) "
               f">= 60: {'yes' if wall >= 60e6 else 'NO'} (by CPU time: "

@@ -16,7 +16,7 @@ What is measured, all in one run and one process:
   rotated error ellipses), and a seeded tensor of independent uniform(0, 1)
   costs (the classic random 3-D assignment). Both solvers get the same
   float64 array; building it is not timed.
-* **Ours.** :func:`radarfusion_ref.engine.assignment.solve_sd` with
+* **Ours.** :func:`radarfusion_ref.engine.assignment.assign_s_lists` with
   ``method="lagrangian"`` on the full tensor (the dense route). On the scene
   tensors it is asked for a proved gap of 0.5 %. On the uniform tensors no
   solver proves 0.5 % (their Lagrangian dual stops far below the optimum), so
@@ -53,7 +53,7 @@ import numpy as np
 
 from radarfusion_ref import grouping
 from radarfusion_ref.engine import scenes
-from radarfusion_ref.engine.assignment import solve_sd
+from radarfusion_ref.engine.assignment import assign_s_lists
 
 GAP = 0.005                     # the proved-gap criterion (0.5 %)
 
@@ -102,7 +102,7 @@ def compare(kind, n, c, peer, repeat):
     cost_p = grouping_cost(c, res.tuples)
     gap_p = res.gap / max(abs(res.cost), 1.0)
     ask = GAP if kind == "scene" else min(max(gap_p, GAP), 0.99)
-    t_o, r = timed(lambda: solve_sd(c, method="lagrangian", gap=ask), repeat)
+    t_o, r = timed(lambda: assign_s_lists(c, method="lagrangian", gap=ask), repeat)
     cost_o = grouping_cost(c, r.groups)
     tol = 1e-9 * max(abs(cost_p), 1.0)
     ok_t, ok_g, ok_c = t_o <= t_p, r.gap <= max(gap_p, GAP), cost_o <= cost_p + tol
@@ -123,7 +123,7 @@ def main(quick=False, repeat=3):
 
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, "
           f"nrl-tracker (pytcl) {getattr(pytcl, '__version__', '?')}; best of {repeat}")
-    print("m = 3 full tensors; ours: solve_sd(method='lagrangian'); peer: assign3d_lagrangian "
+    print("m = 3 full tensors; ours: assign_s_lists(method='lagrangian'); peer: assign3d_lagrangian "
           "(defaults)")
     print(f"{'tensor':>7} {'n':>4} {'ours [s]':>9} {'peer [s]':>9} {'ratio':>7} "
           f"{'gap ours':>9} {'gap peer':>9} {'cost ours':>12} {'cost peer':>12} "

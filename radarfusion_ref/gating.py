@@ -25,12 +25,12 @@ The paper's :math:`\kappa_{\text{th}}`, :math:`m` and :math:`V` are the book's
   noncentrality :math:`\lambda` passes the gate (1 − power);
 * :func:`required_noncentrality` — the :math:`\lambda` a false hypothesis needs for
   its acceptance probability to drop to a target (root-finding in the log domain);
-* :func:`gate_mahalanobis_2d` — :math:`\kappa` and the gate for ``N`` paired 2-D
+* :func:`gate_mahalanobis` — :math:`\kappa` and the gate for ``N`` paired d-dimensional
   reports sharing one covariance, chunked (Monte-Carlo experiments);
-* :func:`gate_pairwise_2d` — the gate for every pair of two sets of 2-D reports
+* :func:`gate_pairwise` — the gate for every pair of two sets of d-dimensional reports
   when each report carries its own covariance (polar reports, separated
   radars), batched over trials;
-* :func:`gate_sparse_2d` — the gated pairs of a large scene (one shared
+* :func:`gate_sparse` — the gated pairs of a large scene (one shared
   covariance) as a sparse matrix of :math:`\kappa`, found with a k-d tree in
   whitened coordinates: the input of a gated sparse assignment.
 
@@ -49,7 +49,7 @@ All functions broadcast over their array arguments.
   of a clamped constant; it refuses more than :data:`MAX_ROOTS` roots per call.
 * The squared Mahalanobis distance itself, its numeric domain and the
   positive-definiteness rule live in :mod:`radarfusion_ref.engine.linalg`;
-  :func:`gate_mahalanobis_2d` refuses a `chunk_size` above :data:`MAX_CHUNK`
+  :func:`gate_mahalanobis` refuses a `chunk_size` above :data:`MAX_CHUNK`
   before allocating anything.
 
 .. rubric:: References
@@ -64,7 +64,11 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize, special, stats
 
-from .engine.linalg import mahalanobis_sq_k2_kernel, mahalanobis_sq_pairwise
+from .engine.linalg import (
+    mahalanobis_sq_k2_kernel,
+    mahalanobis_sq_kernel,
+    mahalanobis_sq_pairwise,
+)
 from .engine.validation import (
     MAX_MAGNITUDE,
     MEMORY_LIMIT,
@@ -84,16 +88,16 @@ from .engine.validation import (
 __all__ = [
     "MAX_CHUNK",
     "MAX_ROOTS",
-    "gate_mahalanobis_2d",
-    "gate_pairwise_2d",
-    "gate_sparse_2d",
+    "gate_mahalanobis",
+    "gate_pairwise",
+    "gate_sparse",
     "gate_threshold",
     "in_gate",
     "p_false_accept",
     "required_noncentrality",
 ]
 
-#: Largest `chunk_size` of :func:`gate_mahalanobis_2d`: 2**20 pairs, three
+#: Largest `chunk_size` of :func:`gate_mahalanobis`: 2**20 pairs, three
 #: work buffers of 8 MiB each. Larger chunks buy nothing (memory does not grow
 #: with the number of pairs anyway).
 MAX_CHUNK = 1 << 20
@@ -436,34 +440,35 @@ def required_noncentrality(p_accept, dof=1, p_false_reject=0.01, *, xtol=1e-10):
     return unwrap(out)
 
 
-def _gate_options(return_statistic, p_false_reject) -> float:
-    """Validate the 2-D gate kernels' shared options; return the threshold for `p_false_reject`."""
+def _gate_options(return_statistic, p_false_reject, dof) -> float:
+    """Validate the gates' shared options; the threshold of `p_false_reject` at `dof`."""
     if not isinstance(return_statistic, (bool, np.bool_)):
         raise TypeError(f"`return_statistic` must be a bool; received "
                         f"{describe(return_statistic)}")
     p = as_float(as_probability(p_false_reject, "p_false_reject"), "p_false_reject")
-    return float(gate_threshold(p, 2))
+    return float(gate_threshold(p, dof))
 
 
-def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
+def gate_mahalanobis(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
                         return_statistic=False):
-    r"""Chunked squared-Mahalanobis distance and chi-square gate for 2-D pairs.
+    r"""Chunked squared-Mahalanobis distance and chi-square gate for pairs of positions.
 
-    For ``N`` pairs of 2-D positions sharing one covariance
+    For ``N`` pairs of d-dimensional positions sharing one covariance
     :math:`S = \Sigma_1 + \Sigma_2`: :math:`\kappa = (\hat x_1 - \hat x_2)^T
     S^{-1} (\hat x_1 - \hat x_2)` (by
     :func:`radarfusion_ref.engine.linalg.mahalanobis_sq`'s kernel) and the gate
-    decision :math:`\kappa < \gamma` with 2 degrees of freedom, chunk by chunk.
+    decision :math:`\kappa < \gamma` with d degrees of freedom, chunk by chunk
+    (a 2x2 closed form for d = 2, the plane of the book's scenes).
 
     Parameters
     ----------
-    x1, x2 : array_like, shape (N, 2)
+    x1, x2 : array_like, shape (N, d)
         Paired reports of radar 1 and radar 2, whose differences lie within
         the numeric domain (magnitude at most
         :data:`radarfusion_ref.engine.validation.MAX_MAGNITUDE`).
-    cov : array_like, shape (2, 2)
+    cov : array_like, shape (d, d)
         :math:`S`, obeying :func:`radarfusion_ref.engine.linalg.is_positive_definite`
-        (for per-report covariances use :func:`gate_pairwise_2d`).
+        (for per-report covariances use :func:`gate_pairwise`).
     p_false_reject : float, optional
         :math:`P_{\text{lo}}` in (0, 1). Default 0.01.
     chunk_size : int, optional
@@ -481,7 +486,7 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
     Raises
     ------
     ValueError
-        If the shapes are not ``(N, 2)``, ``(N, 2)``, ``(2, 2)``, `cov` breaks
+        If the shapes are not ``(N, d)``, ``(N, d)``, ``(d, d)``, `cov` breaks
         the positive-definiteness rule, an entry is not finite or outside the
         numeric domain of :mod:`radarfusion_ref.engine.linalg` (checked chunk
         by chunk, the message names the chunk), or `chunk_size` is below 1 or
@@ -492,27 +497,28 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
 
     Examples
     --------
-    >>> acc, k = gate_mahalanobis_2d([[0.0, 0.0], [4.0, 0.0]], [[0.0, 1.0], [0.0, 0.0]],
-    ...                              np.eye(2), return_statistic=True)
+    >>> acc, k = gate_mahalanobis([[0.0, 0.0], [4.0, 0.0]], [[0.0, 1.0], [0.0, 0.0]],
+    ...                           np.eye(2), return_statistic=True)
     >>> acc, k
     (array([ True, False]), array([ 1., 16.]))
     """
-    a = as_float_array(x1, "x1", last_dims=(None, 2), allow_nonfinite=True)
-    b = as_float_array(x2, "x2", last_dims=(None, 2), allow_nonfinite=True)
-    if a.ndim != 2 or b.shape != a.shape:
-        raise ValueError(f"`x1` and `x2` must both have shape (N, 2); received shapes "
+    a = as_float_array(x1, "x1", allow_nonfinite=True)
+    b = as_float_array(x2, "x2", allow_nonfinite=True)
+    if a.ndim != 2 or b.shape != a.shape or a.shape[1] < 1:
+        raise ValueError(f"`x1` and `x2` must both have shape (N, d), d >= 1; received shapes "
                          f"{a.shape} and {b.shape}")
-    s = as_covariance(cov, "cov", dim=2)
+    d = a.shape[1]
+    s = as_covariance(cov, "cov", dim=d)
     if s.ndim != 2:
-        raise ValueError(f"`cov` must have shape (2, 2); received shape {s.shape}")
+        raise ValueError(f"`cov` must have shape ({d}, {d}); received shape {s.shape}")
     chunk = as_int(chunk_size, "chunk_size", minimum=1)
     check_size(chunk, MAX_CHUNK, what="pairs per chunk (`chunk_size`)",
                alternative=f"chunk_size <= {MAX_CHUNK} (memory does not grow with N anyway)")
-    th = _gate_options(return_statistic, p_false_reject)
+    th = _gate_options(return_statistic, p_false_reject, d)
     n = a.shape[0]
     accepted = np.empty(n, dtype=bool)
     kappa = np.empty(n) if return_statistic else None
-    work, buf = np.empty((2, min(chunk, n))), np.empty(min(chunk, n))
+    work, buf = np.empty((d, min(chunk, n))), np.empty(min(chunk, n))
     for start in range(0, n, chunk):
         stop = min(start + chunk, n)
         pa, pb = a[start:stop], b[start:stop]
@@ -526,14 +532,17 @@ def gate_mahalanobis_2d(x1, x2, cov, *, p_false_reject=0.01, chunk_size=32768,
             check_domain(delta, " - ".join(names))
         kk = kappa[start:stop] if kappa is not None else buf[:stop - start]
         with np.errstate(under="ignore"):
-            mahalanobis_sq_k2_kernel(delta, s, kk)
+            if d == 2:
+                mahalanobis_sq_k2_kernel(delta, s, kk)
+            else:
+                kk[:] = mahalanobis_sq_kernel(delta.T, s, "`x1` - `x2`")
         np.less(kk, th, out=accepted[start:stop])
     return (accepted, kappa) if return_statistic else accepted
 
 
-def gate_pairwise_2d(x1, x2, cov1, cov2, *, p_false_reject=0.01, chunk_size=32768,
+def gate_pairwise(x1, x2, cov1, cov2, *, p_false_reject=0.01, chunk_size=32768,
                      return_statistic=False):
-    r"""Chi-square gate (2 degrees of freedom) for every pair of 2-D reports with own covariances.
+    r"""Chi-square gate for every pair of two sets of reports, each with its own covariance.
 
     :math:`\kappa_{ij} = (\hat x_{1i} - \hat x_{2j})^T (\Sigma_{1i} + \Sigma_{2j})^{-1}
     (\hat x_{1i} - \hat x_{2j})` by
@@ -544,8 +553,9 @@ def gate_pairwise_2d(x1, x2, cov1, cov2, *, p_false_reject=0.01, chunk_size=3276
     ----------
     x1, x2, cov1, cov2 : array_like
         As in :func:`radarfusion_ref.engine.linalg.mahalanobis_sq_pairwise`,
-        with 2-D reports: shapes ``(..., n1, 2)``, ``(..., n2, 2)`` and one
-        ``2x2`` covariance per report (or one shared).
+        with d-dimensional reports: shapes ``(..., n1, d)``, ``(..., n2, d)`` and
+        one ``d x d`` covariance per report (or one shared); the gate has d degrees
+        of freedom.
     p_false_reject : float, optional
         :math:`P_{\text{lo}}` in (0, 1). Default 0.01.
     chunk_size : int, optional
@@ -561,48 +571,47 @@ def gate_pairwise_2d(x1, x2, cov1, cov2, *, p_false_reject=0.01, chunk_size=3276
     Raises
     ------
     ValueError, TypeError
-        As :func:`radarfusion_ref.engine.linalg.mahalanobis_sq_pairwise`, for
-        reports that are not 2-D, or for a `p_false_reject` that is not a single
-        number in (0, 1).
+        As :func:`radarfusion_ref.engine.linalg.mahalanobis_sq_pairwise`, or for a
+        `p_false_reject` that is not a single number in (0, 1).
 
     Examples
     --------
     >>> eye = np.eye(2)
-    >>> gate_pairwise_2d([[0.0, 0.0], [9.0, 0.0]], [[1.0, 0.0]], [eye, eye], [eye])
+    >>> gate_pairwise([[0.0, 0.0], [9.0, 0.0]], [[1.0, 0.0]], [eye, eye], [eye])
     array([[ True],
            [False]])
     """
-    th = _gate_options(return_statistic, p_false_reject)
-    a = as_float_array(x1, "x1", ndim_min=2, last_dims=(None, 2))
+    a = as_float_array(x1, "x1", ndim_min=2)
+    th = _gate_options(return_statistic, p_false_reject, a.shape[-1])
     kappa = mahalanobis_sq_pairwise(a, x2, cov1, cov2, chunk_size=chunk_size)
     accepted = kappa < th
     return (accepted, kappa) if return_statistic else accepted
 
 
 # --------------------------------------------------------------------------- sparse gating
-#: Bytes planned per candidate pair of :func:`gate_sparse_2d` (indices, distances,
+#: Bytes planned per candidate pair of :func:`gate_sparse` (indices, distances,
 #: the kernel's inputs and the sparse result).
 _SPARSE_PAIR_BYTES = 96
 
 
-def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
-    r"""The gated pairs of two sets of 2-D reports as a sparse matrix of :math:`\kappa_{ij}`.
+def gate_sparse(x1, x2, cov, *, p_false_reject=0.01):
+    r"""The gated pairs of two sets of reports as a sparse matrix of :math:`\kappa_{ij}`.
 
     For a scene of :math:`n_1` and :math:`n_2` reports sharing one
     :math:`S = \Sigma_1 + \Sigma_2`, only the pairs inside the gate,
-    :math:`\kappa_{ij} < \gamma` (eq-gate, 2 degrees of freedom), are found and
+    :math:`\kappa_{ij} < \gamma` (eq-gate, d degrees of freedom), are found and
     scored — in time and memory that grow with the gated pairs, not with
     :math:`n_1 n_2`. The result is the input
-    :func:`radarfusion_ref.engine.assignment.solve_2d` takes for a gated
+    :func:`radarfusion_ref.engine.assignment.assign_two_lists` takes for a gated
     sparse assignment (a missing entry is a forbidden pair).
 
     Parameters
     ----------
-    x1 : array_like, shape (n1, 2)
+    x1 : array_like, shape (n1, d)
         Radar 1's reports.
-    x2 : array_like, shape (n2, 2)
+    x2 : array_like, shape (n2, d)
         Radar 2's reports.
-    cov : array_like, shape (2, 2)
+    cov : array_like, shape (d, d)
         :math:`S`, symmetric positive definite.
     p_false_reject : float, optional
         :math:`P_{\text{lo}}` in (0, 1). Default 0.01.
@@ -616,7 +625,7 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
     Raises
     ------
     ValueError
-        If the shapes are not ``(n1, 2)``, ``(n2, 2)``, ``(2, 2)``, an entry is
+        If the shapes are not ``(n1, d)``, ``(n2, d)``, ``(d, d)``, an entry is
         not finite, `cov` is not symmetric positive definite, the whitened
         coordinates overflow, or the candidate pairs would exceed
         :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT` (counted before they
@@ -627,16 +636,16 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
     Notes
     -----
     With :math:`S = L L^T`, :math:`\kappa_{ij} = \lVert L^{-1}\hat x_{1i} -
-    L^{-1}\hat x_{2j}\rVert^2`: the gate is a disc of radius
+    L^{-1}\hat x_{2j}\rVert^2`: the gate is a ball of radius
     :math:`\sqrt\gamma` in whitened coordinates, so a k-d tree
     (:class:`scipy.spatial.cKDTree`) lists the candidates (radius enlarged by
-    a relative 1e-9 against rounding), and :func:`gate_mahalanobis_2d` scores
+    a relative 1e-9 against rounding), and :func:`gate_mahalanobis` scores
     them — the stored values and the gate decisions are bit for bit those of
     the dense kernel on all pairs.
 
     Examples
     --------
-    >>> k = gate_sparse_2d([[0.0, 0.0], [10.0, 0.0]], [[1.0, 0.0], [0.0, 0.5]], np.eye(2))
+    >>> k = gate_sparse([[0.0, 0.0], [10.0, 0.0]], [[1.0, 0.0], [0.0, 0.5]], np.eye(2))
     >>> k.nnz, k.toarray()
     (2, array([[1.  , 0.25],
            [0.  , 0.  ]]))
@@ -645,17 +654,18 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
     from scipy.sparse import csr_array
     from scipy.spatial import cKDTree
 
-    a = as_float_array(x1, "x1", last_dims=(None, 2))
-    b = as_float_array(x2, "x2", last_dims=(None, 2))
-    if a.ndim != 2 or b.ndim != 2:
-        raise ValueError(f"`x1` and `x2` must have shapes (n1, 2) and (n2, 2); received shapes "
+    a = as_float_array(x1, "x1")
+    b = as_float_array(x2, "x2")
+    if a.ndim != 2 or b.ndim != 2 or a.shape[1] != b.shape[1] or a.shape[1] < 1:
+        raise ValueError(f"`x1` and `x2` must have shapes (n1, d) and (n2, d); received shapes "
                          f"{a.shape} and {b.shape}")
     check_domain(a, "x1")
     check_domain(b, "x2")
-    s = as_covariance(cov, "cov", dim=2)
+    d = a.shape[1]
+    s = as_covariance(cov, "cov", dim=d)
     if s.ndim != 2:
-        raise ValueError(f"`cov` must have shape (2, 2); received shape {s.shape}")
-    th = _gate_options(False, p_false_reject)
+        raise ValueError(f"`cov` must have shape ({d}, {d}); received shape {s.shape}")
+    th = _gate_options(False, p_false_reject, d)
     p = float(p_false_reject)
     n1, n2 = a.shape[0], b.shape[0]
     if n1 == 0 or n2 == 0:
@@ -676,6 +686,6 @@ def gate_sparse_2d(x1, x2, cov, *, p_false_reject=0.01):
                            "fewer reports per call")
     found = t1.sparse_distance_matrix(t2, radius, output_type="ndarray")
     i, j = found["i"].astype(np.intp), found["j"].astype(np.intp)
-    accepted, kappa = gate_mahalanobis_2d(a[i], b[j], s, p_false_reject=p,
-                                          return_statistic=True)
+    accepted, kappa = gate_mahalanobis(a[i], b[j], s, p_false_reject=p,
+                                       return_statistic=True)
     return csr_array((kappa[accepted], (i[accepted], j[accepted])), shape=(n1, n2))

@@ -96,14 +96,14 @@ def to_sparse(c):
        st.sampled_from([None, 1.5, 4.0]))
 def test_dense_equals_sparse_equals_bruteforce_on_gated_problems(n1, n2, p_keep, seed, miss):
     c = gated(np.random.default_rng(seed), n1, n2, p_keep)
-    dense = asg.solve_2d(c, miss_cost=miss)
-    sp = asg.solve_2d(to_sparse(c), miss_cost=miss)
+    dense = asg.assign_two_lists(c, miss_cost=miss)
+    sp = asg.assign_two_lists(to_sparse(c), miss_cost=miss)
     ref = brute_2d(c, miss)
     assert np.array_equal(dense.row_to_col, sp.row_to_col)
     assert dense.cost == pytest.approx(ref, rel=1e-12, abs=1e-12)
     assert sp.cost == pytest.approx(ref, rel=1e-12, abs=1e-12)
     if n1 * n2 <= 25:
-        bf = asg.solve_2d_bruteforce(c, miss_cost=miss)
+        bf = asg.assign_two_lists_bruteforce(c, miss_cost=miss)
         assert bf.cost == pytest.approx(ref, rel=1e-12, abs=1e-12)
         assert np.array_equal(bf.row_to_col, dense.row_to_col)   # continuous costs: no ties
 
@@ -112,18 +112,18 @@ def test_plain_dense_equals_scipy_and_threshold_equals_forbidden():
     rng = np.random.default_rng(3)
     c = rng.uniform(0, 5, size=(7, 9))
     r, q = linear_sum_assignment(c)
-    res = asg.solve_2d(c)
+    res = asg.assign_two_lists(c)
     assert np.array_equal(res.row_to_col[r], q) and res.cost == pytest.approx(c[r, q].sum())
     gate = 2.0
-    a = asg.solve_2d(c, threshold=gate)
-    b = asg.solve_2d(np.where(c < gate, c, np.inf))
+    a = asg.assign_two_lists(c, threshold=gate)
+    b = asg.assign_two_lists(np.where(c < gate, c, np.inf))
     assert np.array_equal(a.row_to_col, b.row_to_col)
     assert np.all(c[np.flatnonzero(a.row_to_col >= 0), a.row_to_col[a.row_to_col >= 0]] < gate)
 
 
 def test_k_best_ranks_every_assignment_in_order():
     c = np.random.default_rng(5).uniform(0, 3, size=(4, 4))
-    kb = asg.k_best_2d(c, 24)
+    kb = asg.k_best_two_lists(c, 24)
     brute = sorted(sum(c[i, p[i]] for i in range(4)) for p in itertools.permutations(range(4)))
     np.testing.assert_allclose(kb.cost, brute, rtol=1e-12)
     assert kb.k == 24 and len({tuple(a) for a in kb.row_to_col.tolist()}) == 24
@@ -136,18 +136,18 @@ def test_sd_milp_lagrangian_and_bruteforce_agree_on_small_tensors(n, seed):
     rng = np.random.default_rng(seed)
     c = rng.uniform(0.0, 10.0, size=(n, n, n))
     opt = brute_sd_tensor(c)
-    milp = asg.solve_sd(c)
-    bf = asg.solve_sd_bruteforce(c)
+    milp = asg.assign_s_lists(c)
+    bf = asg.assign_s_lists_bruteforce(c)
     assert milp.cost == pytest.approx(opt, rel=1e-9) and bf.cost == pytest.approx(opt, rel=1e-9)
     assert milp.exact and bf.exact and milp.gap == 0.0
-    lag = asg.solve_sd(c, method="lagrangian", gap=0.05)
+    lag = asg.assign_s_lists(c, method="lagrangian", gap=0.05)
     # a proved bound: below the true optimum; the gap is the one proved
     assert lag.lower_bound <= opt + 1e-9 * max(1.0, abs(opt))
     assert lag.cost >= opt - 1e-9 * max(1.0, abs(opt))
     assert lag.gap == pytest.approx(max(0.0, (lag.cost - lag.lower_bound)
                                         / max(abs(lag.cost), 1.0)))
     assert lag.gap <= 0.05
-    tight = asg.solve_sd(c, method="lagrangian", gap=1e-9)
+    tight = asg.assign_s_lists(c, method="lagrangian", gap=1e-9)
     assert tight.cost == pytest.approx(opt, rel=1e-9)
     for r in (milp, bf, lag):      # a grouping: one report of each source per group
         assert np.array_equal(np.sort(r.groups, axis=0), np.tile(np.arange(n)[:, None],
@@ -167,7 +167,7 @@ def test_sd_gated_candidates_with_missing_reports_match_exact_cover(seed, p_keep
     c = np.where(np.sum(T >= 0, axis=1) == 1, 2.0, rng.uniform(-6.0, 3.0, size=len(T)))
     opt = exact_cover(T, c, counts)
     for method in ("milp", "lagrangian"):
-        r = asg.solve_sd(c, T, method=method, gap=0.02)
+        r = asg.assign_s_lists(c, T, method=method, gap=0.02)
         assert r.lower_bound <= opt + 1e-9 * max(1.0, abs(opt))
         assert opt - 1e-9 * max(1.0, abs(opt)) <= r.cost
         assert r.gap <= 0.02
@@ -175,7 +175,7 @@ def test_sd_gated_candidates_with_missing_reports_match_exact_cover(seed, p_keep
         used = np.concatenate([np.flatnonzero(np.isin(np.arange(k), r.groups[:, i]))
                                for i, k in enumerate(counts)])
         assert used.size == sum(counts)                        # every report exactly once
-    assert asg.solve_sd(c, T).cost == pytest.approx(opt, rel=1e-9, abs=1e-9)
+    assert asg.assign_s_lists(c, T).cost == pytest.approx(opt, rel=1e-9, abs=1e-9)
 
 
 def test_sd_full_tensor_with_forbidden_groups_equals_bruteforce():
@@ -184,9 +184,9 @@ def test_sd_full_tensor_with_forbidden_groups_equals_bruteforce():
     c[rng.random(c.shape) < 0.5] = np.inf
     c[0, 0, 0] = c[1, 1, 1] = c[2, 2, 2] = 5.0               # one grouping always exists
     opt = brute_sd_tensor(c)
-    assert asg.solve_sd(c).cost == pytest.approx(opt)
-    assert asg.solve_sd(c, method="lagrangian", gap=1e-6).cost == pytest.approx(opt)
-    assert asg.solve_sd_bruteforce(c).cost == pytest.approx(opt)
+    assert asg.assign_s_lists(c).cost == pytest.approx(opt)
+    assert asg.assign_s_lists(c, method="lagrangian", gap=1e-6).cost == pytest.approx(opt)
+    assert asg.assign_s_lists_bruteforce(c).cost == pytest.approx(opt)
 
 
 def test_group_sd_and_group_bruteforce_go_through_the_solvers():
@@ -194,10 +194,10 @@ def test_group_sd_and_group_bruteforce_go_through_the_solvers():
     cov = np.ones((3, 3, 1, 1))
     tensor = grouping.group_costs(x, cov)
     g = grouping.group_sd(x, cov)
-    s = asg.solve_sd(tensor)
+    s = asg.assign_s_lists(tensor)
     assert np.array_equal(g.groups, s.groups) and g.cost == pytest.approx(s.cost)
     b = grouping.group_bruteforce(x, cov)
-    assert np.array_equal(b.groups, asg.solve_sd_bruteforce(tensor).groups)
+    assert np.array_equal(b.groups, asg.assign_s_lists_bruteforce(tensor).groups)
 
 
 def test_sd_fractional_relaxation_falls_back_to_branch_and_bound():
@@ -213,7 +213,7 @@ def test_sd_fractional_relaxation_falls_back_to_branch_and_bound():
     np.testing.assert_array_equal(asg.sd_constraint_matrix(3, 2).toarray(), A)
     lp = linprog(parity_cost, A_eq=A, b_eq=np.ones(6), bounds=(0, 1), method="highs")
     assert lp.fun == pytest.approx(0.0, abs=1e-9)
-    r = asg.solve_sd(parity_cost.reshape(2, 2, 2))
+    r = asg.assign_s_lists(parity_cost.reshape(2, 2, 2))
     assert r.relaxation_integral is False and r.exact
     assert r.cost == pytest.approx(1.0) == brute_sd_tensor(parity_cost.reshape(2, 2, 2))
     np.testing.assert_array_equal(np.sort(r.groups, axis=0), [[0, 0, 0], [1, 1, 1]])
@@ -239,7 +239,7 @@ def test_sd_huge_costs_keep_the_optimum():
     rng = np.random.default_rng(21)
     for _ in range(20):
         c = np.exp(rng.uniform(0, 80, size=(3, 3, 3)))
-        assert asg.solve_sd(c).cost == pytest.approx(brute_sd_tensor(c), rel=1e-9)
+        assert asg.assign_s_lists(c).cost == pytest.approx(brute_sd_tensor(c), rel=1e-9)
 
 
 # ---------------------------------------------------------------- S-D: the dense Lagrangian
@@ -280,7 +280,7 @@ def test_dense_lagrangian_is_within_half_a_percent_at_n50():
     # a seeded 50**3 scene tensor whose LP relaxation is fractional (a true duality gap)
     c = scene_tensor(50, seed=5050)
     lp = lp_bound(c)
-    r = asg.solve_sd(c, method="lagrangian", gap=0.005)
+    r = asg.assign_s_lists(c, method="lagrangian", gap=0.005)
     assert_grouping(r.groups, 3, 50)
     assert r.cost == pytest.approx(sum(c[tuple(g)] for g in r.groups), rel=1e-12)
     scale = max(abs(r.cost), 1.0)
@@ -302,12 +302,12 @@ def test_dense_lagrangian_against_enumeration(m, n, kind):
     opt = brute_sd_tensor(c)
     tol = 1e-9 * max(1.0, abs(opt))
     for gap in (0.3, 0.05):
-        r = asg.solve_sd(c, method="lagrangian", gap=gap)
+        r = asg.assign_s_lists(c, method="lagrangian", gap=gap)
         assert_grouping(r.groups, m, n)
         assert r.lower_bound <= opt + tol <= r.cost + 2 * tol
         assert r.gap <= gap
         assert r.cost == pytest.approx(sum(c[tuple(g)] for g in r.groups), rel=1e-12)
-    assert asg.solve_sd(c, method="lagrangian", gap=1e-9).cost == pytest.approx(opt, rel=1e-9)
+    assert asg.assign_s_lists(c, method="lagrangian", gap=1e-9).cost == pytest.approx(opt, rel=1e-9)
 
 
 def test_dense_relaxed_minimum_is_exact_with_the_shortlist():
@@ -330,7 +330,7 @@ def test_dense_lagrangian_huge_costs_are_scaled_exactly():
     rng = np.random.default_rng(4)
     c = rng.uniform(1.0, 2.0, size=(4, 4, 4))
     opt = brute_sd_tensor(c)
-    r = asg.solve_sd(c * 2.0**1000, method="lagrangian", gap=1e-9)
+    r = asg.assign_s_lists(c * 2.0**1000, method="lagrangian", gap=1e-9)
     assert r.cost == pytest.approx(opt * 2.0**1000, rel=1e-12)
     assert r.lower_bound <= r.cost and np.all(np.isfinite(r.history))
 
@@ -354,7 +354,7 @@ def test_dense_lagrangian_no_grouping_names_the_argument():
     c = np.full((3, 3, 3), 1.0)
     c[:, 0, :] = np.inf                                   # source 1's report 0 never grouped
     with pytest.raises(ValueError, match=r"`cost`.*no grouping"):
-        asg.solve_sd(c, method="lagrangian")
+        asg.assign_s_lists(c, method="lagrangian")
 
 
 def test_full_tensor_limits_are_bytes_for_the_lagrangian():
@@ -364,13 +364,13 @@ def test_full_tensor_limits_are_bytes_for_the_lagrangian():
     assert dense_bytes(3, 200) < MEMORY_LIMIT < dense_bytes(3, 500)
     big = np.broadcast_to(0.0, (500, 500, 500))           # a view: nothing allocated
     with pytest.raises(ValueError, match="refused") as info:
-        asg.solve_sd(big, method="lagrangian")
+        asg.assign_s_lists(big, method="lagrangian")
     text = str(info.value)
     for w in ("`cost`", "bytes", str(dense_bytes(3, 500)), f"limit of {MEMORY_LIMIT}",
               "`candidates`"):
         assert w in text
     with pytest.raises(ValueError, match="refused") as info:
-        asg.solve_sd(np.broadcast_to(0.0, (101, 101, 101)))          # the integer program
+        asg.assign_s_lists(np.broadcast_to(0.0, (101, 101, 101)))          # the integer program
     for w in ("`cost`", "binary variables", "limit of 1000000", "method='lagrangian'"):
         assert w in str(info.value)
 
@@ -379,7 +379,7 @@ def test_full_tensor_limits_are_bytes_for_the_lagrangian():
 def test_every_result_speaks_the_same_vocabulary():
     c = np.array([[1.0, 2.0], [2.0, 5.0]])
     x = np.array([[[0.0], [5.0]], [[5.3], [0.1]], [[0.2], [4.9]]])
-    results = [asg.solve_2d(c), asg.k_best_2d(c, 2), asg.solve_sd(np.ones((2, 2, 2))),
+    results = [asg.assign_two_lists(c), asg.k_best_two_lists(c, 2), asg.assign_s_lists(np.ones((2, 2, 2))),
                grouping.group_sd(x, np.ones((3, 2, 1, 1))),
                grouping.group_sd(x, np.ones((3, 2, 1, 1)), method="lagrangian",
                                  p_false_reject=1e-3)]
@@ -403,7 +403,7 @@ def test_every_result_speaks_the_same_vocabulary():
 @pytest.mark.parametrize("g", [0.0, 1.0, -0.1, 1.5, np.nan, [0.1, 0.2]])
 def test_gap_outside_the_open_unit_interval_is_refused(g):
     with pytest.raises(ValueError, match="`gap`"):
-        asg.solve_sd(np.ones((2, 2, 2)), method="lagrangian", gap=g)
+        asg.assign_s_lists(np.ones((2, 2, 2)), method="lagrangian", gap=g)
     x = np.array([[[0.0], [5.0]], [[5.3], [0.1]], [[0.2], [4.9]]])
     with pytest.raises(ValueError, match="`gap`"):
         grouping.group_sd(x, np.ones((3, 2, 1, 1)), method="lagrangian", gap=g)
@@ -413,35 +413,35 @@ def test_sparse_costs_with_nan_or_infinite_stored_entries_are_refused():
     for bad, what in ((np.nan, "NaN"), (np.inf, "finite"), (-np.inf, "finite")):
         m = sparse.csr_array(([1.0, bad], ([0, 1], [0, 1])), shape=(2, 2))
         with pytest.raises(ValueError, match=rf"`cost`.*{what}"):
-            asg.solve_2d(m)
+            asg.assign_two_lists(m)
     with pytest.raises(TypeError, match="`cost`"):
-        asg.solve_2d(sparse.csr_array(np.array([[1 + 1j]])))
+        asg.assign_two_lists(sparse.csr_array(np.array([[1 + 1j]])))
 
 
 @pytest.mark.parametrize(("call", "exc", "name"), [
-    (lambda: asg.solve_2d([[np.nan, 1.0]]), ValueError, "cost"),
-    (lambda: asg.solve_2d([[-np.inf, 1.0]]), ValueError, "cost"),
-    (lambda: asg.solve_2d([[1.0]], threshold=0.0), ValueError, "threshold"),
-    (lambda: asg.solve_2d([[1.0]], miss_cost=np.nan), ValueError, "miss_cost"),
-    (lambda: asg.k_best_2d([[1.0]], 0), ValueError, "k"),
-    (lambda: asg.k_best_2d([[1.0]], 1.5), TypeError, "k"),
-    (lambda: asg.solve_2d_bruteforce(np.ones((11, 11))), ValueError, "cost"),
-    (lambda: asg.solve_sd(np.ones((2, 3, 2))), ValueError, "cost"),
-    (lambda: asg.solve_sd(np.full((2, 2, 2), np.nan)), ValueError, "cost"),
-    (lambda: asg.solve_sd(np.ones((2, 2, 2)), method="greedy"), ValueError, "method"),
-    (lambda: asg.solve_sd(np.ones((2, 2, 2)), max_iter=0), ValueError, "max_iter"),
-    (lambda: asg.solve_sd(np.ones((2, 2, 2)), relaxation="yes"), TypeError, "relaxation"),
-    (lambda: asg.solve_sd(np.ones((2, 2, 2)), time_limit=[1.0, 2.0]), ValueError, "time_limit"),
-    (lambda: asg.solve_sd(np.ones((2, 2, 2)), counts=[2, 2, 2]), ValueError, "counts"),
-    (lambda: asg.solve_sd([1.0], [[0, -2]]), ValueError, "candidates"),
-    (lambda: asg.solve_sd([1.0], [[-1, -1]]), ValueError, "candidates"),
-    (lambda: asg.solve_sd([1.0], [[0.5, 1]]), TypeError, "candidates"),
-    (lambda: asg.solve_sd([1.0, 2.0], [[0, 0]]), ValueError, "cost"),
-    (lambda: asg.solve_sd([np.inf], [[0, 0]]), ValueError, "cost"),
-    (lambda: asg.solve_sd([1.0], [[0, 0]], counts=[0, 1]), ValueError, "counts"),
-    (lambda: asg.solve_sd(np.ones((12,) * 6)), ValueError, "cost"),
-    (lambda: asg.solve_sd_bruteforce(np.ones((6,) * 5)), ValueError, "cost"),
-    (lambda: asg.solve_sd_bruteforce(np.full((2, 2), np.inf)), ValueError, "cost"),
+    (lambda: asg.assign_two_lists([[np.nan, 1.0]]), ValueError, "cost"),
+    (lambda: asg.assign_two_lists([[-np.inf, 1.0]]), ValueError, "cost"),
+    (lambda: asg.assign_two_lists([[1.0]], threshold=0.0), ValueError, "threshold"),
+    (lambda: asg.assign_two_lists([[1.0]], miss_cost=np.nan), ValueError, "miss_cost"),
+    (lambda: asg.k_best_two_lists([[1.0]], 0), ValueError, "k"),
+    (lambda: asg.k_best_two_lists([[1.0]], 1.5), TypeError, "k"),
+    (lambda: asg.assign_two_lists_bruteforce(np.ones((11, 11))), ValueError, "cost"),
+    (lambda: asg.assign_s_lists(np.ones((2, 3, 2))), ValueError, "cost"),
+    (lambda: asg.assign_s_lists(np.full((2, 2, 2), np.nan)), ValueError, "cost"),
+    (lambda: asg.assign_s_lists(np.ones((2, 2, 2)), method="greedy"), ValueError, "method"),
+    (lambda: asg.assign_s_lists(np.ones((2, 2, 2)), max_iter=0), ValueError, "max_iter"),
+    (lambda: asg.assign_s_lists(np.ones((2, 2, 2)), relaxation="yes"), TypeError, "relaxation"),
+    (lambda: asg.assign_s_lists(np.ones((2, 2, 2)), time_limit=[1.0, 2.0]), ValueError, "time_limit"),
+    (lambda: asg.assign_s_lists(np.ones((2, 2, 2)), counts=[2, 2, 2]), ValueError, "counts"),
+    (lambda: asg.assign_s_lists([1.0], [[0, -2]]), ValueError, "candidates"),
+    (lambda: asg.assign_s_lists([1.0], [[-1, -1]]), ValueError, "candidates"),
+    (lambda: asg.assign_s_lists([1.0], [[0.5, 1]]), TypeError, "candidates"),
+    (lambda: asg.assign_s_lists([1.0, 2.0], [[0, 0]]), ValueError, "cost"),
+    (lambda: asg.assign_s_lists([np.inf], [[0, 0]]), ValueError, "cost"),
+    (lambda: asg.assign_s_lists([1.0], [[0, 0]], counts=[0, 1]), ValueError, "counts"),
+    (lambda: asg.assign_s_lists(np.ones((12,) * 6)), ValueError, "cost"),
+    (lambda: asg.assign_s_lists_bruteforce(np.ones((6,) * 5)), ValueError, "cost"),
+    (lambda: asg.assign_s_lists_bruteforce(np.full((2, 2), np.inf)), ValueError, "cost"),
 ])
 def test_bad_input_names_the_argument(call, exc, name):
     with pytest.raises(exc, match=f"`{name}`"):
@@ -452,23 +452,23 @@ def test_infeasible_gated_sd_names_the_source():
     # source 2's report 1 is in no candidate group
     T = np.array([[0, 0, 0], [1, 1, 0], [0, 1, 0]])
     with pytest.raises(ValueError, match=r"`candidates`.*report\(s\) \[1\] of source 2"):
-        asg.solve_sd([1.0, 1.0, 1.0], T, counts=[2, 2, 2])
+        asg.assign_s_lists([1.0, 1.0, 1.0], T, counts=[2, 2, 2])
     # every report is covered, but no exact cover exists: a cluster lacks a report of source 1
     T = np.array([[0, 0, 0], [1, 0, 1]])
     with pytest.raises(ValueError, match=r"`candidates`.*source \d"):
-        asg.solve_sd([1.0, 1.0], T, counts=[2, 1, 2])
+        asg.assign_s_lists([1.0, 1.0], T, counts=[2, 1, 2])
     c = np.full((2, 2, 2), np.inf)
     c[0, 0, 0] = c[1, 0, 1] = 1.0                       # source 1's report 1 never grouped
     for method in ("milp", "lagrangian"):
         with pytest.raises(ValueError, match=r"`cost`.*source 1"):
-            asg.solve_sd(c, method=method)
+            asg.assign_s_lists(c, method=method)
 
 
 def test_sd_with_two_sources_is_the_linear_assignment():
     c = np.random.default_rng(0).uniform(size=(6, 6))
     r, q = linear_sum_assignment(c)
     for method in ("milp", "lagrangian"):
-        s = asg.solve_sd(c, method=method)
+        s = asg.assign_s_lists(c, method=method)
         assert s.cost == pytest.approx(c[r, q].sum(), rel=1e-12) and s.exact
         assert np.array_equal(s.groups[:, 1], q)
-    assert asg.solve_sd_bruteforce(c).cost == pytest.approx(c[r, q].sum(), rel=1e-12)
+    assert asg.assign_s_lists_bruteforce(c).cost == pytest.approx(c[r, q].sum(), rel=1e-12)

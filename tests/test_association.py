@@ -97,8 +97,8 @@ def cost_matrices(draw, max_n=5, allow_inf=True):
        st.one_of(st.none(), st.floats(0.1, 10.0)),
        st.one_of(st.none(), st.floats(-1.0, 6.0)))
 def test_joint_equals_bruteforce(cost, threshold, miss):
-    j = asg.solve_2d(cost, threshold=threshold, miss_cost=miss)
-    b = asg.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss)
+    j = asg.assign_two_lists(cost, threshold=threshold, miss_cost=miss)
+    b = asg.assign_two_lists_bruteforce(cost, threshold=threshold, miss_cost=miss)
     assert j.cost == pytest.approx(b.cost, rel=1e-9, abs=1e-9)
     assert j.n_assigned == b.n_assigned
     check_feasible(j, cost, threshold)
@@ -107,14 +107,14 @@ def test_joint_equals_bruteforce(cost, threshold, miss):
 @given(cost_matrices(allow_inf=False))
 def test_joint_complete_equals_itertools_enumeration(cost):
     best = min(t for _, t in enumerate_complete(cost))
-    j = asg.solve_2d(cost)
+    j = asg.assign_two_lists(cost)
     assert j.cost == pytest.approx(best, abs=1e-9)
     assert j.n_assigned == min(cost.shape)
 
 
 @given(cost_matrices(), st.floats(-1.0, 6.0), st.one_of(st.none(), st.floats(0.1, 10.0)))
 def test_miss_cost_equals_augmented_matrix(cost, miss, threshold):
-    j = asg.solve_2d(cost, threshold=threshold, miss_cost=miss)
+    j = asg.assign_two_lists(cost, threshold=threshold, miss_cost=miss)
     assert j.cost == pytest.approx(augmented_optimum(cost, miss, threshold), abs=1e-9)
 
 
@@ -130,15 +130,15 @@ def test_threshold_only_is_maximum_cardinality(cost, threshold):
         if found:
             best = k
             break
-    assert asg.solve_2d(cost, threshold=threshold).n_assigned == best
+    assert asg.assign_two_lists(cost, threshold=threshold).n_assigned == best
 
 
 def test_joint_batch_equals_loop():
     rng = np.random.default_rng(0)
     c = rng.random((4, 3, 5, 6))
-    batch = asg.solve_2d(c, miss_cost=0.3)
+    batch = asg.assign_two_lists(c, miss_cost=0.3)
     for idx in np.ndindex(4, 3):
-        single = asg.solve_2d(c[idx], miss_cost=0.3)
+        single = asg.assign_two_lists(c[idx], miss_cost=0.3)
         np.testing.assert_array_equal(batch.row_to_col[idx], single.row_to_col)
         assert batch.cost[idx] == pytest.approx(single.cost)
 
@@ -146,25 +146,25 @@ def test_joint_batch_equals_loop():
 def test_bruteforce_square_n8_matches_joint():
     rng = np.random.default_rng(1)
     c = rng.random((3, 8, 8))
-    np.testing.assert_array_equal(asg.solve_2d_bruteforce(c).row_to_col,
-                                  asg.solve_2d(c).row_to_col)
+    np.testing.assert_array_equal(asg.assign_two_lists_bruteforce(c).row_to_col,
+                                  asg.assign_two_lists(c).row_to_col)
 
 
 def test_bruteforce_too_large():
     with pytest.raises(ValueError, match="`cost`"):
-        asg.solve_2d_bruteforce(np.zeros((11, 11)))
+        asg.assign_two_lists_bruteforce(np.zeros((11, 11)))
 
 
 def test_joint_large_rectangular_feasible():
     rng = np.random.default_rng(2)
     c = rng.random((60, 80))
-    r = asg.solve_2d(c, threshold=0.5, miss_cost=0.2)
+    r = asg.assign_two_lists(c, threshold=0.5, miss_cost=0.2)
     check_feasible(r, c, 0.5)
     assert np.all(c[r.pairs[:, 0], r.pairs[:, 1]] < 0.4)
 
 
 def test_result_fields():
-    r = asg.solve_2d([[1.0, 9.0, 9.0], [9.0, 9.0, 2.0]], miss_cost=2.0)
+    r = asg.assign_two_lists([[1.0, 9.0, 9.0], [9.0, 9.0, 2.0]], miss_cost=2.0)
     assert r.pairs.tolist() == [[0, 0], [1, 2]]
     assert r.unassigned_rows.tolist() == []
     assert r.unassigned_cols.tolist() == [1]
@@ -172,7 +172,7 @@ def test_result_fields():
     np.testing.assert_array_equal(r.col_to_row, [0, -1, 1])
     with pytest.raises(AttributeError):
         r.cost = 0.0  # frozen
-    batch = asg.solve_2d(np.zeros((2, 2, 2)))
+    batch = asg.assign_two_lists(np.zeros((2, 2, 2)))
     with pytest.raises(ValueError, match="`pairs`"):
         _ = batch.pairs
 
@@ -182,15 +182,15 @@ def test_result_fields():
 
 def test_all_gated_out_returns_no_pairs():
     c = np.full((3, 4), 50.0)
-    for r in (asg.solve_2d(c, threshold=1.0),
-              asg.solve_2d(c, threshold=1.0, miss_cost=0.5),
+    for r in (asg.assign_two_lists(c, threshold=1.0),
+              asg.assign_two_lists(c, threshold=1.0, miss_cost=0.5),
               A.associate_pointwise(c, 1.0),
               A.associate_pointwise(c, 1.0, order="best_first"),
-              asg.solve_2d_bruteforce(c, threshold=1.0)):
+              asg.assign_two_lists_bruteforce(c, threshold=1.0)):
         assert r.n_assigned == 0
         assert r.unassigned_rows.tolist() == [0, 1, 2]
         assert r.unassigned_cols.tolist() == [0, 1, 2, 3]
-    np.testing.assert_array_equal(asg.solve_2d(np.full((2, 2), np.inf)).row_to_col, [-1, -1])
+    np.testing.assert_array_equal(asg.assign_two_lists(np.full((2, 2), np.inf)).row_to_col, [-1, -1])
 
 
 # ----------------------------------------------------------------------------- pointwise rule
@@ -212,7 +212,7 @@ def test_pointwise_scan_hand_worked():
     g = A.associate_pointwise(c, 1.5, order="best_first")
     np.testing.assert_array_equal(g.row_to_col, [2, 1, 0])
     # the joint optimum here happens to equal the greedy choice
-    assert asg.solve_2d(c).cost == pytest.approx(0.5)
+    assert asg.assign_two_lists(c).cost == pytest.approx(0.5)
 
 
 def test_pointwise_strict_inequality():
@@ -226,7 +226,7 @@ def test_pointwise_order_matters_but_joint_does_not():
     np.testing.assert_array_equal(A.associate_pointwise(c, 1.0).row_to_col, [0, -1])
     flipped = c[::-1]
     np.testing.assert_array_equal(A.associate_pointwise(flipped, 1.0).row_to_col, [0, 1])
-    assert asg.solve_2d(c).cost == asg.solve_2d(flipped).cost
+    assert asg.assign_two_lists(c).cost == asg.assign_two_lists(flipped).cost
 
 
 def greedy_reference(c, th):
@@ -277,7 +277,7 @@ def test_greedy_is_not_joint_ml():
     # the counterexample used in the chapter's erratum
     c = np.array([[1.0, 2.0], [2.0, 100.0]])
     assert A.associate_pointwise(c, np.inf, order="best_first").cost == 101.0
-    assert asg.solve_2d(c).cost == 4.0
+    assert asg.assign_two_lists(c).cost == 4.0
 
 
 # ----------------------------------------------------------------------------- k best
@@ -286,7 +286,7 @@ def test_greedy_is_not_joint_ml():
 @given(cost_matrices(max_n=5), st.integers(1, 130))
 def test_murty_equals_sorted_bruteforce(cost, k):
     every = sorted(t for _, t in enumerate_complete(cost) if np.isfinite(t))
-    r = asg.k_best_2d(cost, k)
+    r = asg.k_best_two_lists(cost, k)
     assert r.k == min(k, len(every))
     np.testing.assert_allclose(r.cost, every[:r.k], atol=1e-9)
     assert len({tuple(a) for a in r.row_to_col}) == r.k
@@ -300,7 +300,7 @@ def test_murty_distinct_costs_same_assignments():
     rng = np.random.default_rng(4)
     c = rng.random((6, 6))
     every = sorted(enumerate_complete(c), key=lambda x: x[1])
-    r = asg.k_best_2d(c, 40)
+    r = asg.k_best_two_lists(c, 40)
     for (a_ref, _), a in zip(every[:40], r.row_to_col, strict=True):
         np.testing.assert_array_equal(a, a_ref)
 
@@ -308,9 +308,9 @@ def test_murty_distinct_costs_same_assignments():
 def test_murty_larger_costs_match_lower_bound_logic():
     rng = np.random.default_rng(5)
     c = rng.random((30, 30))
-    r = asg.k_best_2d(c, 60)
+    r = asg.k_best_two_lists(c, 60)
     assert np.all(np.diff(r.cost) >= -1e-12)
-    assert r.cost[0] == pytest.approx(asg.solve_2d(c).cost)
+    assert r.cost[0] == pytest.approx(asg.assign_two_lists(c).cost)
     assert len({tuple(a) for a in r.row_to_col}) == 60
 
 
@@ -411,18 +411,18 @@ def test_non_assignment_cost_bad_input():
 def test_miss_cost_rule_pair_iff_below_twice_miss():
     # one report each: paired iff kappa < 2m (the likelihood-ratio boundary)
     m = 1.3
-    assert asg.solve_2d([[2 * m - 1e-6]], miss_cost=m).n_assigned == 1
-    assert asg.solve_2d([[2 * m + 1e-6]], miss_cost=m).n_assigned == 0
+    assert asg.assign_two_lists([[2 * m - 1e-6]], miss_cost=m).n_assigned == 1
+    assert asg.assign_two_lists([[2 * m + 1e-6]], miss_cost=m).n_assigned == 0
 
 
 # ----------------------------------------------------------------------------- bad input
 
 
 @pytest.mark.parametrize("func", [
-    lambda c: asg.solve_2d(c),
-    lambda c: asg.solve_2d_bruteforce(c),
+    lambda c: asg.assign_two_lists(c),
+    lambda c: asg.assign_two_lists_bruteforce(c),
     lambda c: A.associate_pointwise(c, 1.0),
-    lambda c: asg.k_best_2d(c, 2),
+    lambda c: asg.k_best_two_lists(c, 2),
     lambda c: A.association_probabilities(c),
 ])
 @pytest.mark.parametrize("bad", [
@@ -439,36 +439,36 @@ def test_bad_cost(func, bad):
 
 def test_bad_cost_type():
     with pytest.raises(TypeError, match="`cost`"):
-        asg.solve_2d("abc")
+        asg.assign_two_lists("abc")
 
 
 @pytest.mark.parametrize("th", [0.0, -1.0, np.nan])
 def test_bad_threshold(th):
     with pytest.raises(ValueError, match="`threshold`"):
-        asg.solve_2d(np.eye(2), threshold=th)
+        asg.assign_two_lists(np.eye(2), threshold=th)
     with pytest.raises(ValueError, match="`threshold`"):
         A.associate_pointwise(np.eye(2), th)
 
 
 def test_bad_k_and_order_and_miss():
     with pytest.raises(ValueError, match="`k`"):
-        asg.k_best_2d(np.eye(2), 0)
+        asg.k_best_two_lists(np.eye(2), 0)
     with pytest.raises(TypeError, match="`k`"):
-        asg.k_best_2d(np.eye(2), 2.5)
+        asg.k_best_two_lists(np.eye(2), 2.5)
     with pytest.raises(ValueError, match="`order`"):
         A.associate_pointwise(np.eye(2), 1.0, order="random")
     with pytest.raises(ValueError, match="`miss_cost`"):
-        asg.solve_2d(np.eye(2), miss_cost=np.nan)
+        asg.assign_two_lists(np.eye(2), miss_cost=np.nan)
     with pytest.raises(ValueError, match="`miss_cost`"):
-        asg.solve_2d(np.eye(2), miss_cost=-np.inf)
+        asg.assign_two_lists(np.eye(2), miss_cost=-np.inf)
     with pytest.raises(ValueError, match="`cost`"):
-        asg.k_best_2d(np.zeros((2, 2, 2)), 1)
+        asg.k_best_two_lists(np.zeros((2, 2, 2)), 1)
 
 
 def test_miss_cost_inf_is_none():
     c = np.array([[0.1, 5.0], [5.0, 9.0]])
-    a = asg.solve_2d(c, threshold=6.0, miss_cost=np.inf)
-    b = asg.solve_2d(c, threshold=6.0)
+    a = asg.assign_two_lists(c, threshold=6.0, miss_cost=np.inf)
+    b = asg.assign_two_lists(c, threshold=6.0)
     np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
 
 
@@ -598,8 +598,8 @@ def test_property_pointwise_is_a_gated_matching(cost, threshold, order):
 
 @given(cost_matrices(max_n=5), thresholds, st.one_of(st.none(), st.floats(-1.0, 6.0)))
 def test_property_joint_is_a_matching_and_the_brute_force_optimum(cost, threshold, miss):
-    j = asg.solve_2d(cost, threshold=threshold, miss_cost=miss)
-    b = asg.solve_2d_bruteforce(cost, threshold=threshold, miss_cost=miss)
+    j = asg.assign_two_lists(cost, threshold=threshold, miss_cost=miss)
+    b = asg.assign_two_lists_bruteforce(cost, threshold=threshold, miss_cost=miss)
     for r in (j, b):
         assert_matching(r.row_to_col, r.col_to_row, cost.shape[1])
         assert np.isfinite(r.cost)
@@ -608,7 +608,7 @@ def test_property_joint_is_a_matching_and_the_brute_force_optimum(cost, threshol
 
 @given(cost_matrices(max_n=4), st.integers(1, 30))
 def test_property_k_best_are_distinct_matchings_in_order(cost, k):
-    r = asg.k_best_2d(cost, k)
+    r = asg.k_best_two_lists(cost, k)
     assert np.all(np.isfinite(r.cost)) and np.all(np.diff(r.cost) >= -1e-9)
     for a in r.row_to_col:
         assert_matching(a, inverse_of(a, cost.shape[1]), cost.shape[1])
@@ -686,12 +686,12 @@ def test_threshold_none_means_no_gate_everywhere():
         np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
     np.testing.assert_array_equal(A.associate_pointwise(c).row_to_col,
                                   A.associate_pointwise(c, None).row_to_col)
-    for f in (asg.solve_2d, asg.solve_2d_bruteforce):
+    for f in (asg.assign_two_lists, asg.assign_two_lists_bruteforce):
         np.testing.assert_array_equal(f(c, threshold=None).row_to_col,
                                       f(c, threshold=np.inf).row_to_col)
     # the gate is strict everywhere: kappa == gamma is outside
-    for r in (A.associate_pointwise([[1.0]], 1.0), asg.solve_2d([[1.0]], threshold=1.0),
-              asg.solve_2d_bruteforce([[1.0]], threshold=1.0)):
+    for r in (A.associate_pointwise([[1.0]], 1.0), asg.assign_two_lists([[1.0]], threshold=1.0),
+              asg.assign_two_lists_bruteforce([[1.0]], threshold=1.0)):
         assert r.n_assigned == 0
 
 
@@ -702,21 +702,21 @@ def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
     rng = np.random.default_rng(21)
     c = rng.uniform(1.0, 8.0, size=(5, 5))
     c[1, 3] = np.inf
-    ref_j = asg.solve_2d(c)
-    got_j = asg.solve_2d(c * scale)
+    ref_j = asg.assign_two_lists(c)
+    got_j = asg.assign_two_lists(c * scale)
     np.testing.assert_array_equal(got_j.row_to_col, ref_j.row_to_col)
     assert got_j.cost == pytest.approx(ref_j.cost * scale, rel=1e-12)
     for kw in ({"threshold": 6.0}, {"miss_cost": 2.5}, {"threshold": 6.0, "miss_cost": 2.0}):
         skw = {k: v * scale for k, v in kw.items()}
-        ref = asg.solve_2d(c, **kw)
-        for f in (asg.solve_2d, asg.solve_2d_bruteforce):
+        ref = asg.assign_two_lists(c, **kw)
+        for f in (asg.assign_two_lists, asg.assign_two_lists_bruteforce):
             got = f(c * scale, **skw)
             np.testing.assert_array_equal(got.row_to_col, ref.row_to_col)
             assert np.isfinite(got.cost)
             assert got.cost == pytest.approx(ref.cost * scale, rel=1e-12)
     np.testing.assert_array_equal(A.associate_pointwise(c * scale, 6.0 * scale).row_to_col,
                                   A.associate_pointwise(c, 6.0).row_to_col)
-    kb_ref, kb = asg.k_best_2d(c, 10), asg.k_best_2d(c * scale, 10)
+    kb_ref, kb = asg.k_best_two_lists(c, 10), asg.k_best_two_lists(c * scale, 10)
     np.testing.assert_array_equal(kb.row_to_col, kb_ref.row_to_col)
     np.testing.assert_allclose(kb.cost, kb_ref.cost * scale, rtol=1e-12)
 
@@ -724,23 +724,23 @@ def test_extreme_costs_give_the_same_decisions_as_moderate_ones(scale):
 def test_costs_near_the_float_maximum():
     big = np.finfo(float).max / 4                                  # ~4.5e307, finite
     c = np.array([[big, big / 2], [big / 2, big]])
-    for f in (asg.solve_2d, asg.solve_2d_bruteforce):
+    for f in (asg.assign_two_lists, asg.assign_two_lists_bruteforce):
         r = f(c)                                                   # used to claim infeasibility
         np.testing.assert_array_equal(r.row_to_col, [1, 0])
         assert r.cost == big
     c2 = np.array([[big, 1.0], [np.inf, big]])
-    for f in (asg.solve_2d, asg.solve_2d_bruteforce):
+    for f in (asg.assign_two_lists, asg.assign_two_lists_bruteforce):
         np.testing.assert_array_equal(f(c2, threshold=np.inf).row_to_col, [0, 1])
         np.testing.assert_array_equal(f(c2, miss_cost=big / 8).row_to_col, [1, -1])
     np.testing.assert_allclose(A.association_probabilities(c), [[0, 1], [1, 0]])
     np.testing.assert_allclose(A.association_probabilities(np.full((3, 3), 1e308)), 1 / 3)
-    np.testing.assert_allclose(asg.k_best_2d(c, 2).cost, [big, 2 * big])
+    np.testing.assert_allclose(asg.k_best_two_lists(c, 2).cost, [big, 2 * big])
 
 
 def test_a_total_beyond_the_float_range_is_refused_not_inf():
     c = np.full((3, 3), np.finfo(float).max / 2)
-    for call in (lambda: asg.solve_2d(c), lambda: asg.solve_2d_bruteforce(c),
-                 lambda: A.associate_pointwise(c), lambda: asg.k_best_2d(c, 1)):
+    for call in (lambda: asg.assign_two_lists(c), lambda: asg.assign_two_lists_bruteforce(c),
+                 lambda: A.associate_pointwise(c), lambda: asg.k_best_two_lists(c, 1)):
         with pytest.raises(ValueError, match=r"`cost`.*float range"):
             call()
 
@@ -770,18 +770,18 @@ def test_non_assignment_cost_extremes_against_mpmath():
 # ----------------------------------------------------------------------------- resource limits
 
 def test_enumeration_limits_are_checked_before_allocation():
-    with pytest.raises(ValueError, match=r"`cost`.*limit of 4000000.*solve_2d"):
-        asg.solve_2d_bruteforce(np.zeros((11, 11)))
-    with pytest.raises(ValueError, match=r"`cost`.*partial matchings.*solve_2d"):
-        asg.solve_2d_bruteforce(np.zeros((8, 8)), threshold=1.0)
-    with pytest.raises(ValueError, match=r"`cost`.*over a batch.*solve_2d"):
-        asg.solve_2d_bruteforce(np.broadcast_to(np.zeros((9, 9)), (1000, 9, 9)))
+    with pytest.raises(ValueError, match=r"`cost`.*limit of 4000000.*assign_two_lists"):
+        asg.assign_two_lists_bruteforce(np.zeros((11, 11)))
+    with pytest.raises(ValueError, match=r"`cost`.*partial matchings.*assign_two_lists"):
+        asg.assign_two_lists_bruteforce(np.zeros((8, 8)), threshold=1.0)
+    with pytest.raises(ValueError, match=r"`cost`.*over a batch.*assign_two_lists"):
+        asg.assign_two_lists_bruteforce(np.broadcast_to(np.zeros((9, 9)), (1000, 9, 9)))
     with pytest.raises(ValueError, match=r"`cost`.*k=\.\.\."):
         A.association_probabilities(np.zeros((11, 11)))
     with pytest.raises(ValueError, match=r"`k`.*limit"):
-        asg.k_best_2d(np.eye(3), asg.MAX_K_BEST + 1)
+        asg.k_best_two_lists(np.eye(3), asg.MAX_K_BEST + 1)
     with pytest.raises(ValueError, match=r"`k`.*bytes of Murty"):
-        asg.k_best_2d(np.zeros((1000, 1000)), 10_000)
+        asg.k_best_two_lists(np.zeros((1000, 1000)), 10_000)
     with pytest.raises(ValueError, match=r"`false_density1`.*bytes.*trials"):
         scenes.two_radar_clutter_scene(3, spacing=1.0, sigma1=0.1, sigma2=0.1,
                                   false_density1=1e12, trials=10)
@@ -807,11 +807,11 @@ BAD_COSTS = st.sampled_from([
     "abc", [[True, False]], None, [["1", "2"]]])
 
 
-@given(BAD_COSTS, st.sampled_from(["associate_pointwise", "solve_2d", "solve_2d_bruteforce",
-                                   "k_best_2d", "association_probabilities"]))
+@given(BAD_COSTS, st.sampled_from(["associate_pointwise", "assign_two_lists", "assign_two_lists_bruteforce",
+                                   "k_best_two_lists", "association_probabilities"]))
 def test_fuzz_bad_costs_name_the_argument(bad, name):
-    call = {"k_best_2d": lambda c: asg.k_best_2d(c, 2), "solve_2d": asg.solve_2d,
-            "solve_2d_bruteforce": asg.solve_2d_bruteforce}.get(name, getattr(A, name, None))
+    call = {"k_best_two_lists": lambda c: asg.k_best_two_lists(c, 2), "assign_two_lists": asg.assign_two_lists,
+            "assign_two_lists_bruteforce": asg.assign_two_lists_bruteforce}.get(name, getattr(A, name, None))
     with pytest.raises((ValueError, TypeError), match="`cost`"):
         call(bad)
 
@@ -823,9 +823,9 @@ def test_fuzz_bad_thresholds_name_the_argument(bad, where):
     if where == "pointwise":
         call, arg = (lambda: A.associate_pointwise(c, bad)), "threshold"
     elif where == "joint":
-        call, arg = (lambda: asg.solve_2d(c, threshold=bad)), "threshold"
+        call, arg = (lambda: asg.assign_two_lists(c, threshold=bad)), "threshold"
     elif where == "bruteforce":
-        call, arg = (lambda: asg.solve_2d_bruteforce(c, threshold=bad)), "threshold"
+        call, arg = (lambda: asg.assign_two_lists_bruteforce(c, threshold=bad)), "threshold"
     else:
         call, arg = (lambda: A.compare_decisions(c[None], [[0, 1]], threshold=1.0,
                                                  joint_threshold=bad)), "joint_threshold"
@@ -836,13 +836,13 @@ def test_fuzz_bad_thresholds_name_the_argument(bad, where):
 @given(st.sampled_from([np.nan, -np.inf, "1", True, [1.0, 2.0]]))
 def test_fuzz_bad_miss_cost(bad):
     with pytest.raises((ValueError, TypeError), match="`miss_cost`"):
-        asg.solve_2d(np.eye(2), miss_cost=bad)
+        asg.assign_two_lists(np.eye(2), miss_cost=bad)
 
 
 @given(st.sampled_from([0, -3, 2.5, "2", True, None]))
 def test_fuzz_bad_k(bad):
     with pytest.raises((ValueError, TypeError), match="`k`"):
-        asg.k_best_2d(np.eye(2), bad)
+        asg.k_best_two_lists(np.eye(2), bad)
     if bad is not None:
         with pytest.raises((ValueError, TypeError), match="`k`"):
             A.association_probabilities(np.eye(2), k=bad)
@@ -991,7 +991,7 @@ def test_proximity_matrix_default_unchanged_and_scalar_logdet_is_a_constant():
     np.testing.assert_allclose(full - k, 2 * math.log(2 * math.pi * 0.25), rtol=1e-12)
     best = min(itertools.permutations(range(6)), key=lambda p: sum(full[i, p[i]]
                                                                     for i in range(6)))
-    np.testing.assert_array_equal(asg.solve_2d(k).row_to_col, best)
+    np.testing.assert_array_equal(asg.assign_two_lists(k).row_to_col, best)
 
 
 def test_logdet_changes_no_complete_pairing_when_variances_are_per_radar():
@@ -1018,8 +1018,8 @@ def test_logdet_changes_the_joint_decision_with_per_report_variances():
     by_kappa = min(itertools.permutations(range(2)), key=lambda p: kappa[0, p[0]] + kappa[1, p[1]])
     by_ml = min(itertools.permutations(range(2)), key=lambda p: oracle[0, p[0]] + oracle[1, p[1]])
     assert by_kappa != by_ml
-    np.testing.assert_array_equal(asg.solve_2d(kappa).row_to_col, by_kappa)
-    np.testing.assert_array_equal(asg.solve_2d(full).row_to_col, by_ml)
+    np.testing.assert_array_equal(asg.assign_two_lists(kappa).row_to_col, by_kappa)
+    np.testing.assert_array_equal(asg.assign_two_lists(full).row_to_col, by_ml)
 
 
 @given(st.floats(0.05, 1.0), st.floats(0.05, 1.0), st.floats(0.0, 2.0), st.floats(0.0, 2.0),
@@ -1053,8 +1053,8 @@ def test_full_costs_and_kappa_costs_decide_alike_with_one_covariance():
     c0_full = A.non_assignment_cost(**kw, logdet=True)
     k = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.3, 0.4))
     f = sc.mask_cost(A.proximity_matrix(sc.reports1, sc.reports2, 0.3, 0.4, logdet=True))
-    a = asg.solve_2d(k, miss_cost=c0)
-    b = asg.solve_2d(f, miss_cost=c0_full)
+    a = asg.assign_two_lists(k, miss_cost=c0)
+    b = asg.assign_two_lists(f, miss_cost=c0_full)
     np.testing.assert_array_equal(a.row_to_col, b.row_to_col)
 
 
@@ -1119,12 +1119,12 @@ def test_sparse_joint_equals_dense_and_brute_force(seed, n1, n2, density, miss, 
     rng = np.random.default_rng(seed)
     sp_cost = _random_gated(rng, n1, n2, density, negative)
     dense = _dense_twin(sp_cost)
-    got = asg.solve_2d(sp_cost, threshold=th, miss_cost=miss)
-    ref = asg.solve_2d(dense, threshold=th, miss_cost=miss)
+    got = asg.assign_two_lists(sp_cost, threshold=th, miss_cost=miss)
+    ref = asg.assign_two_lists(dense, threshold=th, miss_cost=miss)
     assert np.array_equal(got.row_to_col, ref.row_to_col)
     assert np.array_equal(got.col_to_row, ref.col_to_row)
     assert got.cost == pytest.approx(ref.cost, rel=1e-12, abs=1e-12)
-    brute = asg.solve_2d_bruteforce(dense, threshold=th, miss_cost=miss)
+    brute = asg.assign_two_lists_bruteforce(dense, threshold=th, miss_cost=miss)
     assert got.cost == pytest.approx(brute.cost, rel=1e-12, abs=1e-12)
     assert np.array_equal(got.row_to_col, brute.row_to_col)
 
@@ -1140,19 +1140,19 @@ def test_sparse_joint_formats_rectangular_and_explicit_zeros(fmt):
     cost = conv(base)
     dense = _dense_twin(base)
     for th, miss in ((None, None), (6.0, None), (None, 2.5), (8.0, 3.0)):
-        got = asg.solve_2d(cost, threshold=th, miss_cost=miss)
-        ref = asg.solve_2d(dense, threshold=th, miss_cost=miss)
+        got = asg.assign_two_lists(cost, threshold=th, miss_cost=miss)
+        ref = asg.assign_two_lists(dense, threshold=th, miss_cost=miss)
         assert np.array_equal(got.row_to_col, ref.row_to_col), (th, miss)
         assert got.cost == pytest.approx(ref.cost, rel=1e-12)
     # a stored 0 is an allowed pair of cost 0, taken here
-    got = asg.solve_2d(sparse.csr_array(([0.0], ([1], [2])), shape=(3, 4)))
+    got = asg.assign_two_lists(sparse.csr_array(([0.0], ([1], [2])), shape=(3, 4)))
     assert got.pairs.tolist() == [[1, 2]] and got.cost == 0.0
     # nothing stored: no pair, every report unassigned
-    empty = asg.solve_2d(sparse.csr_array((3, 4)), miss_cost=1.5)
+    empty = asg.assign_two_lists(sparse.csr_array((3, 4)), miss_cost=1.5)
     assert empty.n_assigned == 0 and empty.cost == pytest.approx(1.5 * 7)
     # duplicates are summed (scipy's meaning of a repeated entry)
     dup = sparse.coo_array(([1.0, 2.0, 5.0], ([0, 0, 1], [0, 0, 1])), shape=(2, 2))
-    assert asg.solve_2d(dup).cost == pytest.approx(8.0)
+    assert asg.assign_two_lists(dup).cost == pytest.approx(8.0)
 
 
 def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
@@ -1163,15 +1163,15 @@ def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
                                 rng=rng)
     x1, x2 = sc.reports1[0], sc.reports2[0]
     s = (0.3**2 + 0.3**2) * np.eye(2)
-    gated = gating.gate_sparse_2d(x1, x2, s, p_false_reject=0.01)
+    gated = gating.gate_sparse(x1, x2, s, p_false_reject=0.01)
     th = gating.gate_threshold(0.01, 2)
     # the dense route: every pair's kappa, +inf outside the gate
     kappa = A.proximity_matrix(x1, x2, 0.3, 0.3)
     dense = np.where(kappa < th, kappa, np.inf)
     assert np.array_equal(np.isfinite(dense), _dense_twin(gated) < np.inf)
     for miss in (None, 0.5 * th, 2.0):
-        got = asg.solve_2d(gated, threshold=th, miss_cost=miss)
-        ref = asg.solve_2d(dense, threshold=th, miss_cost=miss)
+        got = asg.assign_two_lists(gated, threshold=th, miss_cost=miss)
+        ref = asg.assign_two_lists(dense, threshold=th, miss_cost=miss)
         assert np.array_equal(got.row_to_col, ref.row_to_col), miss
         assert got.cost == pytest.approx(ref.cost, rel=1e-9)
 
@@ -1186,17 +1186,17 @@ def test_sparse_joint_equals_dense_on_a_2000_report_geometric_scene():
 ])
 def test_sparse_joint_bad_input(bad, exc, msg):
     with pytest.raises(exc, match=f"`cost`.*{msg}|{msg}"):
-        asg.solve_2d(bad)
+        asg.assign_two_lists(bad)
 
 
 def test_sparse_joint_other_arguments_validated():
     cost = sparse.csr_array(([1.0], ([0], [0])), shape=(2, 2))
     with pytest.raises(ValueError, match="`threshold`"):
-        asg.solve_2d(cost, threshold=0.0)
+        asg.assign_two_lists(cost, threshold=0.0)
     with pytest.raises(ValueError, match="`miss_cost`"):
-        asg.solve_2d(cost, miss_cost=np.nan)
+        asg.assign_two_lists(cost, miss_cost=np.nan)
     with pytest.raises(ValueError, match="`miss_cost`"):
-        asg.solve_2d(cost, miss_cost=[1.0, 2.0])
+        asg.assign_two_lists(cost, miss_cost=[1.0, 2.0])
 
 
 # ---------------------------------------------------------------- calibration (decision_outcome, calibrate_gate)
@@ -1298,9 +1298,9 @@ def test_calibrate_gate_scan_needs_a_grid_and_refuses_unreachable_targets():
     assert _loop_outcome(k, truth, "scan", g)[1].mean() <= 0.1
     with pytest.raises(ValueError, match="`gates`"):
         A.calibrate_gate(k, truth, "scan", 0.1)
-    with pytest.raises(ValueError, match="`alpha`"):
+    with pytest.raises(ValueError, match="`target`"):
         A.calibrate_gate(k, truth, "greedy", 0.0, error="false_reject", gates=[1e-3, 1e-2])
-    with pytest.raises(ValueError, match="`alpha`"):
+    with pytest.raises(ValueError, match="`target`"):
         A.calibrate_gate(k, truth, "greedy", 1.5)
     with pytest.raises(ValueError, match="`gates`"):
         A.calibrate_gate(k, truth, "greedy", 0.1, gates=[2.0, 1.0])
@@ -1372,7 +1372,7 @@ def test_joint_outcome_matches_the_definition_on_the_brute_force_pairing(seed, n
     truth = np.where(truth < n2, truth, -1)
     truth = np.where(np.isfinite(k[np.arange(n1), np.maximum(truth, 0)]) | (truth < 0), truth,
                      g.integers(-1, n2, n1))
-    best = asg.solve_2d_bruteforce(k)
+    best = asg.assign_two_lists_bruteforce(k)
     total = sum(k[i, j] for i, j in enumerate(best.row_to_col) if j >= 0)
     expect = _outcome_by_definition(best.row_to_col, truth, total < gate)
     o = A.decision_outcome(k, truth, "joint", gate)

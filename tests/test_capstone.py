@@ -442,7 +442,7 @@ def test_gospa_against_stone_soup():
     (dict(x=[[np.nan, 0.0]], y=[[0.0, 0.0]], c=1.0), ValueError, "`x`"),
     (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0]], c=0.0), ValueError, "`c`"),
     (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0]], c=1.0, p=0.5), ValueError, "`p`"),
-    (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0]], c=1.0, alpha=1.0), ValueError, "`alpha`"),
+    (dict(x=[[0.0, 0.0]], y=[[0.0, 0.0]], c=1.0, alpha=1.0), TypeError, "alpha"),
     (dict(x=[0.0, 1.0], y=[[0.0, 0.0]], c=1.0), ValueError, "`x`"),
     (dict(x="a", y=[[0.0, 0.0]], c=1.0), TypeError, "`x`"),
 ])

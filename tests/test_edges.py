@@ -100,19 +100,19 @@ VALID = {
                                   n_objects=4, region=[[-20, 40], [50, 90]], trials=2,
                                   p_detect=1.0, p_false_reject=1e-3,
                                   fixed=np.zeros((2, 3), bool), rng=1),
-    tf.naive_fusion: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2)),
-    tf.bar_shalom_campo: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2),
-                              P12=0.2 * np.eye(2)),
-    tf.covariance_intersection: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2),
+    tf.naive_fusion: dict(x1=[0.0, 1.0], cov1=_P, x2=[1.0, 0.0], cov2=np.eye(2)),
+    tf.bar_shalom_campo: dict(x1=[0.0, 1.0], cov1=_P, x2=[1.0, 0.0], cov2=np.eye(2),
+                              cov12=0.2 * np.eye(2)),
+    tf.covariance_intersection: dict(x1=[0.0, 1.0], cov1=_P, x2=[1.0, 0.0], cov2=np.eye(2),
                                      criterion="det", omega=0.5),
-    tf.ci_weight: dict(P1=_P, P2=np.eye(2), criterion="trace"),
-    tf.track_statistic: dict(x1=[0.0, 1.0], P1=_P, x2=[1.0, 0.0], P2=np.eye(2),
-                             P12=0.2 * np.eye(2)),
+    tf.ci_weight: dict(cov1=_P, cov2=np.eye(2), criterion="trace"),
+    tf.track_statistic: dict(x1=[0.0, 1.0], cov1=_P, x2=[1.0, 0.0], cov2=np.eye(2),
+                             cov12=0.2 * np.eye(2)),
     tf.blue_fusion: dict(x=[[0.0, 1.0], [1.0, 0.0]],
-                         covariance=np.block([[_P, 0.2 * np.eye(2)], [0.2 * np.eye(2), np.eye(2)]])),
+                         cov=np.block([[_P, 0.2 * np.eye(2)], [0.2 * np.eye(2), np.eye(2)]])),
     tf.constant_velocity: dict(dt=1.0, q=0.5, dim=1, noise="continuous"),
     # the prediction chapter 10 aligns tracks with (the engine's one home of it)
-    kalman_predict: dict(x=[0.0, 1.0], P=_P, dt=1.0, q=0.5, noise="continuous"),
+    kalman_predict: dict(x=[0.0, 1.0], cov=_P, dt=1.0, q=0.5, noise="continuous"),
     tf.cross_covariance: dict(F=_F, Q=_Q, H1=_H, R1=_R, H2=_H, R2=2 * _R, steps=3,
                               P1_0=10 * np.eye(2), P2_0=10 * np.eye(2), P12_0=np.zeros((2, 2))),
     tf.simulate_tracks: dict(F=_F, Q=_Q, H1=_H, R1=_R, H2=_H, R2=2 * _R, steps=3, trials=2,
@@ -160,13 +160,13 @@ def test_fusion_rules_never_return_inf_or_nan(rule):
     with pytest.raises(ValueError, match=r"`x1`.*2\*\*150"):
         rule(**kw)
     for P in (1e-310 * np.eye(2), 1e300 * np.eye(2)):        # subnormal / huge variances
-        with pytest.raises(ValueError, match=r"`P1`.*numeric domain"):
-            rule(**dict(VALID[rule], P1=P))
+        with pytest.raises(ValueError, match=r"`cov1`.*numeric domain"):
+            rule(**dict(VALID[rule], cov1=P))
     # inside the domain, at its extremes: finite, and the closed form for equal covariances
-    big = dict(VALID[rule], x1=[2.0**149, 0.0], x2=[-(2.0**149), 0.0], P1=np.eye(2),
-               P2=np.eye(2))
+    big = dict(VALID[rule], x1=[2.0**149, 0.0], x2=[-(2.0**149), 0.0], cov1=np.eye(2),
+               cov2=np.eye(2))
     if rule is tf.bar_shalom_campo:
-        big["P12"] = 0.5 * np.eye(2)
+        big["cov12"] = 0.5 * np.eye(2)
     out = rule(**big)
     if rule is tf.track_statistic:
         assert np.isfinite(out) or out == pytest.approx(0.0)
@@ -329,12 +329,12 @@ def test_radar_lengths_beyond_the_domain_are_refused_by_field(field):
 
 # --------------------------------------------------------------------------- S-D assignment
 def test_sd_counts_beyond_memory_are_refused_before_allocation():
-    from radarfusion_ref.engine.assignment import solve_sd
+    from radarfusion_ref.engine.assignment import assign_s_lists
 
     # counts of 10**9 reports per source asked numpy for 2.79 GiB of per-report masks
     with pytest.raises(ValueError, match=r"^`counts`: refused: .*3000000000 reports"):
-        solve_sd(np.zeros(1), np.zeros((1, 3), int), counts=[10**9] * 3)
-    ok = solve_sd(np.zeros(2), np.array([[0, 0, 0], [1, 1, 1]]), counts=[2, 2, 2])
+        assign_s_lists(np.zeros(1), np.zeros((1, 3), int), counts=[10**9] * 3)
+    ok = assign_s_lists(np.zeros(2), np.array([[0, 0, 0], [1, 1, 1]]), counts=[2, 2, 2])
     assert ok.groups.tolist() == [[0, 0, 0], [1, 1, 1]]
 
 

@@ -184,7 +184,7 @@ def test_gate_mahalanobis_2d_against_solve():
     x1, x2 = rng.standard_normal((n, 2)), rng.standard_normal((n, 2))
     d = x1 - x2
     ref = np.einsum("ni,ni->n", d, np.linalg.solve(s, d.T).T)
-    acc, k = gating.gate_mahalanobis_2d(x1, x2, s, chunk_size=1000, return_statistic=True)
+    acc, k = gating.gate_mahalanobis(x1, x2, s, chunk_size=1000, return_statistic=True)
     np.testing.assert_allclose(k, ref, rtol=1e-12)
     np.testing.assert_array_equal(acc, ref < stats.chi2.isf(0.01, 2))
 
@@ -193,10 +193,10 @@ def test_gate_mahalanobis_2d_chunk_size_irrelevant():
     rng = np.random.default_rng(4)
     x1, x2 = rng.standard_normal((999, 2)), rng.standard_normal((999, 2))
     s = np.array([[2.0, 0.3], [0.3, 1.0]])
-    base = gating.gate_mahalanobis_2d(x1, x2, s, return_statistic=True)[1]
+    base = gating.gate_mahalanobis(x1, x2, s, return_statistic=True)[1]
     for c in (1, 7, 998, 999, 5000):
         np.testing.assert_array_equal(
-            gating.gate_mahalanobis_2d(x1, x2, s, chunk_size=c, return_statistic=True)[1], base)
+            gating.gate_mahalanobis(x1, x2, s, chunk_size=c, return_statistic=True)[1], base)
 
 
 # ---------------------------------------------------------- bad input
@@ -249,17 +249,17 @@ def test_mismatched_shapes():
 
 def test_kernel_bad_input():
     with pytest.raises(ValueError, match="`x1`"):
-        gating.gate_mahalanobis_2d(np.zeros((3, 3)), np.zeros((3, 2)), np.eye(2))
+        gating.gate_mahalanobis(np.zeros((3, 3)), np.zeros((3, 2)), np.eye(2))
     with pytest.raises(ValueError, match="`x1` and `x2`"):
-        gating.gate_mahalanobis_2d(np.zeros((3, 2)), np.zeros((4, 2)), np.eye(2))
+        gating.gate_mahalanobis(np.zeros((3, 2)), np.zeros((4, 2)), np.eye(2))
     with pytest.raises(ValueError, match="`cov`"):
-        gating.gate_mahalanobis_2d(np.zeros((3, 2)), np.zeros((3, 2)), -np.eye(2))
+        gating.gate_mahalanobis(np.zeros((3, 2)), np.zeros((3, 2)), -np.eye(2))
     with pytest.raises(ValueError, match=r"`x2\[0:3\]` must be finite"):
-        gating.gate_mahalanobis_2d(np.zeros((3, 2)), np.full((3, 2), np.nan), np.eye(2))
+        gating.gate_mahalanobis(np.zeros((3, 2)), np.full((3, 2), np.nan), np.eye(2))
     x = np.zeros((10, 2))
     x[7, 1] = np.inf
     with pytest.raises(ValueError, match=r"`x1\[4:8\]` must be finite"):
-        gating.gate_mahalanobis_2d(x, x.copy(), np.eye(2), chunk_size=4)
+        gating.gate_mahalanobis(x, x.copy(), np.eye(2), chunk_size=4)
 
 
 # ---------------------------------------------------------- performance claims
@@ -269,7 +269,7 @@ def test_kernel_memory_bounded_by_chunking():
     n = 1_000_000
     x1, x2 = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
     tracemalloc.start()
-    gating.gate_mahalanobis_2d(x1, x2, np.eye(2))
+    gating.gate_mahalanobis(x1, x2, np.eye(2))
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < n * 1 + 2 * 2**20
@@ -304,8 +304,8 @@ def test_kernel_beats_python_loop():
             times.append(time.perf_counter() - t0)
         return min(times)
 
-    assert loop() == gating.gate_mahalanobis_2d(x1, x2, s).tolist()
-    ratio = best(loop) / best(lambda: gating.gate_mahalanobis_2d(x1, x2, s))
+    assert loop() == gating.gate_mahalanobis(x1, x2, s).tolist()
+    ratio = best(loop) / best(lambda: gating.gate_mahalanobis(x1, x2, s))
     assert ratio >= 20, f"kernel only {ratio:.1f}x faster than the Python loop"
 
 
@@ -389,8 +389,8 @@ def test_kernel_monotone_in_threshold_and_agrees_with_in_gate(seed, p1, p2):
     x1, x2 = rng.normal(size=(50, 2)) * 3, rng.normal(size=(50, 2))
     s = np.array([[1.5, 0.4], [0.4, 0.8]])
     lo, hi = sorted((p1, p2))
-    a_lo, k = gating.gate_mahalanobis_2d(x1, x2, s, p_false_reject=lo, return_statistic=True)
-    a_hi = gating.gate_mahalanobis_2d(x1, x2, s, p_false_reject=hi)
+    a_lo, k = gating.gate_mahalanobis(x1, x2, s, p_false_reject=lo, return_statistic=True)
+    a_hi = gating.gate_mahalanobis(x1, x2, s, p_false_reject=hi)
     assert np.all(a_lo >= a_hi)
     np.testing.assert_array_equal(a_lo, gating.in_gate(k, 2, lo))
 
@@ -409,18 +409,18 @@ def test_kernel_chunk_limit_checked_before_allocation():
     x = np.zeros((3, 2))
     tracemalloc.start()
     with pytest.raises(ValueError, match=r"refused: 1000000000 pairs per chunk.*limit of 1048576"):
-        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=10**9)
+        gating.gate_mahalanobis(x, x, np.eye(2), chunk_size=10**9)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 2**20
     with pytest.raises(TypeError, match="`chunk_size`"):
-        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=1e9)
+        gating.gate_mahalanobis(x, x, np.eye(2), chunk_size=1e9)
     with pytest.raises(TypeError, match="`chunk_size`"):
-        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=True)
+        gating.gate_mahalanobis(x, x, np.eye(2), chunk_size=True)
     with pytest.raises(ValueError, match="`chunk_size`"):
-        gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=0)
+        gating.gate_mahalanobis(x, x, np.eye(2), chunk_size=0)
     assert gating.MAX_CHUNK == 2**20
-    gating.gate_mahalanobis_2d(x, x, np.eye(2), chunk_size=gating.MAX_CHUNK)   # the limit is ok
+    gating.gate_mahalanobis(x, x, np.eye(2), chunk_size=gating.MAX_CHUNK)   # the limit is ok
 
 
 def test_required_noncentrality_root_limit_checked_first():
@@ -435,24 +435,24 @@ def test_required_noncentrality_root_limit_checked_first():
 def test_kernel_domain_exact_or_refused():
     big = np.array([[1e154, 0.0]])
     with pytest.raises(ValueError, match=r"`x1\[0:1\] - x2\[0:1\]` must lie within the numeric domain"):
-        gating.gate_mahalanobis_2d(big, -big, np.eye(2))
+        gating.gate_mahalanobis(big, -big, np.eye(2))
     with pytest.raises(ValueError, match="`cov` must have every variance within"):
-        gating.gate_mahalanobis_2d(np.zeros((1, 2)), np.zeros((1, 2)), 1e300 * np.eye(2))
+        gating.gate_mahalanobis(np.zeros((1, 2)), np.zeros((1, 2)), 1e300 * np.eye(2))
     edge = np.array([[2.0**149, 0.0]])             # the domain's edge: exact, not refused
-    acc, k = gating.gate_mahalanobis_2d(edge, -edge, 2.0**150 * np.eye(2), return_statistic=True)
+    acc, k = gating.gate_mahalanobis(edge, -edge, 2.0**150 * np.eye(2), return_statistic=True)
     assert k[0] == 2.0**150 and not acc[0]
 
 
 def test_kernel_other_arguments_validated():
     x = np.zeros((3, 2))
     with pytest.raises(TypeError, match="`return_statistic`"):
-        gating.gate_mahalanobis_2d(x, x, np.eye(2), return_statistic=1)
+        gating.gate_mahalanobis(x, x, np.eye(2), return_statistic=1)
     with pytest.raises(ValueError, match="`p_false_reject`"):
-        gating.gate_mahalanobis_2d(x, x, np.eye(2), p_false_reject=[0.01, 0.02])
+        gating.gate_mahalanobis(x, x, np.eye(2), p_false_reject=[0.01, 0.02])
     with pytest.raises(ValueError, match="`cov` must be symmetric"):
-        gating.gate_mahalanobis_2d(x, x, [[1.0, 0.5], [0.0, 1.0]])
+        gating.gate_mahalanobis(x, x, [[1.0, 0.5], [0.0, 1.0]])
     with pytest.raises(ValueError, match="`cov` must be positive definite"):
-        gating.gate_mahalanobis_2d(x, x, np.zeros((2, 2)))
+        gating.gate_mahalanobis(x, x, np.zeros((2, 2)))
 
 
 def test_shape_errors_name_public_arguments():
@@ -467,10 +467,10 @@ GATING_VALID = {
     "in_gate": dict(statistic=1.0, dof=2, p_false_reject=0.01),
     "p_false_accept": dict(noncentrality=3.0, dof=2, p_false_reject=0.01),
     "required_noncentrality": dict(p_accept=0.1, dof=2, p_false_reject=0.01),
-    "gate_mahalanobis_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)), cov=np.eye(2)),
-    "gate_pairwise_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)),
+    "gate_mahalanobis": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)), cov=np.eye(2)),
+    "gate_pairwise": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)),
                              cov1=np.stack([np.eye(2)] * 2), cov2=np.stack([np.eye(2)] * 2)),
-    "gate_sparse_2d": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)), cov=np.eye(2)),
+    "gate_sparse": dict(x1=np.zeros((2, 2)), x2=np.ones((2, 2)), cov=np.eye(2)),
 }
 
 
@@ -535,7 +535,7 @@ def test_gate_pairwise_against_exact_rational_arithmetic(seed, n1, n2, log_cond,
     x1, x2 = rng.normal(size=(n1, 2)) * 10, rng.normal(size=(n2, 2)) * 10
     c1 = _random_covs(rng, (n1,), 10.0**log_cond)
     c2 = _random_covs(rng, (n2,), 10.0**log_cond)
-    acc, kappa = gating.gate_pairwise_2d(x1, x2, c1, c2, p_false_reject=p,
+    acc, kappa = gating.gate_pairwise(x1, x2, c1, c2, p_false_reject=p,
                                          return_statistic=True)
     exact = np.array([[float(_kappa_exact((x1[i] - x2[j]).tolist(), (c1[i] + c2[j]).tolist()))
                        for j in range(n2)] for i in range(n1)])
@@ -545,7 +545,7 @@ def test_gate_pairwise_against_exact_rational_arithmetic(seed, n1, n2, log_cond,
     th = stats.chi2.isf(p, 2)
     clear = np.abs(exact - th) > tol                 # decisions away from the threshold
     assert np.array_equal(acc[clear], (exact < th)[clear])
-    assert np.array_equal(gating.gate_pairwise_2d(x1, x2, c1, c2, p_false_reject=p), acc)
+    assert np.array_equal(gating.gate_pairwise(x1, x2, c1, c2, p_false_reject=p), acc)
 
 
 def test_gate_pairwise_broadcasts_and_chunking_irrelevant():
@@ -553,12 +553,12 @@ def test_gate_pairwise_broadcasts_and_chunking_irrelevant():
     x1, x2 = rng.normal(size=(5, 4, 2)), rng.normal(size=(1, 3, 2))
     c1 = _random_covs(rng, (1, 1), 100.0)          # one covariance for every report and trial
     c2 = _random_covs(rng, (5, 3), 100.0)
-    acc, k = gating.gate_pairwise_2d(x1, x2, c1, c2, return_statistic=True)
+    acc, k = gating.gate_pairwise(x1, x2, c1, c2, return_statistic=True)
     ref = proximity.proximity_gaussian(x1[:, :, None], x2[:, None], c1[:, :, None], c2[:, None])
     assert acc.shape == k.shape == (5, 4, 3)
     np.testing.assert_allclose(k, ref, rtol=1e-12)
     for chunk in (1, 7, 100):
-        assert np.array_equal(gating.gate_pairwise_2d(x1, x2, c1, c2, chunk_size=chunk,
+        assert np.array_equal(gating.gate_pairwise(x1, x2, c1, c2, chunk_size=chunk,
                                                       return_statistic=True)[1], k)
 
 
@@ -566,7 +566,7 @@ def test_gate_pairwise_bad_input_named():
     eye = np.eye(2)[None]
     x = np.zeros((1, 2))
     cases = [
-        (ValueError, "`x1` must have shape", dict(x1=np.zeros((1, 3)))),
+        (ValueError, r"`x2` must have shape \(\.\.\., n, 3\)", dict(x1=np.zeros((1, 3)))),
         (ValueError, "`x2` must be finite", dict(x2=np.array([[np.nan, 0.0]]))),
         (ValueError, "`cov2` must be finite", dict(cov2=np.full((1, 2, 2), np.inf))),
         (ValueError, "`cov1` must be symmetric", dict(cov1=np.array([[[1.0, 0.5], [0.0, 1.0]]]))),
@@ -584,21 +584,21 @@ def test_gate_pairwise_bad_input_named():
     for exc, msg, kw in cases:
         args = dict(x1=x, x2=x, cov1=eye, cov2=eye) | kw
         with pytest.raises(exc, match=msg):
-            gating.gate_pairwise_2d(**args)
-    assert gating.gate_pairwise_2d(x, np.zeros((0, 2)), eye, np.zeros((0, 2, 2))).shape == (1, 0)
+            gating.gate_pairwise(**args)
+    assert gating.gate_pairwise(x, np.zeros((0, 2)), eye, np.zeros((0, 2, 2))).shape == (1, 0)
     with pytest.raises(TypeError, match="`return_statistic`"):
-        gating.gate_pairwise_2d(x, x, eye, eye, return_statistic="yes")
+        gating.gate_pairwise(x, x, eye, eye, return_statistic="yes")
     with pytest.raises(ValueError, match="`p_false_reject`"):
-        gating.gate_pairwise_2d(x, x, eye, eye, p_false_reject=1.0)
+        gating.gate_pairwise(x, x, eye, eye, p_false_reject=1.0)
     with pytest.raises(ValueError, match="`p_false_reject`"):
-        gating.gate_pairwise_2d(x, x, eye, eye, p_false_reject=[0.01, 0.02])
+        gating.gate_pairwise(x, x, eye, eye, p_false_reject=[0.01, 0.02])
     # a bad covariance deep in a large batch is found
     rng = np.random.default_rng(2)
     c = _random_covs(rng, (500, 4))
     c[377, 2] = [[1.0, 2.0], [2.0, 1.0]]
     xs = rng.normal(size=(500, 4, 2))
     with pytest.raises(ValueError, match=r"`cov2` must be positive definite.*1 of 2000"):
-        gating.gate_pairwise_2d(xs, xs, _random_covs(rng, (500, 4)), c)
+        gating.gate_pairwise(xs, xs, _random_covs(rng, (500, 4)), c)
 
 
 def test_gate_pairwise_limits_checked_before_allocation():
@@ -609,7 +609,7 @@ def test_gate_pairwise_limits_checked_before_allocation():
     tracemalloc.start()
     with pytest.raises(ValueError, match=r"refused: \d+ bytes for 40000000000 pairs.*smaller "
                                          r"batches"):
-        gating.gate_pairwise_2d(big, big, cov, cov)
+        gating.gate_pairwise(big, big, cov, cov)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 16 * 2**20
@@ -622,7 +622,7 @@ def test_gate_pairwise_memory_bounded_by_chunking():
     x1, x2 = rng.normal(size=(trials, n, 2)), rng.normal(size=(trials, n, 2))
     c1, c2 = _random_covs(rng, (trials, n)), _random_covs(rng, (trials, n))
     tracemalloc.start()
-    acc = gating.gate_pairwise_2d(x1, x2, c1, c2)
+    acc = gating.gate_pairwise(x1, x2, c1, c2)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     pairs = trials * n * n
@@ -640,11 +640,11 @@ def test_gate_sparse_equals_dense_kernel_on_all_pairs(seed, n1, n2, p, rho, log_
     side = np.sqrt(max(n1, n2, 1)) * 10.0**(log_scale / 2)
     x1, x2 = rng.uniform(0, side, (n1, 2)), rng.uniform(0, side, (n2, 2))
     s = 10.0**log_scale * np.array([[1.0, rho * 0.7], [rho * 0.7, 0.49]])
-    got = gating.gate_sparse_2d(x1, x2, s, p_false_reject=p)
+    got = gating.gate_sparse(x1, x2, s, p_false_reject=p)
     assert got.shape == (n1, n2)
     # brute force: the dense kernel on every pair (an n1 n2 loop of pairs)
     ii, jj = np.meshgrid(np.arange(n1), np.arange(n2), indexing="ij")
-    acc, k = gating.gate_mahalanobis_2d(x1[ii.ravel()], x2[jj.ravel()], s, p_false_reject=p,
+    acc, k = gating.gate_mahalanobis(x1[ii.ravel()], x2[jj.ravel()], s, p_false_reject=p,
                                         return_statistic=True)
     dense = np.zeros((n1, n2), dtype=bool)
     dense[ii.ravel()[acc], jj.ravel()[acc]] = True
@@ -661,27 +661,64 @@ def test_gate_sparse_equals_dense_kernel_on_all_pairs(seed, n1, n2, p, rho, log_
 
 
 def test_gate_sparse_explicit_zero_limits_and_errors():
-    k = gating.gate_sparse_2d([[1.0, 2.0]], [[1.0, 2.0], [50.0, 0.0]], np.eye(2))
+    k = gating.gate_sparse([[1.0, 2.0]], [[1.0, 2.0], [50.0, 0.0]], np.eye(2))
     assert k.nnz == 1 and k.toarray().tolist() == [[0.0, 0.0]]    # coincident: stored 0
-    assert gating.gate_sparse_2d(np.zeros((0, 2)), np.zeros((3, 2)), np.eye(2)).shape == (0, 3)
+    assert gating.gate_sparse(np.zeros((0, 2)), np.zeros((3, 2)), np.eye(2)).shape == (0, 3)
     # all pairs of 12 000 coincident reports are candidates (1.44e8 pairs): counted, refused
     x = np.zeros((12_000, 2))
     tracemalloc.start()
     with pytest.raises(ValueError, match=r"refused: \d+ bytes for 144000000 candidate pairs"):
-        gating.gate_sparse_2d(x, x, np.eye(2))
+        gating.gate_sparse(x, x, np.eye(2))
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 64 * 2**20
     with pytest.raises(ValueError, match="`cov` must be positive definite"):
-        gating.gate_sparse_2d(np.zeros((2, 2)), np.zeros((2, 2)), -np.eye(2))
+        gating.gate_sparse(np.zeros((2, 2)), np.zeros((2, 2)), -np.eye(2))
     with pytest.raises(ValueError, match="`cov` must have shape"):
-        gating.gate_sparse_2d(np.zeros((2, 2)), np.zeros((2, 2)), np.eye(3))
+        gating.gate_sparse(np.zeros((2, 2)), np.zeros((2, 2)), np.eye(3))
     with pytest.raises(ValueError, match="`x1` and `x2` must have shapes"):
-        gating.gate_sparse_2d(np.zeros((2, 2, 2)), np.zeros((2, 2)), np.eye(2))
+        gating.gate_sparse(np.zeros((2, 2, 2)), np.zeros((2, 2)), np.eye(2))
     with pytest.raises(ValueError, match="`x1` must lie within the numeric domain"):
-        gating.gate_sparse_2d([[1e300, 0.0]], [[0.0, 0.0]], np.eye(2))
+        gating.gate_sparse([[1e300, 0.0]], [[0.0, 0.0]], np.eye(2))
     with pytest.raises(ValueError, match="`cov` must have every variance within"):
-        gating.gate_sparse_2d([[1.0, 0.0]], [[0.0, 0.0]], 1e-300 * np.eye(2))
+        gating.gate_sparse([[1.0, 0.0]], [[0.0, 0.0]], 1e-300 * np.eye(2))
     with pytest.raises(ValueError, match="`p_false_reject`"):
-        gating.gate_sparse_2d(np.zeros((2, 2)), np.zeros((2, 2)), np.eye(2), p_false_reject=0.0)
+        gating.gate_sparse(np.zeros((2, 2)), np.zeros((2, 2)), np.eye(2), p_false_reject=0.0)
 
+
+
+@pytest.mark.parametrize("d", [1, 3, 4])
+def test_gates_in_any_dimension_match_the_chi_square_rule(d):
+    """The three gates in d dimensions: kappa by an explicit inverse, the threshold by
+    scipy.stats.chi2 with d degrees of freedom (the reference is not the gate's kernel)."""
+    rng = np.random.default_rng(30 + d)
+    n1, n2, p = 7, 9, 0.05
+    x1, x2 = rng.normal(size=(n1, d)) * 2.0, rng.normal(size=(n2, d)) * 2.0
+    a = rng.normal(size=(d, d))
+    S = a @ a.T + d * np.eye(d)
+    c1 = np.stack([0.3 * S] * n1)
+    c2 = np.stack([0.7 * S] * n2)
+    diff = x1[:, None, :] - x2[None, :, :]
+    kappa = np.einsum("ijk,kl,ijl->ij", diff, np.linalg.inv(S), diff)
+    gamma = stats.chi2.isf(p, d)
+    acc, k = gating.gate_pairwise(x1, x2, c1, c2, p_false_reject=p, return_statistic=True)
+    np.testing.assert_allclose(k, kappa, rtol=1e-10)
+    np.testing.assert_array_equal(acc, kappa < gamma)
+    assert 0 < acc.sum() < acc.size                       # both decisions occur
+    i, j = np.meshgrid(np.arange(n1), np.arange(n2), indexing="ij")
+    acc2, k2 = gating.gate_mahalanobis(x1[i.ravel()], x2[j.ravel()], S, p_false_reject=p,
+                                       return_statistic=True)
+    np.testing.assert_allclose(k2, kappa.ravel(), rtol=1e-10)
+    np.testing.assert_array_equal(acc2, kappa.ravel() < gamma)
+    sp = gating.gate_sparse(x1, x2, S, p_false_reject=p).toarray()
+    np.testing.assert_array_equal(sp > 0, (kappa < gamma) & (kappa > 0))
+    np.testing.assert_allclose(sp[kappa < gamma], kappa[kappa < gamma], rtol=1e-10)
+
+
+def test_gates_refuse_mixed_dimensions_by_name():
+    with pytest.raises(ValueError, match=r"`x1` and `x2` must have shapes \(n1, d\)"):
+        gating.gate_sparse(np.zeros((2, 3)), np.zeros((2, 2)), np.eye(3))
+    with pytest.raises(ValueError, match=r"`x1` and `x2` must both have shape \(N, d\)"):
+        gating.gate_mahalanobis(np.zeros((2, 3)), np.zeros((2, 2)), np.eye(3))
+    with pytest.raises(ValueError, match=r"`cov` must have shape \(3, 3\)|`cov`"):
+        gating.gate_mahalanobis(np.zeros((2, 3)), np.zeros((2, 3)), np.eye(2))

@@ -746,9 +746,9 @@ def test_public_functions_are_all_fuzzed():
 # ================================================================ S-D at scale: gate, Lagrangian,
 # dummy index. Oracles: brute-force enumeration of groupings and of partitions into groups of at
 # most one report per source, the dense full-tensor MILP, scipy.stats.chi2 and explicit pair loops
-# for the gate, and chapter 04's non_assignment_cost with the 2-D solve_2d for m = 2.
+# for the gate, and chapter 04's non_assignment_cost with the 2-D assign_two_lists for m = 2.
 from radarfusion_ref import association  # noqa: E402
-from radarfusion_ref.engine.assignment import solve_2d  # noqa: E402
+from radarfusion_ref.engine.assignment import assign_two_lists  # noqa: E402
 
 
 def geometric_scene(m, n, seed, noise=0.25):
@@ -962,7 +962,7 @@ def test_dummy_index_m2_is_chapter_04_assignment_with_non_assignment_cost():
                                          false_density2=rf2, object_density=rt,
                                          innovation_cov=c1 + c2)
     kappa = pair_kappa_loop(x1, np.broadcast_to(c1, (5, 2, 2)), x2, np.broadcast_to(c2, (6, 2, 2)))
-    ref = solve_2d(kappa, miss_cost=c0)
+    ref = assign_two_lists(kappa, miss_cost=c0)
     r = grouping.group_sd([x1, x2], [c1, c2], p_detect=[pd1, pd2], false_density=[rf1, rf2],
                           object_density=rt)
     pairs = {tuple(g) for g in r.groups.tolist() if min(g) >= 0}
@@ -1122,7 +1122,7 @@ def _reference_groups(xs, cs, gamma, det, *, median):
              - 2.0 * np.where(present, 0.0, np.log1p(-pd)).sum(axis=1))
     cost = np.where(cnt == 1, lone[np.argmax(present, axis=1)], group)
     from radarfusion_ref.engine import assignment
-    return assignment.solve_sd(cost, T, counts=counts).groups
+    return assignment.assign_s_lists(cost, T, counts=counts).groups
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -157,7 +157,7 @@ def false_pairs(params, n, rng):
     offset = L_PAIR @ [np.sqrt(params["lam"]), 0.0]
     x1 = rng.standard_normal((n, 2)) @ L1.T
     x2 = offset + rng.standard_normal((n, 2)) @ L2.T
-    acc, kappa = gating.gate_mahalanobis_2d(x1, x2, S_PAIR, p_false_reject=params["p_lo"],
+    acc, kappa = gating.gate_mahalanobis(x1, x2, S_PAIR, p_false_reject=params["p_lo"],
                                             return_statistic=True)
     return {"accepted": acc, "kappa": kappa}
 

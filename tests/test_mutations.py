@@ -42,7 +42,7 @@ MUTATIONS = {
                 return np.asarray(f(*a, **k)) * 1.01
             return g
         """),
-    "book/04_association": ("radarfusion_ref.engine.assignment", "solve_2d", """
+    "book/04_association": ("radarfusion_ref.engine.assignment", "assign_two_lists", """
         def wrap(f):
             @functools.wraps(f)
             def g(cost, *a, **k):
@@ -398,9 +398,9 @@ MUTATIONS = {
     "book/11_capstone:gospa-cut-pairs-kept": ("radarfusion_ref.engine.metrics", "gospa", """
         def wrap(f):
             @functools.wraps(f)
-            def g(x, y, *, c, p=2.0, alpha=2.0, parts=True):
+            def g(x, y, *, c, p=2.0, parts=True):
                 from scipy.optimize import linear_sum_assignment
-                r = f(x, y, c=c, p=p, alpha=alpha, parts=parts)
+                r = f(x, y, c=c, p=p, parts=parts)
                 X, Y = np.asarray(x, float), np.asarray(y, float)
                 if X.size == 0 or Y.size == 0:
                     return r

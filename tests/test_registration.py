@@ -22,7 +22,7 @@ from scipy import stats
 
 from radarfusion_ref import gating
 from radarfusion_ref import registration as rg
-from radarfusion_ref.engine.assignment import solve_2d
+from radarfusion_ref.engine.assignment import assign_two_lists
 from radarfusion_ref.engine.errors import RadarFusionWarning
 
 SITES = np.array([[0.0, 0.0], [30.0, 0.0]])
@@ -307,7 +307,7 @@ def test_registration_recovers_the_association():
                                     p_false_reject=0.01)
     assert reg.converged and reg.iterations == len(reg.history) >= 2
     np.testing.assert_array_equal(reg.association.row_to_col, sc.true_row_to_col)
-    unreg = solve_2d(
+    unreg = assign_two_lists(
         rg.cost_matrix(SITES, sc.reports1, sc.reports2, SR, SB),
         threshold=gating.gate_threshold(0.01, 2))
     assert not np.array_equal(unreg.row_to_col, sc.true_row_to_col)
@@ -336,7 +336,7 @@ def test_warn_without_any_estimate_warns_and_returns_the_last_pass():
             reg = rg.register_and_associate(s, z1, z2, 0.02, 2e-4, initial=initial)
     assert not reg.converged and reg.estimate is None and len(reg.history) == 1
     np.testing.assert_array_equal(reg.biases, initial)
-    expect = solve_2d(rg.cost_matrix(s, z1, z2, 0.02, 2e-4, biases=initial))
+    expect = assign_two_lists(rg.cost_matrix(s, z1, z2, 0.02, 2e-4, biases=initial))
     np.testing.assert_array_equal(reg.association.row_to_col, expect.row_to_col)
     with pytest.raises(rg.RegistrationError, match="too few"):
         rg.register_and_associate(s, z1, z2, 0.02, 2e-4, on_failure="raise")
@@ -505,3 +505,15 @@ def test_joint_registration_decisions_do_not_depend_on_the_length_unit(exponent,
     assert got.iterations == ref.iterations and got.converged == ref.converged
     units = np.array([k, 1.0, 1.0])
     np.testing.assert_allclose(got.biases / units, ref.biases, rtol=1e-6, atol=1e-12)
+
+
+def test_a_report_at_the_radar_site_is_named_not_the_sigmas():
+    """A report next to its radar (range r with r*sigma_beta < 1e-6 sigma_r) has a singular
+    covariance whatever the sigmas: the refusal names that report's argument and index."""
+    sites = [[0.0, 0.0], [50.0, 0.0]]
+    for k, (r1, r2) in enumerate((([[1e-20, 0.3], [30.0, 0.2]], [[50.0, 3.1]]),
+                                   ([[30.0, 0.2]], [[40.0, 3.1], [1e-9, 1.0]]))):
+        with pytest.raises(ValueError, match=rf"`reports{k + 1}`: report \(\d+,\) is at range"):
+            rg.cost_matrix(sites, r1, r2, 0.1, 1e-3)
+    # a short but resolvable range is scored, not refused
+    assert np.all(np.isfinite(rg.cost_matrix(sites, [[1e-3, 0.3]], [[50.0, 3.1]], 0.1, 1e-3)))

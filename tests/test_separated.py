@@ -502,9 +502,9 @@ def test_sizes_are_refused_before_allocation():
         scenes.polar_scene(GEO, sigma_r=0.1, sigma_beta=DEG, trials=10**8)
     eight = geometry.Geometry(30.0, 0.0, np.array([[100.0 + 3 * k, 100.0] for k in range(8)]))
     t0 = time.perf_counter()
-    with pytest.raises(ValueError, match=r"engine\.assignment\.solve_2d"):
+    with pytest.raises(ValueError, match=r"engine\.assignment\.assign_two_lists"):
         sep.association_experiment(eight, trials=10)
-    with pytest.raises(ValueError, match=r"engine\.assignment\.solve_2d"):
+    with pytest.raises(ValueError, match=r"engine\.assignment\.assign_two_lists"):
         sep.joint_outcome(np.zeros((8, 8)))
     with pytest.raises(ValueError, match="bytes of pairing costs"):
         sep.joint_outcome(np.zeros((40_000, 7, 7)))

@@ -146,7 +146,7 @@ def test_sprt_thresholds_wald_inequality_by_simulation():
 
 @pytest.mark.parametrize(("alpha", "beta"), [(0.0, 0.1), (1.0, 0.1), (0.6, 0.5), (0.1, -0.1)])
 def test_sprt_refuses_by_name(alpha, beta):
-    with pytest.raises(ValueError, match=r"`alpha`|`beta`"):
+    with pytest.raises(ValueError, match=r"`p_false_confirm`|`p_false_delete`"):
         sprt_thresholds(alpha, beta)
 
 
@@ -419,10 +419,10 @@ def test_imm_vectorised_over_tracks_equals_one_at_a_time():
     ({"dt": [1.0, 2.0, 3.0], "transition": np.array([PI, PI])}, "`transition`"),
     ({"dt": -1.0}, "`dt`"),
     ({"x": np.zeros((3, 2))}, "`x`"),
-    ({"P": np.eye(2)}, "`P`"),
+    ({"cov": np.eye(2)}, "`cov`"),
 ])
 def test_imm_bad_input_refused_by_name(kw, match):
-    args = {"probability": [0.5, 0.5], "x": np.zeros((2, 2)), "P": np.array([np.eye(2)] * 2),
+    args = {"probability": [0.5, 0.5], "x": np.zeros((2, 2)), "cov": np.array([np.eye(2)] * 2),
             "transition": PI, "dt": 1.0, "q": [1.0, 10.0]}
     args.update(kw)
     with pytest.raises(ValueError, match=match):
@@ -433,7 +433,7 @@ def test_imm_update_and_combine_refuse_by_name():
     x, P = np.zeros((2, 2)), np.array([np.eye(2)] * 2)
     with pytest.raises(ValueError, match="`probability`"):
         imm_update([0.7, 0.7], x, P, [1.0], [[1.0]])
-    with pytest.raises(ValueError, match="`R`"):
+    with pytest.raises(ValueError, match="`z_cov`"):
         imm_update([0.5, 0.5], x, P, [1.0], [[-1.0]])
     with pytest.raises(ValueError, match="`z`"):
         imm_update([0.5, 0.5], x, P, [1.0, 2.0], [[1.0]])

@@ -297,11 +297,11 @@ def test_cross_covariance_matches_a_monte_carlo_of_two_filters():
 # --------------------------------------------------------------------------- bad input
 def test_joint_covariance_not_psd_is_refused_by_name():
     P = np.eye(2)
-    with pytest.raises(ValueError, match=r"`P12`.*positive semi-definite"):
+    with pytest.raises(ValueError, match=r"`cov12`.*positive semi-definite"):
         tf.bar_shalom_campo([0, 0], P, [0, 0], P, 1.5 * np.eye(2))
-    with pytest.raises(ValueError, match=r"`P12`.*positive semi-definite"):
+    with pytest.raises(ValueError, match=r"`cov12`.*positive semi-definite"):
         tf.track_statistic([0, 0], P, [0, 0], P, [[0.0, 2.0], [0.0, 0.0]])
-    with pytest.raises(ValueError, match=r"`P12`.*singular"):
+    with pytest.raises(ValueError, match=r"`cov12`.*singular"):
         tf.bar_shalom_campo([0, 0], P, [0, 0], P, P)              # identical tracks
     with pytest.raises(ValueError, match=r"`P12_0`.*positive semi-definite"):
         tf.cross_covariance(np.eye(2), np.eye(2), [[1, 0]], [[1]], [[1, 0]], [[1]], steps=2,
@@ -323,7 +323,7 @@ def test_omega_and_options_are_validated():
         tf.cross_covariance(np.eye(2), np.eye(2), [[1, 0]], [[1]], [[1, 0]], [[1]], P1_0=P)
     with pytest.raises(ValueError, match="`Q` must be positive semi-definite"):
         tf.cross_covariance(np.eye(2), -np.eye(2), [[1, 0]], [[1]], [[1, 0]], [[1]])
-    with pytest.raises(ValueError, match="`P1`"):
+    with pytest.raises(ValueError, match="`cov1`"):
         tf.naive_fusion([0, 0], -P, [0, 0], P)
     with pytest.raises(ValueError, match="`x2`"):
         tf.naive_fusion([0, 0], P, [0, 0, 0], P)
@@ -353,7 +353,7 @@ def test_ci_weight_minimises_the_criterion_on_a_fine_grid():
             assert abs(w - grid[np.argmin(value)]) <= 1e-3
     with pytest.raises(ValueError, match="`criterion`"):
         ci_weight(np.eye(2), np.eye(2), criterion="max")
-    with pytest.raises(ValueError, match="`P2`"):
+    with pytest.raises(ValueError, match="`cov2`"):
         ci_weight(np.eye(2), -np.eye(2))
 
 
@@ -414,15 +414,15 @@ def test_blue_fusion_covariance_is_the_error_covariance_monte_carlo():
 
 
 def test_blue_fusion_refuses_bad_input_by_name():
-    with pytest.raises(ValueError, match=r"`covariance` must have shape \(\.\.\., 4, 4\) for `x`"):
+    with pytest.raises(ValueError, match=r"`cov` must have shape \(\.\.\., 4, 4\) for `x`"):
         tf.blue_fusion(np.zeros((2, 2)), np.eye(3))
-    with pytest.raises(ValueError, match="`covariance`"):
+    with pytest.raises(ValueError, match="`cov`"):
         tf.blue_fusion(np.zeros((2, 1)), [[1.0, 2.0], [2.0, 1.0]])        # not PD
     with pytest.raises(ValueError, match=r"`x` must have shape \(\.\.\., n, d\)"):
         tf.blue_fusion(np.zeros((0, 2)), np.eye(0))
     with pytest.raises(ValueError, match="`x`"):
         tf.blue_fusion([1.0, 2.0], np.eye(2))                              # no (n, d) axes
-    with pytest.raises(ValueError, match=r"`x`, `covariance` must have broadcasting"):
+    with pytest.raises(ValueError, match=r"`x`, `cov` must have broadcasting"):
         tf.blue_fusion(np.zeros((3, 2, 1)), np.broadcast_to(np.eye(2), (4, 2, 2)))
     with pytest.raises(ValueError, match=r"`x`.*2\*\*150"):
         tf.blue_fusion([[1e300], [0.0]], np.eye(2))

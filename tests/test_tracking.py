@@ -65,7 +65,7 @@ def _labels(h, inputs, truth):
 
 # --------------------------------------------------------------------------- settings
 @pytest.mark.parametrize(("field", "value"), [
-    ("p_detection", 0.0), ("p_detection", 1.0), ("alpha", 1.5), ("beta", -0.1),
+    ("p_detection", 0.0), ("p_detection", 1.0), ("p_false_confirm", 1.5), ("p_false_delete", -0.1),
     ("p_false_reject", 1.0), ("k", 0), ("m", 0), ("n", 0), ("max_coast", 0.0),
     ("q", -1.0), ("clutter_density", 0.0), ("speed_max", np.inf), ("miss_scans", 0),
     ("association", "nn"), ("confirmation", "both"), ("max_events", 0),
@@ -76,13 +76,13 @@ def test_settings_refuse_each_field_by_name(field, value):
 
 
 def test_settings_thresholds_in_order():
-    with pytest.raises(ValueError, match=r"`alpha` \+ `beta`"):
-        TrackerSettings(alpha=0.6, beta=0.5)
+    with pytest.raises(ValueError, match=r"`p_false_confirm` \+ `p_false_delete`"):
+        TrackerSettings(p_false_confirm=0.6, p_false_delete=0.5)
     with pytest.raises(ValueError, match="`m` must be <= `n`"):
         TrackerSettings(m=5, n=3)
     with pytest.raises(TypeError, match="`k`"):
         TrackerSettings(k=2.5)
-    s = TrackerSettings(alpha=1e-3, beta=0.01)
+    s = TrackerSettings(p_false_confirm=1e-3, p_false_delete=0.01)
     assert s.lower == pytest.approx(np.log(0.01 / 0.999))
     assert s.upper == pytest.approx(np.log(0.99 / 1e-3))
 
@@ -101,7 +101,7 @@ def test_bad_reports_refused_by_name():
         track_reports(tb, z, R, r, s)
     Rb = R.copy()
     Rb[0] = -Rb[0]
-    with pytest.raises(ValueError, match="`covariance`"):
+    with pytest.raises(ValueError, match="`cov`"):
         track_reports(t, z, Rb, r, s)
     with pytest.raises(TypeError, match="`radar`"):
         track_reports(t, z, R, r.astype(float), s)
@@ -164,7 +164,7 @@ def test_crossing_targets_keep_their_identities(association, confirmation):
                            p_detect=0.9)
     # about 240 false reports start tentative tracks: alpha = 1e-5 makes a false
     # confirmation unlikely (Wald's bound: 240 alpha / (1 - beta) = 0.0024 expected)
-    s = TrackerSettings(association=association, confirmation=confirmation, alpha=1e-5,
+    s = TrackerSettings(association=association, confirmation=confirmation, p_false_confirm=1e-5,
                         clutter_density=3 / (1e5 * 1e5 * 1.2e4))
     h = track_reports(*inputs, settings=s)
     labels = _labels(h, inputs, truth)
@@ -183,10 +183,10 @@ def test_false_confirmation_rate_in_pure_clutter_within_design():
     t = np.repeat(np.arange(scans) * 5.0, per)
     z = rng.uniform([-2e5, -2e5, 0], [2e5, 2e5, 1.5e4], (t.size, 3))
     R = np.broadcast_to(np.diag(SIGMA**2), (t.size, 3, 3))
-    s = TrackerSettings(clutter_density=per / (4e5 * 4e5 * 1.5e4), alpha=0.01, beta=0.01)
+    s = TrackerSettings(clutter_density=per / (4e5 * 4e5 * 1.5e4), p_false_confirm=0.01, p_false_delete=0.01)
     h = track_reports(t, z, R, np.zeros(t.size, int), np.repeat(np.arange(scans), per),
                       settings=s)
-    bound = s.alpha / (1 - s.beta)                 # Wald's bound on the false-confirmation rate
+    bound = s.p_false_confirm / (1 - s.p_false_delete)                 # Wald's bound on the false-confirmation rate
     assert h.initiated > 4000
     assert h.n_confirmed / h.initiated <= bound + binomial_tolerance(bound, h.initiated)
 
@@ -220,7 +220,7 @@ def test_memory_bounded_over_many_scans_of_clutter():
 @pytest.mark.parametrize("arch", ["b", "c"])
 def test_other_architectures_track_each_target_once(arch):
     inputs, _ = _scene(n_targets=2, scans=40, radars=3, clutter=1, seed=7, p_detect=0.9)
-    s = TrackerSettings(alpha=1e-5, clutter_density=1 / (1e5 * 1e5 * 1.2e4))
+    s = TrackerSettings(p_false_confirm=1e-5, clutter_density=1 / (1e5 * 1e5 * 1.2e4))
     if arch == "b":
         h = fuse_then_track(*inputs, window=5.0, settings=s)
     else:
@@ -292,12 +292,12 @@ def test_relinking_bridges_a_gap_longer_than_the_deletion():
         on = h.confirmed & (np.abs(h.state[:, 1]) < 1e4)
         return np.unique(h.track[on]), h.time[on].max()
 
-    broken = track_reports(*args, settings=TrackerSettings(alpha=0.01, relink=False))
-    kept = track_reports(*args, settings=TrackerSettings(alpha=0.01))
+    broken = track_reports(*args, settings=TrackerSettings(p_false_confirm=0.01, relink=False))
+    kept = track_reports(*args, settings=TrackerSettings(p_false_confirm=0.01))
     assert ids(broken)[0].size == 2
     assert ids(kept)[0].size == 1 and ids(kept)[1] == t.max()
     # the same gap beyond max_coast: the old track is forgotten, the identity is new
-    late = track_reports(*args, settings=TrackerSettings(alpha=0.01, max_coast=15.0))
+    late = track_reports(*args, settings=TrackerSettings(p_false_confirm=0.01, max_coast=15.0))
     assert ids(late)[0].size == 2
 
 
@@ -313,8 +313,8 @@ def test_a_duplicate_of_a_confirmed_track_is_not_confirmed():
     z[glitch, 1] += 600.0
     R = np.broadcast_to(np.diag(SIGMA**2), (t.size, 3, 3))
     args = (t, z, R, radar, np.arange(t.size) // 2)
-    plain = track_reports(*args, settings=TrackerSettings(alpha=0.01, relink=False))
-    kept = track_reports(*args, settings=TrackerSettings(alpha=0.01))
+    plain = track_reports(*args, settings=TrackerSettings(p_false_confirm=0.01, relink=False))
+    kept = track_reports(*args, settings=TrackerSettings(p_false_confirm=0.01))
     assert np.unique(plain.track[plain.confirmed]).size == 2
     assert np.unique(kept.track[kept.confirmed]).size == 1
     assert kept.time[kept.confirmed].max() == t.max()
@@ -385,8 +385,8 @@ def test_motion_settings_refused_by_name(field, value):
 @pytest.mark.parametrize("arch", ["a", "b", "c"])
 def test_vertical_settings_equal_to_the_horizontal_change_nothing(arch):
     inputs, _ = _scene(n_targets=2, scans=20, radars=2, clutter=1, seed=3, p_detect=0.9)
-    base = TrackerSettings(alpha=1e-4)
-    same = TrackerSettings(alpha=1e-4, q_vertical=base.q, speed_max_vertical=base.speed_max)
+    base = TrackerSettings(p_false_confirm=1e-4)
+    same = TrackerSettings(p_false_confirm=1e-4, q_vertical=base.q, speed_max_vertical=base.speed_max)
     run = {"a": track_reports,
            "b": lambda *a, settings: fuse_then_track(*a, window=5.0, settings=settings),
            "c": lambda *a, settings: track_then_fuse(*a, period=5.0, settings=settings,
@@ -419,7 +419,7 @@ def test_process_noise_per_axis_is_the_closed_form():
 def test_vertical_noise_and_prior_reach_the_track():
     inputs, _ = _scene(scans=3)
     t, z, R, _, _ = inputs
-    s = TrackerSettings(q=40.0, q_vertical=3.0, speed_max_vertical=12.0, alpha=0.1)
+    s = TrackerSettings(q=40.0, q_vertical=3.0, speed_max_vertical=12.0, p_false_confirm=0.1)
     h = track_reports(*inputs, settings=s)
     x = np.r_[z[0], 0, 0, 0]
     P = np.zeros((6, 6))
@@ -466,7 +466,7 @@ def test_stonesoup_model_matrices_equal_ours():
 @pytest.mark.parametrize("association", ["gnn", "jpda"])
 def test_imm_of_identical_modes_is_the_constant_velocity_tracker(association):
     inputs, _ = _scene(n_targets=2, scans=25, radars=2, clutter=2, seed=4, p_detect=0.9)
-    kw = dict(association=association, alpha=1e-4, q=30.0, q_vertical=3.0,
+    kw = dict(association=association, p_false_confirm=1e-4, q=30.0, q_vertical=3.0,
               speed_max_vertical=20.0, clutter_density=2 / (1e5 * 1e5 * 1.2e4))
     h0 = track_reports(*inputs, settings=TrackerSettings(**kw))
     h1 = track_reports(*inputs, settings=TrackerSettings(
@@ -506,7 +506,7 @@ def test_imm_follows_a_turn_and_stays_quiet_in_straight_flight():
     # 88 m (loud); in straight flight 91 m (IMM), 89 m (quiet), 109 m (loud)
     turn = {"quiet": [], "loud": [], "imm": []}
     calm = {"quiet": [], "loud": [], "imm": []}
-    base = dict(alpha=0.01, q_vertical=1.0, speed_max_vertical=10.0)
+    base = dict(p_false_confirm=0.01, q_vertical=1.0, speed_max_vertical=10.0)
     runs = {"quiet": TrackerSettings(q=2.0, **base), "loud": TrackerSettings(q=400.0, **base),
             "imm": TrackerSettings(motion="imm", imm_q=(2.0, 400.0), **base)}
     for seed in range(4):
@@ -525,7 +525,7 @@ def test_imm_follows_a_turn_and_stays_quiet_in_straight_flight():
 
 def test_imm_runs_in_the_other_architectures():
     inputs, _ = _scene(n_targets=2, scans=30, radars=3, clutter=1, seed=7, p_detect=0.9)
-    s = TrackerSettings(alpha=1e-5, clutter_density=1 / (1e5 * 1e5 * 1.2e4), motion="imm")
+    s = TrackerSettings(p_false_confirm=1e-5, clutter_density=1 / (1e5 * 1e5 * 1.2e4), motion="imm")
     assert fuse_then_track(*inputs, window=5.0, settings=s).n_confirmed == 2
     assert track_then_fuse(*inputs, period=5.0, settings=s).n_confirmed == 2
     with pytest.raises(ValueError, match="`rule`"):
@@ -558,7 +558,7 @@ def test_imm_jpda_on_one_target_is_the_mixture_over_event_and_mode_by_hand():
     inputs, _ = _scene(scans=8)
     t, z, R, _, _ = inputs
     # a clutter density this high makes the miss event weigh (beta 0.79 at the second scan)
-    s = TrackerSettings(motion="imm", association="jpda", alpha=0.1, imm_q=(3.0, 200.0),
+    s = TrackerSettings(motion="imm", association="jpda", p_false_confirm=0.1, imm_q=(3.0, 200.0),
                         imm_sojourn=(60.0, 15.0), imm_probability=(0.7, 0.3),
                         clutter_density=5e-11)
     h = track_reports(*inputs, settings=s)
@@ -597,7 +597,7 @@ def test_imm_gnn_on_one_target_is_the_engine_s_imm_cycle_by_hand():
     from radarfusion_ref.engine.tracker import imm_combine, imm_predict, imm_update
     inputs, _ = _scene(scans=10)
     t, z, R, _, _ = inputs
-    s = TrackerSettings(motion="imm", alpha=0.1, imm_q=(3.0, 200.0), imm_sojourn=(60.0, 15.0),
+    s = TrackerSettings(motion="imm", p_false_confirm=0.1, imm_q=(3.0, 200.0), imm_sojourn=(60.0, 15.0),
                         imm_probability=(0.7, 0.3), speed_max_vertical=30.0)
     h = track_reports(*inputs, settings=s)
     assert np.unique(h.track).size == 1 and len(h) == t.size

@@ -153,11 +153,11 @@ def test_covariance_rule_is_scale_free_and_refuses_singular_to_precision():
 
 # --------------------------------------------------------------------------- one covariance rule
 #: Argument names that hold a covariance matrix (or a stack of them) in the public API.
-COVARIANCE_ARGUMENTS = {"cov", "covariance", "covariances", "P", "R", "R1", "R2", "cov1", "cov2",
-                        "P1", "P2", "P1_0", "P2_0", "track_cov", "innovation_cov"}
+COVARIANCE_ARGUMENTS = {"cov", "covariances", "z_cov", "R1", "R2", "cov1", "cov2", "P1_0",
+                        "P2_0", "track_cov", "innovation_cov"}
 #: Names that look like a covariance argument and are not one, each with its reason.
 NOT_COVARIANCES = {
-    "P12": "a cross-covariance: any real matrix",
+    "cov12": "a cross-covariance: any real matrix",
     "P12_0": "a cross-covariance: any real matrix",
     "Q": "process noise: positive semi-definite (a singular Q is legitimate)",
     "prior_cov": "a prior's covariance: positive semi-definite (zero, the default, is the truth)",
@@ -226,7 +226,7 @@ def _cv_state(n):
 def _tracking_reports():
     t = np.arange(6) * 5.0
     z = np.c_[100.0 * t, np.zeros(6), np.full(6, 9000.0)]
-    return dict(time=t, position=z, covariance=np.tile(100.0 * np.eye(3), (6, 1, 1)),
+    return dict(time=t, position=z, cov=np.tile(100.0 * np.eye(3), (6, 1, 1)),
                 radar=np.zeros(6, int), scan=np.arange(6))
 
 
@@ -275,20 +275,20 @@ def _valid_calls():
         "scenes.grouping_scene": (scenes.grouping_scene,
                                   dict(n_objects=2, n_sources=2, cov=cg, track_cov=covs2,
                                        rng=1), {"cov": 2, "track_cov": 2}),
-        "tracker.imm_combine": (tracker.imm_combine, dict(probability=prob, x=xi, P=Pi),
-                                {"P": 4}),
+        "tracker.imm_combine": (tracker.imm_combine, dict(probability=prob, x=xi, cov=Pi),
+                                {"cov": 4}),
         "tracker.imm_predict": (tracker.imm_predict,
-                                dict(probability=prob, x=xi, P=Pi,
+                                dict(probability=prob, x=xi, cov=Pi,
                                      transition=[[0.9, 0.1], [0.1, 0.9]], dt=1.0,
-                                     q=[0.1, 1.0]), {"P": 4}),
+                                     q=[0.1, 1.0]), {"cov": 4}),
         "tracker.imm_update": (tracker.imm_update,
-                               dict(probability=prob, x=xi, P=Pi, z=[0.0, 0.0], R=eye2),
-                               {"P": 4, "R": 2}),
+                               dict(probability=prob, x=xi, cov=Pi, z=[0.0, 0.0], z_cov=eye2),
+                               {"cov": 4, "z_cov": 2}),
         "tracker.kalman_predict": (tracker.kalman_predict,
-                                   dict(x=np.zeros(4), P=np.eye(4), dt=1.0, q=1.0), {"P": 4}),
+                                   dict(x=np.zeros(4), cov=np.eye(4), dt=1.0, q=1.0), {"cov": 4}),
         "tracker.kalman_update": (tracker.kalman_update,
-                                  dict(x=np.zeros(4), P=np.eye(4), z=[0.0, 0.0], R=eye2),
-                                  {"P": 4, "R": 2}),
+                                  dict(x=np.zeros(4), cov=np.eye(4), z=[0.0, 0.0], z_cov=eye2),
+                                  {"cov": 4, "z_cov": 2}),
         "features.combined_proximity": (
             features.combined_proximity,
             dict(x1=[0.0, 0.0], x2=[1.0, 0.0], cov1=eye2, cov2=eye2, feature1=0.0,
@@ -297,12 +297,12 @@ def _valid_calls():
         "fusion.sample_reports_gaussian": (fusion.sample_reports_gaussian,
                                            dict(truth=[0.0, 0.0], cov=covs2, trials=3, rng=1),
                                            {"cov": 2}),
-        "gating.gate_mahalanobis_2d": (gating.gate_mahalanobis_2d,
+        "gating.gate_mahalanobis": (gating.gate_mahalanobis,
                                        dict(x1=x2, x2=x2, cov=eye2), {"cov": 2}),
-        "gating.gate_pairwise_2d": (gating.gate_pairwise_2d,
+        "gating.gate_pairwise": (gating.gate_pairwise,
                                     dict(x1=x2, x2=x2, cov1=covs2, cov2=eye2),
                                     {"cov1": 2, "cov2": 2}),
-        "gating.gate_sparse_2d": (gating.gate_sparse_2d, dict(x1=x2, x2=x2, cov=eye2),
+        "gating.gate_sparse": (gating.gate_sparse, dict(x1=x2, x2=x2, cov=eye2),
                                   {"cov": 2}),
         "grouping.binding_costs": (grouping.binding_costs,
                                    dict(x=xg, cov=cg, tracks=np.zeros((2, 2)),
@@ -324,22 +324,22 @@ def _valid_calls():
                                      dict(xy1=x2, cov1=covs2, xy2=x2, cov2=covs2),
                                      {"cov1": 2, "cov2": 2}),
         "trackfusion.bar_shalom_campo": (trackfusion.bar_shalom_campo,
-                                         dict(x1=[0.0, 0.0], P1=2 * eye2, x2=[1.0, 0.0],
-                                              P2=2 * eye2, P12=0.5 * eye2), {"P1": 2, "P2": 2}),
+                                         dict(x1=[0.0, 0.0], cov1=2 * eye2, x2=[1.0, 0.0],
+                                              cov2=2 * eye2, cov12=0.5 * eye2), {"cov1": 2, "cov2": 2}),
         "trackfusion.blue_fusion": (trackfusion.blue_fusion,
-                                    dict(x=np.zeros((2, 2)), covariance=np.eye(4)),
-                                    {"covariance": 4}),
-        "trackfusion.ci_weight": (trackfusion.ci_weight, dict(P1=eye2, P2=2 * eye2),
-                                  {"P1": 2, "P2": 2}),
+                                    dict(x=np.zeros((2, 2)), cov=np.eye(4)),
+                                    {"cov": 4}),
+        "trackfusion.ci_weight": (trackfusion.ci_weight, dict(cov1=eye2, cov2=2 * eye2),
+                                  {"cov1": 2, "cov2": 2}),
         "trackfusion.covariance_intersection": (
             trackfusion.covariance_intersection,
-            dict(x1=[0.0, 0.0], P1=eye2, x2=[1.0, 0.0], P2=2 * eye2), {"P1": 2, "P2": 2}),
+            dict(x1=[0.0, 0.0], cov1=eye2, x2=[1.0, 0.0], cov2=2 * eye2), {"cov1": 2, "cov2": 2}),
         "trackfusion.naive_fusion": (trackfusion.naive_fusion,
-                                     dict(x1=[0.0, 0.0], P1=eye2, x2=[1.0, 0.0], P2=2 * eye2),
-                                     {"P1": 2, "P2": 2}),
+                                     dict(x1=[0.0, 0.0], cov1=eye2, x2=[1.0, 0.0], cov2=2 * eye2),
+                                     {"cov1": 2, "cov2": 2}),
         "trackfusion.track_statistic": (trackfusion.track_statistic,
-                                        dict(x1=[0.0, 0.0], P1=eye2, x2=[1.0, 0.0],
-                                             P2=2 * eye2), {"P1": 2, "P2": 2}),
+                                        dict(x1=[0.0, 0.0], cov1=eye2, x2=[1.0, 0.0],
+                                             cov2=2 * eye2), {"cov1": 2, "cov2": 2}),
         "trackfusion.cross_covariance": (
             trackfusion.cross_covariance,
             dict(F=m.F, Q=m.Q, H1=h, R1=one, H2=h, R2=one, steps=3, P1_0=eye2, P2_0=eye2),
@@ -349,11 +349,11 @@ def _valid_calls():
             dict(F=m.F, Q=m.Q, H1=h, R1=one, H2=h, R2=one, steps=3, trials=2, P1_0=eye2,
                  P2_0=eye2, rng=1), {"R1": 1, "R2": 1, "P1_0": 2, "P2_0": 2}),
         "tracking.track_reports": (tracking.track_reports, _tracking_reports(),
-                                   {"covariance": 3}),
+                                   {"cov": 3}),
         "tracking.track_then_fuse": (tracking.track_then_fuse,
-                                     dict(_tracking_reports(), period=5.0), {"covariance": 3}),
+                                     dict(_tracking_reports(), period=5.0), {"cov": 3}),
         "tracking.fuse_then_track": (tracking.fuse_then_track,
-                                     dict(_tracking_reports(), window=5.0), {"covariance": 3}),
+                                     dict(_tracking_reports(), window=5.0), {"cov": 3}),
         "plotting.plot_covariance_ellipse": (
             _on_axes(plotting.plot_covariance_ellipse), dict(mean=[0.0, 0.0], cov=eye2),
             {"cov": 2}),
@@ -389,8 +389,8 @@ def test_every_public_covariance_argument_is_under_the_one_rule():
     calls = _valid_calls()
     covered = {(q, arg) for q, (_, _, dims) in calls.items() for arg in dims}
     missing = set(found) - covered - set(COVARIANCE_EXEMPT) - {   # needs the [stonesoup] extra
-        ("tracking.stonesoup_track", "covariance"), ("tracking.stonesoup.stonesoup_track",
-                                                     "covariance")}
+        ("tracking.stonesoup_track", "cov"), ("tracking.stonesoup.stonesoup_track",
+                                                     "cov")}
     assert len(found) >= 50, len(found)
     assert not missing, f"no valid call in _valid_calls() for {sorted(missing)}"
 

@@ -17,11 +17,11 @@ Procedures (Grachov & Korneev 2010, text around eqs. (5)–(6)):
   with the smallest summed cost — is a linear (2-D) assignment problem: the
   chapter builds its cost (:func:`proximity_matrix`, the gate, the
   non-assignment cost) and hands it to the engine's solvers,
-  :func:`radarfusion_ref.engine.assignment.solve_2d` (exact, :math:`O(n^3)`;
+  :func:`radarfusion_ref.engine.assignment.assign_two_lists` (exact, :math:`O(n^3)`;
   rectangular matrices, gating and a per-report non-assignment cost),
-  :func:`radarfusion_ref.engine.assignment.solve_2d_bruteforce` (the same
+  :func:`radarfusion_ref.engine.assignment.assign_two_lists_bruteforce` (the same
   optimum by enumerating every joint hypothesis, the :math:`n!` route, small
-  :math:`n` only) and :func:`radarfusion_ref.engine.assignment.k_best_2d`
+  :math:`n` only) and :func:`radarfusion_ref.engine.assignment.k_best_two_lists`
   (Murty's ranking of the :math:`k` best joint hypotheses); their results,
   :class:`radarfusion_ref.engine.assignment.Association` and
   :class:`radarfusion_ref.engine.assignment.KBestAssignments`, share the

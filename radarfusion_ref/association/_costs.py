@@ -89,7 +89,7 @@ def non_assignment_cost(*, p_detect1, p_detect2, false_density1, false_density2,
     -------
     float or numpy.ndarray
         The cost :math:`c_0` to pass as ``miss_cost`` to the joint association
-        (:func:`~radarfusion_ref.engine.assignment.solve_2d`) with a cost matrix of
+        (:func:`~radarfusion_ref.engine.assignment.assign_two_lists`) with a cost matrix of
         proximity measures :math:`\kappa_{ij}`; ``+inf``
         when no report can be left unassigned (both radars detect everything
         and report nothing false). Array arguments broadcast together.

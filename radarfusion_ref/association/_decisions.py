@@ -65,7 +65,7 @@ class DecisionComparison:
         Greedy best-first with the same gate.
     joint : Proportion
         Joint ML (the 2-D assignment of
-        :func:`~radarfusion_ref.engine.assignment.solve_2d`), followed by the paper's joint
+        :func:`~radarfusion_ref.engine.assignment.assign_two_lists`), followed by the paper's joint
         test (:math:`\kappa_n^* < \gamma_n`, the :math:`\chi^2_n` gate; rejection counts as
         a wrong decision).
     joint_ml : Proportion
@@ -103,7 +103,7 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     Raises
     ------
     ValueError
-        For an invalid `kappa` (see :func:`~radarfusion_ref.engine.assignment.solve_2d`), a
+        For an invalid `kappa` (see :func:`~radarfusion_ref.engine.assignment.assign_two_lists`), a
         `truth` of the wrong shape or with indices out of range, or a threshold <= 0.
     TypeError
         For a non-integer `truth`.
@@ -122,7 +122,7 @@ def compare_decisions(kappa, truth, *, threshold, joint_threshold) -> DecisionCo
     jth = as_threshold(joint_threshold, "joint_threshold")
     pw = associate_pointwise(c, th, order="scan")
     gr = associate_pointwise(c, th, order="best_first")
-    jt = assignment.solve_2d(c)
+    jt = assignment.assign_two_lists(c)
     ok_j = all_correct(jt.row_to_col, truth)
     passed = np.asarray(jt.cost) < jth
     return DecisionComparison(
@@ -201,7 +201,7 @@ def outcome_by_gate(kappa, truth, rule: str):
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
     if rule == "joint":
-        res = _named(assignment.solve_2d, c)
+        res = _named(assignment.assign_two_lists, c)
         right = all_correct(res.row_to_col, t)
         wrong = _wrong_pair(res.row_to_col, t)
         total = np.asarray(res.cost)
@@ -252,7 +252,7 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
     rule : {"scan", "greedy", "joint"}
         The paper's pointwise scan (:func:`associate_pointwise`,
         ``order="scan"``), greedy best-first (``order="best_first"``), or
-        joint ML (:func:`~radarfusion_ref.engine.assignment.solve_2d`) followed by the
+        joint ML (:func:`~radarfusion_ref.engine.assignment.assign_two_lists`) followed by the
         joint test.
     gate : float
         The per-pair gate :math:`\gamma` of a pointwise rule, or the gate
@@ -297,25 +297,25 @@ def decision_outcome(kappa, truth, rule: str, gate) -> DecisionOutcome:
     return outcome_by_gate(c, t, rule)(gate)
 
 
-def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept",
+def calibrate_gate(kappa, truth, rule: str, target, *, error: str = "false_accept",
                    gates=None) -> float:
-    r"""The gate at which a rule's empirical error rate on these trials meets `alpha`.
+    r"""The gate at which a rule's empirical error rate on these trials meets `target`.
 
     Parameters
     ----------
     kappa, truth, rule
         As in :func:`decision_outcome` (the calibration trials).
-    alpha : float
+    target : float
         Target rate in [0, 1].
     error : {"false_accept", "false_reject"}, optional
         ``"false_accept"`` (default): the **widest** gate whose false-accept
-        rate (share of trials with a wrong pair accepted) is at most `alpha`.
+        rate (share of trials with a wrong pair accepted) is at most `target`.
         ``"false_reject"``: the **narrowest** gate whose rejection rate (share
         of trials with nothing wrong accepted but some true pair not) is at
-        most `alpha`.
+        most `target`.
     gates : array_like, shape (k,), optional
         Candidate gates (> 0, increasing); every one is scored and the
-        widest (narrowest) one meeting `alpha` is returned. None (default):
+        widest (narrowest) one meeting `target` is returned. None (default):
         the exact answer among all gates, found by bisection over the
         breakpoints of the rate — just above each distinct :math:`\kappa`
         (pointwise rules) or each trial's summed :math:`\kappa` of the
@@ -332,9 +332,9 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     Raises
     ------
     ValueError
-        As :func:`decision_outcome`; for `alpha` outside [0, 1], an unknown
+        As :func:`decision_outcome`; for `target` outside [0, 1], an unknown
         `error`, `gates` that are empty, not > 0 or not increasing, no
-        `gates` with ``rule="scan"``, or no candidate gate meeting `alpha`
+        `gates` with ``rule="scan"``, or no candidate gate meeting `target`
         (the message gives the best rate reached; never a clamped gate).
 
     Notes
@@ -353,7 +353,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     True
     """
     c, t, rule = _outcome_iv(kappa, truth, rule)
-    a = as_float(as_probability(alpha, "alpha", open_interval=False), "alpha")
+    a = as_float(as_probability(target, "target", open_interval=False), "target")
     error = as_choice(error, "error", ("false_accept", "false_reject"))
     outcome = outcome_by_gate(c, t, rule)
     wide = error == "false_accept"
@@ -373,7 +373,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
         ok = np.flatnonzero(rates <= a)
         if ok.size == 0:
             raise ValueError(
-                f"`alpha` = {a:g} is not reached by any of the `gates`: "
+                f"`target` = {a:g} is not reached by any of the `gates`: "
                 f"the lowest {error.replace('_', '-')} rate is "
                 f"{rates.min():.4g} (at gate "
                 f"{cand[int(np.argmin(rates))]:.4g}); pass "
@@ -383,7 +383,7 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
         raise ValueError("`gates` must be given for `rule` = 'scan': its error rates need not be "
                          "monotone in the gate, so only a scored grid is exact")
     if rule == "joint":
-        stat = np.asarray(assignment.solve_2d(c).cost, dtype=float).ravel()
+        stat = np.asarray(assignment.assign_two_lists(c).cost, dtype=float).ravel()
     else:
         stat = c[np.isfinite(c)]
     vals = np.unique(stat[np.isfinite(stat)])
@@ -394,14 +394,14 @@ def calibrate_gate(kappa, truth, rule: str, alpha, *, error: str = "false_accept
     lo, hi = 0, cand.size - 1
     if wide:
         if rate(cand[0]) > a:
-            raise ValueError(f"`alpha` = {a:g} is below the false-accept rate "
+            raise ValueError(f"`target` = {a:g} is below the false-accept rate "
                              f"{rate(cand[0]):.4g} of the narrowest gate {cand[0]:.4g}")
         while lo < hi:                                  # largest index with rate <= a
             mid = (lo + hi + 1) // 2
             lo, hi = (mid, hi) if rate(cand[mid]) <= a else (lo, mid - 1)
         return float(cand[lo])
     if rate(cand[-1]) > a:
-        raise ValueError(f"`alpha` = {a:g} is below the rejection rate {rate(cand[-1]):.4g} "
+        raise ValueError(f"`target` = {a:g} is below the rejection rate {rate(cand[-1]):.4g} "
                          "even without a gate")
     while lo < hi:                                      # smallest index with rate <= a
         mid = (lo + hi) // 2

@@ -64,7 +64,7 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
         The gate :math:`\gamma > 0` (the paper's :math:`\kappa_{\text{th}}`):
         a pair is acceptable only if its cost is strictly below it. None or
         ``+inf``: no gate (the same meaning as in
-        :func:`~radarfusion_ref.engine.assignment.solve_2d`).
+        :func:`~radarfusion_ref.engine.assignment.assign_two_lists`).
     order : {"scan", "best_first"}, optional
         ``"scan"`` (the paper's rule as written): go through the hypotheses in
         list order — radar-1 report 0 against radar-2 reports 0, 1, ..., then
@@ -92,7 +92,7 @@ def associate_pointwise(cost, threshold=None, *, order: str = "scan") -> Associa
     measurements and continuing the check". The result depends on the order
     of the lists, which carries no information; ``"best_first"`` removes that
     arbitrariness. Neither is the joint maximum-likelihood decision
-    (:func:`~radarfusion_ref.engine.assignment.solve_2d`).
+    (:func:`~radarfusion_ref.engine.assignment.assign_two_lists`).
 
     References
     ----------
@@ -152,7 +152,7 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
     k : int, optional
         None (default): exact, by enumerating every complete assignment (small
         matrices only). An integer: the approximation from the `k` best
-        hypotheses of :func:`radarfusion_ref.engine.assignment.k_best_2d`
+        hypotheses of :func:`radarfusion_ref.engine.assignment.k_best_two_lists`
         (Murty's ranking).
 
     Returns
@@ -166,7 +166,7 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
         For invalid costs, ``k < 1``, no feasible assignment, or, before
         anything is allocated, more than :data:`~radarfusion_ref.engine.assignment.MAX_HYPOTHESES` hypotheses to
         enumerate exactly (the message points to the `k`-best route) or a `k`
-        beyond the limits of :func:`radarfusion_ref.engine.assignment.k_best_2d`.
+        beyond the limits of :func:`radarfusion_ref.engine.assignment.k_best_two_lists`.
 
     Notes
     -----
@@ -217,7 +217,7 @@ def association_probabilities(cost, *, k=None) -> np.ndarray:
             for i in range(a):
                 p[i] += np.bincount(h[:, i], weights=wts, minlength=b)
     else:
-        kb = assignment.k_best_2d(ws, k)        # rows = the shorter side; scaled: same ranking
+        kb = assignment.k_best_two_lists(ws, k)        # rows = the shorter side; scaled: same ranking
         assign, costs = kb.row_to_col, kb.cost
         finite = np.isfinite(costs)
         if not finite.any():

@@ -5,7 +5,7 @@ configured by a frozen :class:`PipelineSettings`. Each stage calls the function 
 chapter teaches: the debiased 3-D conversion
 (:func:`radarfusion_ref.conversion.spherical_to_cartesian`), registration over a
 warm-up window (:func:`radarfusion_ref.registration.estimate_biases`), the
-per-report-covariance gate (:func:`radarfusion_ref.gating.gate_pairwise_2d`), S-D
+per-report-covariance gate (:func:`radarfusion_ref.gating.gate_pairwise`), S-D
 grouping with dummies for misses and false reports
 (:func:`radarfusion_ref.grouping.group_sd`), ML fusion
 (:func:`radarfusion_ref.fusion.fuse_gaussian`, :func:`radarfusion_ref.fusion.fuse`)
@@ -98,7 +98,7 @@ class PipelineSettings:
     p_false_reject : float
         Gate :math:`P_{\text{lo}}` of the grouping (default 1e-3): report pairs whose
         statistic exceeds the :math:`\chi^2_d` quantile are never grouped. The 2-D gate
-        (:func:`radarfusion_ref.gating.gate_pairwise_2d` on east-north) runs first with
+        (:func:`radarfusion_ref.gating.gate_pairwise` on east-north) runs first with
         the same threshold, so it removes only reports that could not pass it.
     method : {"milp", "lagrangian"}
         Solver of :func:`radarfusion_ref.grouping.group_sd`: the exact integer program over
@@ -260,7 +260,7 @@ def _gate(reports, x, cov, m, settings):
         for i in range(m):
             for k in range(i + 1, m):
                 if idx[i].size and idx[k].size:
-                    g = gating.gate_pairwise_2d(x[idx[i], :2], x[idx[k], :2],
+                    g = gating.gate_pairwise(x[idx[i], :2], x[idx[k], :2],
                                                 cov[idx[i], :2, :2], cov[idx[k], :2, :2],
                                                 p_false_reject=p2)
                     linked[idx[i]] |= g.any(axis=1)

@@ -87,7 +87,7 @@ def _number(value, name):
     return float(v)
 
 
-def _gospa_iv(x, y, c, p, alpha, parts):
+def _gospa_iv(x, y, c, p, parts):
     x = _points(x, "x")
     y = _points(y, "y")
     if x.size and y.size and x.shape[1] != y.shape[1]:
@@ -97,8 +97,6 @@ def _gospa_iv(x, y, c, p, alpha, parts):
     p = _number(p, "p")
     if p < 1:
         raise ValueError(f"`p` must be a finite number >= 1; received {p!r}")
-    if _number(alpha, "alpha") != 2.0:
-        raise ValueError(f"`alpha` must be 2 (the decomposable GOSPA); received {alpha!r}")
     if not isinstance(parts, (bool, np.bool_)):
         raise TypeError(f"`parts` must be True or False; received {describe(parts)}")
     n, k = x.shape[0], y.shape[0]
@@ -133,7 +131,7 @@ def _scaled_distances(x, y, c):
         return dist / c                                           # inf only beyond the cut-off
 
 
-def gospa(x, y, *, c, p=2.0, alpha=2.0, parts=True) -> GospaResult:
+def gospa(x, y, *, c, p=2.0, parts=True) -> GospaResult:
     r"""Generalized OSPA metric with α = 2 and its localisation, missed and false parts.
 
     Parameters
@@ -144,8 +142,6 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0, parts=True) -> GospaResult:
         Cut-off distance :math:`c > 0`.
     p : float, optional
         Order :math:`1 \le p < \infty` (default 2).
-    alpha : float, optional
-        Must be 2 (the value for which GOSPA splits into the three parts).
     parts : bool, optional
         Whether to return the three parts (default). They are in units of :math:`c^p`,
         which must be a normal float64; with ``parts=False`` the total alone is computed
@@ -159,7 +155,7 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0, parts=True) -> GospaResult:
     ------
     ValueError
         Non-finite points, points whose differences overflow, a dimension mismatch, `c`
-        not positive, `p` < 1 or not finite, `alpha` other than 2, sets whose distance
+        not positive, `p` < 1 or not finite, sets whose distance
         matrix exceeds the memory limit, or (with `parts`) :math:`c^p` outside float64.
     TypeError
         Non-numeric input, or `parts` not a bool.
@@ -184,7 +180,7 @@ def gospa(x, y, *, c, p=2.0, alpha=2.0, parts=True) -> GospaResult:
     >>> g.total ** 2, g.localisation, g.missed, g.false
     (13.5, 1.0, 12.5, 0.0)
     """
-    x, y, c, p = _gospa_iv(x, y, c, p, alpha, parts)
+    x, y, c, p = _gospa_iv(x, y, c, p, parts)
     n, k = x.shape[0], y.shape[0]
     loc, assigned = 0.0, 0                                            # in units of c**p
     pairs = np.zeros((0, 2), dtype=np.int64)

@@ -110,10 +110,10 @@ def check_size(requested, limit, *, what: str, alternative: str, name: str | Non
     --------
     >>> import math
     >>> check_size(math.factorial(12), 10**6, what="hypotheses n!",
-    ...            alternative="solve_2d (linear assignment)")
+    ...            alternative="assign_two_lists (linear assignment)")
     Traceback (most recent call last):
     ...
-    ValueError: refused: 479001600 hypotheses n! requested, above the limit of 1000000; use solve_2d (linear assignment) instead
+    ValueError: refused: 479001600 hypotheses n! requested, above the limit of 1000000; use assign_two_lists (linear assignment) instead
     >>> check_size(2**40, MEMORY_LIMIT, what="bytes", alternative="batches", name="trials")
     Traceback (most recent call last):
     ...

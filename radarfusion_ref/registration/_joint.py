@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import gating
-from ..engine.assignment import Association, solve_2d
+from ..engine.assignment import Association, assign_two_lists
 from ..engine.errors import RadarFusionWarning
 from ..engine.montecarlo import proportion
 from ..engine.validation import (
@@ -200,7 +200,7 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
     -----
     Pass :math:`t`: correct the reports with :math:`b^{(t-1)}`, compute the
     proximity measures (:func:`cost_matrix`), take the joint ML pairing
-    (:func:`radarfusion_ref.engine.assignment.solve_2d`, eq.
+    (:func:`radarfusion_ref.engine.assignment.assign_two_lists`, eq.
     ``eq-joint-ml``), then estimate :math:`b^{(t)}` from the *raw* reports of
     the paired objects (:func:`estimate_biases`). With a gate, the estimate
     is made robust to wrong pairs by dropping, one at a time, the pair whose
@@ -258,7 +258,7 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
                        "kept")
             b, est = history[-1].biases.copy(), prev_est
             break
-        res = solve_2d(cost, threshold=None if t == 1 else gate)
+        res = assign_two_lists(cost, threshold=None if t == 1 else gate)
         history.append(RegistrationStep(t, b.copy(), res.row_to_col.copy(),
                                         float(res.cost), int(res.n_assigned)))
         if seen and np.array_equal(res.row_to_col, seen[-1]):
@@ -291,7 +291,7 @@ def register_and_associate(sensors, reports1, reports2, sigma_r, sigma_beta, *, 
         raise RegistrationError(message, tuple(history))
     warnings.warn(message, RadarFusionWarning, stacklevel=2)
     cost = cost_matrix(s, z1, z2, sr, sb, biases=b)
-    res = solve_2d(cost, threshold=gate)
+    res = assign_two_lists(cost, threshold=gate)
     return Registration(b, est, res, tuple(history), False)
 
 
@@ -483,7 +483,7 @@ def association_accuracy(sensors, biases, sigma_r, sigma_beta, *, n_objects: int
         for row, bb in ((0, None), (2, b)):
             c = cost_matrix(s, sc.reports1, sc.reports2, sigma_r, sigma_beta, biases=bb)
             ok[row, k] = np.array_equal(
-                solve_2d(c, threshold=gate).row_to_col, sc.true_row_to_col)
+                assign_two_lists(c, threshold=gate).row_to_col, sc.true_row_to_col)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RadarFusionWarning)
             try:

@@ -517,7 +517,7 @@ def cost_matrix(sensors, reports1, reports2, sigma_r, sigma_beta, *, biases=None
         :math:`\kappa_{ij} = \Delta_{ij}^{\mathsf T}(\Sigma_{1i} + \Sigma_{2j})^{-1}\Delta_{ij}`,
         eq. ``eq-proximity``, with the converted reports and their linearized
         covariances (:func:`to_cartesian`); the input of
-        :func:`radarfusion_ref.engine.assignment.solve_2d`.
+        :func:`radarfusion_ref.engine.assignment.assign_two_lists`.
 
     Raises
     ------
@@ -548,8 +548,22 @@ def cost_matrix(sensors, reports1, reports2, sigma_r, sigma_beta, *, biases=None
         cv = conversion.polar_to_cartesian(r, beta, sr[k], sb[k])
         c.append((cv.xy + s[k], cv.cov))
     (x1, c1), (x2, c2) = c
-    for k, cov in enumerate((c1, c2)):
-        if not np.all(is_positive_definite(cov)):
+    for k, (cov, z) in enumerate(((c1, z1), (c2, z2))):
+        bad = ~np.asarray(is_positive_definite(cov))
+        if np.any(bad):
+            # the cross-range deviation r sigma_beta against sigma_r: a report next to its
+            # radar has no azimuth to speak of, whatever the sigmas
+            rng_k = np.broadcast_to(z[..., 0], bad.shape)
+            near = bad & (rng_k * sb[k] < 1e-6 * sr[k])
+            # the report's range is the cause only where a typical range is resolvable
+            if np.any(near) and np.max(rng_k) * sb[k] >= 1e-6 * sr[k]:
+                i = tuple(int(v) for v in np.argwhere(near)[0])
+                raise ValueError(
+                    f"`reports{k + 1}`: report {i} is at range {float(rng_k[i]):.3g}, next to "
+                    f"radar {k}'s site: its cross-range deviation r*sigma_beta = "
+                    f"{float(rng_k[i]) * sb[k]:.3g} is below 1e-6 of sigma_r = {sr[k]:.3g}, so "
+                    "its covariance is singular; drop reports at the site or give them a "
+                    "range of at least 1e-6 sigma_r / sigma_beta")
             raise ValueError(
                 f"`sigma_r`, `sigma_beta`: radar {k}'s report covariances are singular to "
                 f"working precision (sigma_r = {sr[k]:.3g}, sigma_beta = {sb[k]:.3g} rad at "

@@ -44,7 +44,7 @@ MAX_JOINT_PAIRINGS = 5040
 #: Largest number of placements one :func:`offset_sweep` accepts.
 MAX_GRID_POINTS = 10_000
 
-_JOINT_ALTERNATIVE = ("radarfusion_ref.engine.assignment.solve_2d (linear assignment, "
+_JOINT_ALTERNATIVE = ("radarfusion_ref.engine.assignment.assign_two_lists (linear assignment, "
                       "polynomial in the number of targets)")
 
 

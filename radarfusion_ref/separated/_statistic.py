@@ -321,7 +321,7 @@ def joint_outcome(statistic, logdet=None, *, threshold=None) -> np.ndarray:
     ValueError
         If `statistic` is not square with finite entries >= 0, ``n!`` exceeds
         :data:`MAX_JOINT_PAIRINGS` (``n`` > 7: use
-        :func:`radarfusion_ref.engine.assignment.solve_2d`), the work exceeds
+        :func:`radarfusion_ref.engine.assignment.assign_two_lists`), the work exceeds
         :data:`radarfusion_ref.engine.validation.MEMORY_LIMIT`, `logdet` has another
         shape or non-finite entries, or `threshold` is not positive.
 

@@ -175,7 +175,7 @@ def _as_psd(value, name: str, *, dim: int | None = None) -> np.ndarray:
     return arr
 
 
-def _joint_psd(P1, P2, P12, names=("P1", "P2", "P12")):
+def _joint_psd(P1, P2, P12, names=("cov1", "cov2", "cov12")):
     """Refuse a cross-covariance for which [[P1, P12], [P12ᵀ, P2]] is not PSD."""
     top = np.concatenate([P1, P12], axis=-1)
     bottom = np.concatenate([np.swapaxes(P12, -1, -2), P2], axis=-1)
@@ -202,12 +202,12 @@ def _pair_iv(x1, P1, x2, P2, P12=None):
                          f"shapes {x1.shape} and {x2.shape}")
     check_domain(x1, "x1")
     check_domain(x2, "x2")
-    P1 = as_covariance(P1, "P1", dim=d)                   # the PD rule and the variance domain
-    P2 = as_covariance(P2, "P2", dim=d)
-    mats = {"x1": x1[..., None], "P1": P1, "x2": x2[..., None], "P2": P2}
+    P1 = as_covariance(P1, "cov1", dim=d)                   # the PD rule and the variance domain
+    P2 = as_covariance(P2, "cov2", dim=d)
+    mats = {"x1": x1[..., None], "cov1": P1, "x2": x2[..., None], "cov2": P2}
     if P12 is not None:
-        P12 = as_float_array(P12, "P12", ndim_min=2, last_dims=(d, d))
-        mats["P12"] = P12
+        P12 = as_float_array(P12, "cov12", ndim_min=2, last_dims=(d, d))
+        mats["cov12"] = P12
     try:
         lead = np.broadcast_shapes(*(m.shape[:-2] for m in mats.values()))
     except ValueError:

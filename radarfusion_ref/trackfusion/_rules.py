@@ -29,14 +29,14 @@ from ._common import (
 
 
 # --------------------------------------------------------------------------- fusion rules
-def naive_fusion(x1, P1, x2, P2) -> TrackEstimate:
+def naive_fusion(x1, cov1, x2, cov2) -> TrackEstimate:
     r"""Fuse two tracks as if their errors were independent (ignoring :math:`P_{12}`).
 
     Parameters
     ----------
     x1, x2 : array_like, shape (..., d)
         The two track estimates :math:`\hat{\mathbf x}_1, \hat{\mathbf x}_2`.
-    P1, P2 : array_like, shape (..., d, d)
+    cov1, cov2 : array_like, shape (..., d, d)
         Their covariances, symmetric positive definite.
 
     Returns
@@ -75,21 +75,21 @@ def naive_fusion(x1, P1, x2, P2) -> TrackEstimate:
     >>> r.estimate, np.diag(r.covariance)
     (array([1., 0.]), array([0.5, 0.5]))
     """
-    x1, P1, x2, P2 = _pair_iv(x1, P1, x2, P2)
-    out = fuse_gaussian(np.stack([x1, x2], axis=-2), np.stack([P1, P2], axis=-3))
+    x1, cov1, x2, cov2 = _pair_iv(x1, cov1, x2, cov2)
+    out = fuse_gaussian(np.stack([x1, x2], axis=-2), np.stack([cov1, cov2], axis=-3))
     return TrackEstimate(out.estimate, out.covariance)
 
 
-def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
+def bar_shalom_campo(x1, cov1, x2, cov2, cov12) -> TrackEstimate:
     r"""Fuse two correlated tracks with the Bar-Shalom–Campo rule (known :math:`P_{12}`).
 
     Parameters
     ----------
     x1, x2 : array_like, shape (..., d)
         The two track estimates.
-    P1, P2 : array_like, shape (..., d, d)
+    cov1, cov2 : array_like, shape (..., d, d)
         Their covariances, symmetric positive definite.
-    P12 : array_like, shape (..., d, d)
+    cov12 : array_like, shape (..., d, d)
         The cross-covariance :math:`P_{12} = E[\mathbf e_1\mathbf e_2^\mathsf T]` (for
         example from :func:`cross_covariance`); :math:`P_{21} = P_{12}^\mathsf T`.
 
@@ -136,39 +136,39 @@ def bar_shalom_campo(x1, P1, x2, P2, P12) -> TrackEstimate:
     >>> r.estimate, r.covariance
     (array([1.]), array([[0.75]]))
     """
-    x1, P1, x2, P2, P12 = _pair_iv(x1, P1, x2, P2, P12)
-    P21 = np.swapaxes(P12, -1, -2)
-    U = _sym(P1 + P2 - P12 - P21)                       # Cov(x2 - x1)
+    x1, cov1, x2, cov2, cov12 = _pair_iv(x1, cov1, x2, cov2, cov12)
+    P21 = np.swapaxes(cov12, -1, -2)
+    U = _sym(cov1 + cov2 - cov12 - P21)                       # Cov(x2 - x1)
     if not np.all(is_positive_definite(U)):
         raise ValueError(
-            "`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x2 - x1) is "
+            "`cov12`: cov1 + cov2 - cov12 - cov12ᵀ (the covariance of x2 - x1) is "
             "singular: the two tracks differ by a deterministic amount and "
             "carry the same information; use either track")
     # W = (P1 - P12) U^-1
-    W = np.swapaxes(_solve(U, P1 - P21, "P12"), -1, -2)
+    W = np.swapaxes(_solve(U, cov1 - P21, "cov12"), -1, -2)
     estimate = x1 + (W @ (x2 - x1)[..., None])[..., 0]  # x1 + W (x2 - x1)
     # P1 - (P1 - P12) U^-1 (P1 - P21)
-    covariance = _sym(P1 - W @ (P1 - P21))
+    covariance = _sym(cov1 - W @ (cov1 - P21))
     return TrackEstimate(estimate, covariance)
 
 
-def _blue_iv(x, covariance):
+def _blue_iv(x, cov):
     x = as_float_array(x, "x", ndim_min=2)
     n, d = x.shape[-2:]
     if n < 1 or d < 1:
         raise ValueError(f"`x` must have shape (..., n, d) with n, d >= 1 (n estimates of a "
                          f"d-vector); received shape {x.shape}")
     check_domain(x, "x")
-    C = as_float_array(covariance, "covariance", ndim_min=2)
+    C = as_float_array(cov, "cov", ndim_min=2)
     if C.shape[-2:] != (n * d, n * d):
-        raise ValueError(f"`covariance` must have shape (..., {n * d}, {n * d}) for `x` of "
+        raise ValueError(f"`cov` must have shape (..., {n * d}, {n * d}) for `x` of "
                          f"shape {x.shape} (n = {n} estimates of d = {d}); received shape "
                          f"{C.shape}")
-    C = as_covariance(C, "covariance", dim=n * d)      # the PD rule and the variance domain
+    C = as_covariance(C, "cov", dim=n * d)      # the PD rule and the variance domain
     try:
         lead = np.broadcast_shapes(x.shape[:-2], C.shape[:-2])
     except ValueError:
-        raise ValueError(f"`x`, `covariance` must have broadcasting batch shapes; received "
+        raise ValueError(f"`x`, `cov` must have broadcasting batch shapes; received "
                          f"{x.shape}, {C.shape}") from None
     check_size(int(np.prod(lead, dtype=object)) * (n * d) ** 2, MAX_BATCH,
                what="batch elements × joint covariance entries",
@@ -177,14 +177,14 @@ def _blue_iv(x, covariance):
             np.broadcast_to(C, (*lead, n * d, n * d)))
 
 
-def blue_fusion(x, covariance) -> TrackEstimate:
+def blue_fusion(x, cov) -> TrackEstimate:
     r"""Fuse `n` correlated estimates of one state: the best linear unbiased estimate.
 
     Parameters
     ----------
     x : array_like, shape (..., n, d)
         The estimates :math:`\hat{\mathbf x}_1, \dots, \hat{\mathbf x}_n` of one state.
-    covariance : array_like, shape (..., n d, n d)
+    cov : array_like, shape (..., n d, n d)
         The joint covariance :math:`C` of the stacked errors
         :math:`[\mathbf e_1; \dots; \mathbf e_n]`: block :math:`(i, j)` is
         :math:`P_{ij} = E[\mathbf e_i\mathbf e_j^\mathsf T]` (:math:`P_{ii} = P_i`),
@@ -193,12 +193,12 @@ def blue_fusion(x, covariance) -> TrackEstimate:
     Returns
     -------
     TrackEstimate
-        ``estimate`` (..., d) and ``covariance`` (..., d, d).
+        ``estimate`` (..., d) and ``cov`` (..., d, d).
 
     Raises
     ------
     ValueError
-        If `covariance` is not symmetric positive definite or not ``n d`` square, a
+        If `cov` is not symmetric positive definite or not ``n d`` square, a
         variance or coordinate lies outside the numeric domain, the batch shapes do not
         broadcast or the batch is too large.
     TypeError
@@ -239,17 +239,17 @@ def blue_fusion(x, covariance) -> TrackEstimate:
     >>> r.estimate, 3 * r.covariance          # (1 + (n - 1) 0.5) / n = 2/3
     (array([3.]), array([[2.]]))
     """
-    x, C = _blue_iv(x, covariance)
+    x, C = _blue_iv(x, cov)
     n, d = x.shape[-2:]
     ref = x[..., 0, :]
     y = (x - ref[..., None, :]).reshape(*x.shape[:-2], n * d, 1)      # differences from x̂1
     H = np.broadcast_to(np.tile(np.eye(d), (n, 1)), (*x.shape[:-2], n * d, d))
-    Z = _solve(C, np.concatenate([H, y], -1), "covariance")          # C^-1 [H, y]
+    Z = _solve(C, np.concatenate([H, y], -1), "cov")          # C^-1 [H, y]
     M = Z[..., :d].reshape(*x.shape[:-2], n, d, d).sum(-3)            # Hᵀ C^-1 H
     b = Z[..., d].reshape(*x.shape[:-2], n, d).sum(-2)                # Hᵀ C^-1 y
-    covariance = _sym(_solve(M, np.eye(d), "covariance"))
-    estimate = ref + (covariance @ b[..., None])[..., 0]
-    return TrackEstimate(estimate, covariance)
+    cov = _sym(_solve(M, np.eye(d), "cov"))
+    estimate = ref + (cov @ b[..., None])[..., 0]
+    return TrackEstimate(estimate, cov)
 
 
 def _ci_slope(w, I1, I2, D, criterion):
@@ -261,12 +261,12 @@ def _ci_slope(w, I1, I2, D, criterion):
     return -np.trace(np.linalg.solve(J, np.swapaxes(JD, -1, -2)), axis1=-2, axis2=-1)
 
 
-def ci_weight(P1, P2, *, criterion="det"):
+def ci_weight(cov1, cov2, *, criterion="det"):
     r"""The covariance-intersection weight :math:`\omega \in [0, 1]` minimising det or trace of :math:`\tilde P`.
 
     Parameters
     ----------
-    P1, P2 : array_like, shape (..., d, d)
+    cov1, cov2 : array_like, shape (..., d, d)
         The two tracks' covariances, symmetric positive definite.
     criterion : {"det", "trace"}, optional
         What ω minimises: :math:`\det\tilde P` (default) or :math:`\operatorname{tr}\tilde P`,
@@ -295,7 +295,7 @@ def ci_weight(P1, P2, *, criterion="det"):
     0.5
     """
     criterion = as_choice(criterion, "criterion", CRITERIA)
-    I1, I2 = _ci_informations(P1, P2)                           # P1^-1, P2^-1
+    I1, I2 = _ci_informations(cov1, cov2)                           # P1^-1, P2^-1
     D = I1 - I2
     lo, hi = np.zeros(I1.shape[:-2]), np.ones(I1.shape[:-2])
     at0 = _ci_slope(lo, I1, I2, D, criterion) >= 0  # increasing from ω = 0
@@ -310,19 +310,19 @@ def ci_weight(P1, P2, *, criterion="det"):
 
 def _ci_informations(P1, P2):
     """Validated, broadcast ``P1^-1, P2^-1``."""
-    P1 = as_covariance(P1, "P1")                # the PD rule and the variance domain
-    P2 = as_covariance(P2, "P2", dim=P1.shape[-1])
+    P1 = as_covariance(P1, "cov1")                # the PD rule and the variance domain
+    P2 = as_covariance(P2, "cov2", dim=P1.shape[-1])
     try:
         lead = np.broadcast_shapes(P1.shape[:-2], P2.shape[:-2])
     except ValueError:
-        raise ValueError(f"`P1`, `P2` must have broadcasting batch shapes; received "
+        raise ValueError(f"`cov1`, `cov2` must have broadcasting batch shapes; received "
                          f"{P1.shape}, {P2.shape}") from None
     eye = np.eye(P1.shape[-1])
     P1, P2 = (np.broadcast_to(P, (*lead, *P.shape[-2:])) for P in (P1, P2))
-    return _sym(_solve(P1, eye, "P1")), _sym(_solve(P2, eye, "P2"))
+    return _sym(_solve(P1, eye, "cov1")), _sym(_solve(P2, eye, "cov2"))
 
 
-def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
+def covariance_intersection(x1, cov1, x2, cov2, *, criterion="det",
                             omega=None) -> CovarianceIntersection:
     r"""Fuse two tracks whose cross-covariance is unknown: covariance intersection.
 
@@ -330,7 +330,7 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     ----------
     x1, x2 : array_like, shape (..., d)
         The two track estimates.
-    P1, P2 : array_like, shape (..., d, d)
+    cov1, cov2 : array_like, shape (..., d, d)
         Their covariances, symmetric positive definite.
     criterion : {"det", "trace"}, optional
         What ω minimises: the determinant (default) or the trace of :math:`\tilde P`.
@@ -379,11 +379,11 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     (0.5, array([1.6, 1.6]))
     """
     criterion = as_choice(criterion, "criterion", CRITERIA)
-    x1, P1, x2, P2 = _pair_iv(x1, P1, x2, P2)
+    x1, cov1, x2, cov2 = _pair_iv(x1, cov1, x2, cov2)
     eye = np.eye(x1.shape[-1])
-    I1, I2 = _sym(_solve(P1, eye, "P1")), _sym(_solve(P2, eye, "P2"))   # P1^-1, P2^-1
+    I1, I2 = _sym(_solve(cov1, eye, "cov1")), _sym(_solve(cov2, eye, "cov2"))   # P1^-1, P2^-1
     if omega is None:
-        w = np.asarray(ci_weight(P1, P2, criterion=criterion), dtype=float)
+        w = np.asarray(ci_weight(cov1, cov2, criterion=criterion), dtype=float)
     else:
         w = as_float_array(omega, "omega")
         if np.any((w < 0) | (w > 1)):
@@ -398,28 +398,28 @@ def covariance_intersection(x1, P1, x2, P2, *, criterion="det",
     ww = w[..., None, None]
     J = _sym(ww * I1 + (1 - ww) * I2)                           # P~^-1
     y = ww[..., 0] * (I1 @ x1[..., None])[..., 0] + (1 - ww[..., 0]) * (I2 @ x2[..., None])[..., 0]
-    covariance = _sym(_solve(J, eye, "P1`, `P2"))
+    covariance = _sym(_solve(J, eye, "cov1`, `cov2"))
     estimate = (covariance @ y[..., None])[..., 0]
     return CovarianceIntersection(estimate, covariance, w[()] if w.ndim == 0 else w, criterion)
 
 
-def track_statistic(x1, P1, x2, P2, P12=None):
+def track_statistic(x1, cov1, x2, cov2, cov12=None):
     r"""Track-to-track association statistic :math:`\kappa`, with the cross-covariance.
 
     Parameters
     ----------
     x1, x2 : array_like, shape (..., d)
         Two tracks (to be tested for being of one object).
-    P1, P2 : array_like, shape (..., d, d)
+    cov1, cov2 : array_like, shape (..., d, d)
         Their covariances.
-    P12 : array_like, shape (..., d, d), optional
+    cov12 : array_like, shape (..., d, d), optional
         Their cross-covariance under the hypothesis "one object"; ``None`` means 0
         (the statistic that ignores the common process noise).
 
     Returns
     -------
     float or numpy.ndarray, shape (...)
-        :math:`\kappa`, distributed :math:`\chi^2_d` under the hypothesis when `P12`
+        :math:`\kappa`, distributed :math:`\chi^2_d` under the hypothesis when `cov12`
         is right.
 
     Raises
@@ -454,14 +454,14 @@ def track_statistic(x1, P1, x2, P2, P12=None):
     >>> float(track_statistic([1.0], [[1.0]], [0.0], [[1.0]], [[0.5]]))
     1.0
     """
-    if P12 is None:
-        x1, P1, x2, P2 = _pair_iv(x1, P1, x2, P2)
-        S = _sym(P1 + P2)
+    if cov12 is None:
+        x1, cov1, x2, cov2 = _pair_iv(x1, cov1, x2, cov2)
+        S = _sym(cov1 + cov2)
     else:
-        x1, P1, x2, P2, P12 = _pair_iv(x1, P1, x2, P2, P12)
-        S = _sym(P1 + P2 - P12 - np.swapaxes(P12, -1, -2))
+        x1, cov1, x2, cov2, cov12 = _pair_iv(x1, cov1, x2, cov2, cov12)
+        S = _sym(cov1 + cov2 - cov12 - np.swapaxes(cov12, -1, -2))
     if not np.all(is_positive_definite(S)):
-        raise ValueError("`P12`: P1 + P2 - P12 - P12ᵀ (the covariance of x1 - x2) is singular; "
+        raise ValueError("`cov12`: cov1 + cov2 - cov12 - cov12ᵀ (the covariance of x1 - x2) is singular; "
                          "the statistic is undefined")
     check_domain(x1, "x1")
     check_domain(x2, "x2")

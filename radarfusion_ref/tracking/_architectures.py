@@ -36,7 +36,7 @@ def _link(x1, P1, x2, P2, gamma, kept=None):
     kappa = np.atleast_2d(mahalanobis_sq_pairwise(x1, x2, P1, P2))
     if kept is not None:
         kappa = np.where(kept & (kappa < gamma), kappa - gamma, kappa)
-    return assignment.solve_2d(kappa, threshold=gamma).row_to_col
+    return assignment.assign_two_lists(kappa, threshold=gamma).row_to_col
 
 
 def _identities(groups, ident, next_id):
@@ -62,7 +62,7 @@ def _identities(groups, ident, next_id):
 
 
 # --------------------------------------------------------------------------- (b)
-def fuse_then_track(time, position, covariance, radar, scan, *, window, settings=None):
+def fuse_then_track(time, position, cov, radar, scan, *, window, settings=None):
     r"""Architecture (b): group and fuse the radars' scans per time window, then track.
 
     Parameters
@@ -96,7 +96,7 @@ def fuse_then_track(time, position, covariance, radar, scan, *, window, settings
     window's last report instant. The objects feed one tracker as scans of one source.
     """
     settings = TrackerSettings() if settings is None else settings
-    t, z, R, rad, _ = _reports_iv(time, position, covariance, radar, scan, settings)
+    t, z, R, rad, _ = _reports_iv(time, position, cov, radar, scan, settings)
     w = as_float(as_positive(window, "window"), "window")
     if not t.size:
         return track_reports(t, z, R, rad, rad, settings=settings)
@@ -326,7 +326,7 @@ def _fuse_at(loc, cross, tg, settings, rule, ident):
     return groups
 
 
-def track_then_fuse(time, position, covariance, radar, scan, *, period, settings=None,
+def track_then_fuse(time, position, cov, radar, scan, *, period, settings=None,
                     rule="ci"):
     r"""Architecture (c): a local tracker per radar, then track-to-track fusion.
 
@@ -396,7 +396,7 @@ def track_then_fuse(time, position, covariance, radar, scan, *, period, settings
     update of JPDA is not of this form and is refused.
     """
     settings = TrackerSettings() if settings is None else settings
-    t, z, R, rad, sc = _reports_iv(time, position, covariance, radar, scan, settings)
+    t, z, R, rad, sc = _reports_iv(time, position, cov, radar, scan, settings)
     dt_out = as_float(as_positive(period, "period"), "period")
     rule = as_choice(rule, "rule", T2T_RULES)
     bsc = rule == "bar_shalom_campo"

@@ -120,7 +120,7 @@ class _Rows:
         return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated)
 
 
-def _reports_iv(time, position, covariance, radar, scan, settings):
+def _reports_iv(time, position, cov, radar, scan, settings):
     if not isinstance(settings, TrackerSettings):
         raise TypeError(f"`settings` must be a TrackerSettings; received {describe(settings)}")
     t = as_float_array(time, "time", ndim_min=1)
@@ -133,9 +133,9 @@ def _reports_iv(time, position, covariance, radar, scan, settings):
     z = as_float_array(position, "position", ndim_min=2, last_dims=(3,))
     if z.shape != (n, 3):
         raise ValueError(f"`position` must have shape ({n}, 3); received shape {z.shape}")
-    R = as_covariance(covariance, "covariance", dim=3) if n else np.zeros((0, 3, 3))
+    R = as_covariance(cov, "cov", dim=3) if n else np.zeros((0, 3, 3))
     if R.shape != (n, 3, 3):
-        raise ValueError(f"`covariance` must have shape ({n}, 3, 3); received shape {R.shape}")
+        raise ValueError(f"`cov` must have shape ({n}, 3, 3); received shape {R.shape}")
     out = []
     for name, v in (("radar", radar), ("scan", scan)):
         a = np.asarray(v) if not isinstance(v, (str, bytes)) and v is not None else None
@@ -148,7 +148,7 @@ def _reports_iv(time, position, covariance, radar, scan, settings):
     return t, z, R, out[0], out[1]
 
 
-def track_reports(time, position, covariance, radar, scan, *,
+def track_reports(time, position, cov, radar, scan, *,
                   settings=None) -> TrackHistory:
     r"""Architecture (a): every report, in time order, updates one tracker.
 
@@ -162,7 +162,7 @@ def track_reports(time, position, covariance, radar, scan, *,
     position : array_like, shape (N, 3)
         Reports in the common east-north-up frame, finite, in units of
         `settings.length_unit` metres (default: m).
-    covariance : array_like, shape (N, 3, 3)
+    cov : array_like, shape (N, 3, 3)
         Each report's own error covariance (that unit squared), positive definite.
     radar : array_like of int, shape (N,)
         The radar of each report: any integers (≥ 0), only compared with each other.
@@ -204,7 +204,7 @@ def track_reports(time, position, covariance, radar, scan, *,
 
     * ``"gnn"`` — the assignment that maximises the summed score increments
       :math:`\ln\frac{P_D\mathcal N(\boldsymbol\nu; 0, S)}{\lambda}` (hit) and
-      :math:`\ln(1 - P_D)` (miss), by :func:`radarfusion_ref.engine.assignment.solve_2d`
+      :math:`\ln(1 - P_D)` (miss), by :func:`radarfusion_ref.engine.assignment.assign_two_lists`
       on :math:`[\,-\Delta L_{ij} \mid \operatorname{diag}(-\ln(1 - P_D))\,]`;
     * ``"jpda"`` — each track is updated with the mixture of its gated reports weighted by
       :func:`radarfusion_ref.engine.tracker.jpda_probabilities` (exact up to
@@ -243,12 +243,12 @@ def track_reports(time, position, covariance, radar, scan, *,
     >>> t = np.repeat(np.arange(6) * 5.0, 1)
     >>> z = np.c_[100.0 * t, np.zeros(6), np.full(6, 9000.0)]
     >>> h = track_reports(t, z, np.tile(np.eye(3) * 100.0, (6, 1, 1)), np.zeros(6, int),
-    ...                   np.arange(6), settings=TrackerSettings(alpha=0.01))
+    ...                   np.arange(6), settings=TrackerSettings(p_false_confirm=0.01))
     >>> int(h.n_confirmed), bool(h.confirmed[-1]), round(float(h.state[-1, 3]))
     (1, True, 100)
     """
     settings = TrackerSettings() if settings is None else settings
-    t, z, R, radar, scan = _reports_iv(time, position, covariance, radar, scan, settings)
+    t, z, R, radar, scan = _reports_iv(time, position, cov, radar, scan, settings)
     if not t.size:
         return _Rows().history(0)
     u = settings.length_unit
@@ -496,7 +496,7 @@ class _Tracker:
         cand_id = np.concatenate([lv.ids[old], ids[fresh]])
         kappa = mahalanobis_sq_pairwise(lv.x[new, :3], cand_x, lv.P[new, :3, :3], cand_P)
         before = cand_hit[None, :] < lv.born[new][:, None]
-        link = assignment.solve_2d(np.where(before, np.atleast_2d(kappa), np.inf),
+        link = assignment.assign_two_lists(np.where(before, np.atleast_2d(kappa), np.inf),
                                    threshold=self.gamma_relink).row_to_col
         merged, gone = [], []
         for i, j in zip(new, link, strict=True):
@@ -545,16 +545,23 @@ def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):
         return
     order = pairs[np.argsort(pair_lab[pairs], kind="stable")]
     cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
-    for a, b in itertools.pairwise(cut):
-        p = order[a:b]
+    first, t_o, r_o = cut[:-1], ti[order], rj[order]
+    # a cluster of one track or of one report: its pair of largest gain over the track's
+    # miss, if positive (the assignment of such a cluster), for every such cluster at once
+    simple = ((np.minimum.reduceat(t_o, first) == np.maximum.reduceat(t_o, first))
+              | (np.minimum.reduceat(r_o, first) == np.maximum.reduceat(r_o, first)))
+    gain = inc_pair[order] - inc[t_o]
+    cluster = np.repeat(np.arange(first.size), np.diff(cut))
+    best = np.lexsort((-gain, cluster))[first]           # largest gain first per cluster
+    pick = simple & (gain[best] > 0.0)
+    take[order[best[pick]]] = True
+    for c in np.flatnonzero(~simple):
+        p = order[cut[c]:cut[c + 1]]
         rows, cols = np.unique(ti[p], return_inverse=True)
         rep, rcol = np.unique(rj[p], return_inverse=True)
-        if p.size == 1:                                  # one track, one report
-            take[p] = inc_pair[p] > inc[rows]
-            continue
         nt, nm = rows.size, rep.size
         cost = np.full((nt, nm + nt), np.inf)
         cost[cols, rcol] = -inc_pair[p]
         cost[np.arange(nt), nm + np.arange(nt)] = -inc[rows]
-        choice = assignment.solve_2d(cost).row_to_col
+        choice = assignment.assign_two_lists(cost).row_to_col
         take[p[choice[cols] == rcol]] = True

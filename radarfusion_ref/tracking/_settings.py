@@ -52,13 +52,14 @@ class TrackerSettings:
         :math:`\lambda`, false reports per m³ per radar scan (default 1e-14: about ten
         false reports per scan in a radar's 220 km coverage below 15 km; the number of
         false reports per scan over the volume they fall in).
-    alpha, beta : float
+    p_false_confirm, p_false_delete : float
         Design rates of the sequential test: false confirmation :math:`\alpha`
         (default 1e-3) and false deletion :math:`\beta` (default 0.01),
         :math:`\alpha + \beta < 1` (:func:`radarfusion_ref.engine.tracker.sprt_thresholds`).
     lower, upper : float
-        Wald's deletion and confirmation thresholds of the score, computed from `alpha` and
-        `beta` by :func:`radarfusion_ref.engine.tracker.sprt_thresholds` (not arguments).
+        Wald's deletion and confirmation thresholds of the score, computed from
+        `p_false_confirm` and `p_false_delete` by
+        :func:`radarfusion_ref.engine.tracker.sprt_thresholds` (not arguments).
     confirmation : {"sprt", "m_of_n"}
         Confirm by the score's sequential test (default) or by M-of-N logic.
     m, n : int
@@ -143,8 +144,8 @@ class TrackerSettings:
 
     p_detection: float = 0.9
     clutter_density: float = 1e-14
-    alpha: float = 1e-3
-    beta: float = 0.01
+    p_false_confirm: float = 1e-3
+    p_false_delete: float = 0.01
     confirmation: str = "sprt"
     m: int = 3
     n: int = 4
@@ -174,11 +175,12 @@ class TrackerSettings:
         def put(name, value):
             object.__setattr__(self, name, value)
 
-        for name in ("p_detection", "alpha", "beta", "p_false_reject", "p_relink"):
+        for name in ("p_detection", "p_false_confirm", "p_false_delete", "p_false_reject",
+                     "p_relink"):
             put(name, as_float(as_probability(getattr(self, name), name), name))
         for name in ("clutter_density", "q", "speed_max", "max_coast", "length_unit"):
             put(name, as_float(as_positive(getattr(self, name), name), name))
-        sprt = sprt_thresholds(self.alpha, self.beta)      # refuses alpha + beta >= 1
+        sprt = sprt_thresholds(self.p_false_confirm, self.p_false_delete)  # refuses a sum >= 1
         put("confirmation", as_choice(self.confirmation, "confirmation", CONFIRMATIONS))
         put("association", as_choice(self.association, "association", ASSOCIATIONS))
         put("n", as_int(self.n, "n", minimum=1, maximum=62))

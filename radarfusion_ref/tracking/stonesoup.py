@@ -44,13 +44,13 @@ def _import():
     require("stonesoup", feature="stonesoup_track")
 
 
-def _inputs_iv(time, position, covariance, radar, scan):
+def _inputs_iv(time, position, cov, radar, scan):
     t = as_float_array(time, "time")
     x = as_float_array(position, "position", ndim_min=2, last_dims=(3,))
-    P = as_float_array(covariance, "covariance", ndim_min=3, last_dims=(3, 3))
+    P = as_float_array(cov, "cov", ndim_min=3, last_dims=(3, 3))
     n = t.size
     if t.ndim != 1 or x.shape != (n, 3) or P.shape != (n, 3, 3):
-        raise ValueError(f"`time` (N,), `position` (N, 3) and `covariance` (N, 3, 3) must "
+        raise ValueError(f"`time` (N,), `position` (N, 3) and `cov` (N, 3, 3) must "
                          f"describe the same N reports; received shapes {t.shape}, {x.shape}, "
                          f"{P.shape}")
     ints = []
@@ -113,7 +113,7 @@ def _pregate_class():
     return PreGate
 
 
-def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
+def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
                     settings=None, pregate=True) -> TrackHistory:
     r"""Stone Soup's GNN or JPDA tracker on reports in the common frame.
 
@@ -122,7 +122,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     time : array_like, shape (N,)
         Report instants (s), non-decreasing (as :func:`radarfusion_ref.capstone.
         simulate_detections` sorts them).
-    position, covariance : array_like, shape (N, 3) and (N, 3, 3)
+    position, cov : array_like, shape (N, 3) and (N, 3, 3)
         Reports in the common frame and their covariances
         (:func:`radarfusion_ref.capstone.to_common`).
     radar, scan : array_like of int, shape (N,)
@@ -180,7 +180,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     seconds without an update — the closest of Stone Soup's initiators and deleters to
     the book's M-of-N start and coasting limit.
     """
-    t, x, P, radar, scan = _inputs_iv(time, position, covariance, radar, scan)
+    t, x, P, radar, scan = _inputs_iv(time, position, cov, radar, scan)
     tracker = as_choice(tracker, "tracker", STONESOUP_TRACKERS)
     if settings is None:
         settings = TrackerSettings()

@@ -7,17 +7,17 @@ costs from reports and call the functions here.
 
 .. rubric:: Public functions
 
-* :func:`solve_2d` — the minimum-cost 2-D assignment of a dense cost matrix
+* :func:`assign_two_lists` — the minimum-cost 2-D assignment of a dense cost matrix
   (batched) or a gated ``scipy.sparse`` one, with an optional gate and a
-  per-report non-assignment cost; :func:`solve_2d_bruteforce` — the same
+  per-report non-assignment cost; :func:`assign_two_lists_bruteforce` — the same
   optimum by enumeration (the reference route, small matrices);
-  :func:`k_best_2d` — Murty's ranking of the ``k`` best complete assignments;
-* :func:`solve_sd` — the S-D assignment (one report of each of ``m`` sources
+  :func:`k_best_two_lists` — Murty's ranking of the ``k`` best complete assignments;
+* :func:`assign_s_lists` — the S-D assignment (one report of each of ``m`` sources
   per group) over a full cost tensor or over explicit candidate groups
   (gated, with ``-1`` for a source without a report in a group): exact
   (``method="milp"``, HiGHS) or to a proved relative duality gap
   (``method="lagrangian"``: dense on a full tensor, sized by bytes, cluster
-  by cluster on candidates); :func:`solve_sd_bruteforce` — the exact optimum
+  by cluster on candidates); :func:`assign_s_lists_bruteforce` — the exact optimum
   of a full tensor by enumerating the :math:`(n!)^{m-1}` groupings;
   :func:`sd_constraint_matrix` — the constraints of the S-D integer program.
 
@@ -85,7 +85,7 @@ from ._checks import as_cost, as_threshold, cost_exponents, scale_costs
 from ._dense import dense_work_bytes, sd_dense_lagrangian_kernel
 from ._lagrangian import sd_candidates_kernel
 from ._milp import MAX_SD_TUPLES, sd_constraint_matrix, sd_milp_kernel
-from ._murty import MAX_K_BEST, k_best_2d
+from ._murty import MAX_K_BEST, k_best_two_lists
 from ._results import (
     AssignmentResult,
     Association,
@@ -93,16 +93,16 @@ from ._results import (
     SDAssignment,
     relative_gap,
 )
-from ._sd import MAX_SD_GROUPINGS, sd_enumerate_kernel, solve_sd, solve_sd_bruteforce
+from ._sd import MAX_SD_GROUPINGS, assign_s_lists, assign_s_lists_bruteforce, sd_enumerate_kernel
 from ._two_d import (
     BLOCK_BYTES,
     MAX_HYPOTHESES,
     MAX_PARTIAL_MATCHINGS,
     MAX_SCORED_HYPOTHESES,
+    assign_two_lists,
+    assign_two_lists_bruteforce,
     injections,
     make_association,
-    solve_2d,
-    solve_2d_bruteforce,
 )
 
 __all__ = [
@@ -122,7 +122,7 @@ __all__ = [
     "cost_exponents",
     "dense_work_bytes",
     "injections",
-    "k_best_2d",
+    "k_best_two_lists",
     "make_association",
     "relative_gap",
     "scale_costs",
@@ -131,9 +131,9 @@ __all__ = [
     "sd_dense_lagrangian_kernel",
     "sd_enumerate_kernel",
     "sd_milp_kernel",
-    "solve_2d",
-    "solve_2d_bruteforce",
-    "solve_sd",
-    "solve_sd_bruteforce",
+    "assign_two_lists",
+    "assign_two_lists_bruteforce",
+    "assign_s_lists",
+    "assign_s_lists_bruteforce",
 ]
 

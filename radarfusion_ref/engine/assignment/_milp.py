@@ -58,7 +58,7 @@ def _condition_costs(c_raw, m, n, bound=None):
 
 
 #: Largest full cost tensor (:math:`n^m` candidate groups, the binary variables
-#: of HiGHS) :func:`solve_sd` accepts with ``method="milp"``; beyond it, use
+#: of HiGHS) :func:`assign_s_lists` accepts with ``method="milp"``; beyond it, use
 #: ``method="lagrangian"`` (full tensors sized by bytes against ``MEMORY_LIMIT``)
 #: or pass the gated candidate groups.
 MAX_SD_TUPLES = 10**6
@@ -83,7 +83,7 @@ def sd_constraint_matrix(m, n):
     check_size(n ** min(m, 64), MAX_SD_TUPLES, name="n",
                what=f"candidate groups n**m (n = {n}, m = {m})",
                alternative="gated candidate groups "
-                       "(solve_sd with `candidates`)")
+                       "(assign_s_lists with `candidates`)")
     # t_i of every candidate group t
     t = np.indices((n,) * m).reshape(m, -1)
     # report j = t_i of source i lies in group t

@@ -14,14 +14,14 @@ from ..validation import MEMORY_LIMIT, as_int, check_size
 from ._checks import _inverse, as_cost, cost_exponents, scale_costs
 from ._results import KBestAssignments
 
-__all__ = ["MAX_K_BEST", "k_best_2d"]
+__all__ = ["MAX_K_BEST", "k_best_two_lists"]
 
 
-#: Largest `k` of :func:`k_best_2d` (and ``association_probabilities(k=...)``).
+#: Largest `k` of :func:`k_best_two_lists` (and ``association_probabilities(k=...)``).
 MAX_K_BEST = 100_000
 
 
-#: Planned bytes per ranked hypothesis and matrix entry in :func:`k_best_2d`
+#: Planned bytes per ranked hypothesis and matrix entry in :func:`k_best_two_lists`
 #: (sub-problem matrices kept for pending children): the memory limit is checked
 #: against ``_MURTY_BYTES_PER_NODE * k * n**2``.
 _MURTY_BYTES_PER_NODE = 32
@@ -75,7 +75,7 @@ def _not_upper(s: int) -> np.ndarray:
     return out
 
 
-def k_best_2d(cost, k) -> KBestAssignments:
+def k_best_two_lists(cost, k) -> KBestAssignments:
     r"""Rank the `k` best complete assignments (joint hypotheses): Murty's algorithm.
 
     Parameters
@@ -132,7 +132,7 @@ def k_best_2d(cost, k) -> KBestAssignments:
 
     Examples
     --------
-    >>> r = k_best_2d([[1.0, 2.0], [2.0, 5.0]], 5)
+    >>> r = k_best_two_lists([[1.0, 2.0], [2.0, 5.0]], 5)
     >>> r.row_to_col.tolist(), r.cost.tolist()
     ([[1, 0], [0, 1]], [4.0, 6.0])
     """
@@ -147,7 +147,7 @@ def k_best_2d(cost, k) -> KBestAssignments:
     check_size(_MURTY_BYTES_PER_NODE * k * b0 * b0, MEMORY_LIMIT, name="k",
                what=f"bytes of Murty sub-problems (about {_MURTY_BYTES_PER_NODE} k n^2 "
                     f"for k = {k}, n = {b0})",
-               alternative="a smaller `k`, or solve_2d for the best hypothesis alone")
+               alternative="a smaller `k`, or assign_two_lists for the best hypothesis alone")
     transpose = n1 > n2
     e = int(cost_exponents(c))
     work = scale_costs(c.T if transpose else c, e)             # exact power-of-two scaling

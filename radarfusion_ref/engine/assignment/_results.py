@@ -172,7 +172,7 @@ class KBestAssignments:
 
 @dataclass(frozen=True)
 class SDAssignment:
-    r"""The best S-D assignment (grouping) found by :func:`solve_sd` or :func:`solve_sd_bruteforce`.
+    r"""The best S-D assignment (grouping) found by :func:`assign_s_lists` or :func:`assign_s_lists_bruteforce`.
 
     Attributes
     ----------

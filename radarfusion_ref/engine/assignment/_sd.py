@@ -24,16 +24,16 @@ from ._lagrangian import sd_candidates_kernel
 from ._milp import MAX_SD_TUPLES, sd_milp_kernel
 from ._results import SDAssignment, relative_gap
 
-__all__ = ["MAX_SD_GROUPINGS", "solve_sd", "solve_sd_bruteforce"]
+__all__ = ["MAX_SD_GROUPINGS", "assign_s_lists", "assign_s_lists_bruteforce"]
 
 
 # --------------------------------------------------------------------------- S-D: public API
 
-#: Largest number of groupings :math:`(n!)^{m-1}` :func:`solve_sd_bruteforce`
+#: Largest number of groupings :math:`(n!)^{m-1}` :func:`assign_s_lists_bruteforce`
 #: enumerates (about a minute of work).
 MAX_SD_GROUPINGS = 10**8
 
-#: What a caller of :func:`solve_sd` can change when no grouping exists.
+#: What a caller of :func:`assign_s_lists` can change when no grouping exists.
 _SD_HINT = ("add candidate groups (a wider gate), or groups with -1 for a source without a "
             "report (missed detections and false reports)")
 
@@ -144,7 +144,7 @@ def _as_candidates(candidates, cost, counts):
     return T, c, cnt
 
 
-def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: float = 0.01,
+def assign_s_lists(cost, candidates=None, *, counts=None, method: str = "milp", gap: float = 0.01,
              max_iter: int = 100, time_limit: float | None = None,
              relaxation: bool = True) -> SDAssignment:
     r"""Minimum-cost S-D assignment: exact (HiGHS) or to a proved duality gap (Lagrangian).
@@ -237,10 +237,10 @@ def solve_sd(cost, candidates=None, *, counts=None, method: str = "milp", gap: f
     --------
     >>> c = np.full((2, 2, 2), 5.0)
     >>> c[0, 1, 0] = c[1, 0, 1] = 1.0
-    >>> r = solve_sd(c)
+    >>> r = assign_s_lists(c)
     >>> r.groups.tolist(), r.cost, r.exact
     ([[0, 1, 0], [1, 0, 1]], 2.0, True)
-    >>> r = solve_sd([1.0, 1.0, 3.0], [[0, 1, 0], [1, 0, 1], [0, 0, -1]], method="lagrangian")
+    >>> r = assign_s_lists([1.0, 1.0, 3.0], [[0, 1, 0], [1, 0, 1], [0, 0, -1]], method="lagrangian")
     >>> r.groups.tolist(), r.gap
     ([[0, 1, 0], [1, 0, 1]], 0.0)
     """
@@ -347,17 +347,17 @@ def sd_enumerate_kernel(tensor: np.ndarray, m: int, n: int) -> tuple[np.ndarray,
     return best, groups
 
 
-def solve_sd_bruteforce(cost) -> SDAssignment:
+def assign_s_lists_bruteforce(cost) -> SDAssignment:
     """The exact S-D optimum of a full cost tensor by enumerating every grouping.
 
-    The reference route for :func:`solve_sd`: all :math:`(n!)^{m-1}` ways to
+    The reference route for :func:`assign_s_lists`: all :math:`(n!)^{m-1}` ways to
     split the reports into :math:`n` groups of one report per source are
     scored (vectorized, chunked), the cheapest is returned.
 
     Parameters
     ----------
     cost : array_like, shape (n,) * m
-        Group costs (``+inf`` forbids a group), as in :func:`solve_sd`.
+        Group costs (``+inf`` forbids a group), as in :func:`assign_s_lists`.
 
     Returns
     -------
@@ -369,21 +369,21 @@ def solve_sd_bruteforce(cost) -> SDAssignment:
     ------
     ValueError
         For a tensor that is not ``(n,) * m``, NaN or ``-inf`` costs, more
-        than :data:`MAX_SD_GROUPINGS` groupings (use :func:`solve_sd`), no
+        than :data:`MAX_SD_GROUPINGS` groupings (use :func:`assign_s_lists`), no
         grouping of finite cost, or a total beyond the float range.
 
     Examples
     --------
     >>> c = np.full((2, 2, 2), 5.0)
     >>> c[0, 1, 0] = c[1, 0, 1] = 1.0
-    >>> solve_sd_bruteforce(c).groups.tolist()
+    >>> assign_s_lists_bruteforce(c).groups.tolist()
     [[0, 1, 0], [1, 0, 1]]
     """
     c = _as_sd_tensor(cost)
     m, n = c.ndim, c.shape[0]
     check_size(math.factorial(n) ** (m - 1), MAX_SD_GROUPINGS,
                what=f"groupings (n!)**(m-1) of `cost` (n = {n}, m = {m})",
-               alternative="solve_sd (the exact integer program, or the Lagrangian relaxation)")
+               alternative="assign_s_lists (the exact integer program, or the Lagrangian relaxation)")
     e = int(cost_exponents(c.reshape(1, -1)))
     best, groups = sd_enumerate_kernel(np.ldexp(c.reshape(1, -1), -e), m, n)   # exact scaling
     if not np.isfinite(best[0]):

@@ -27,24 +27,24 @@ __all__ = [
     "MAX_HYPOTHESES",
     "MAX_PARTIAL_MATCHINGS",
     "MAX_SCORED_HYPOTHESES",
-    "solve_2d",
-    "solve_2d_bruteforce",
+    "assign_two_lists",
+    "assign_two_lists_bruteforce",
 ]
 
 
 # --------------------------------------------------------------------------- 2-D limits
 #: Largest number of joint hypotheses of one cost matrix that
-#: :func:`solve_2d_bruteforce` and the exact :func:`radarfusion_ref.association.association_probabilities`
+#: :func:`assign_two_lists_bruteforce` and the exact :func:`radarfusion_ref.association.association_probabilities`
 #: enumerate (:math:`10! = 3\,628\,800` fits; :math:`n = 11` does not).
 MAX_HYPOTHESES = 4_000_000
 
 
-#: Largest number of *partial* matchings :func:`solve_2d_bruteforce` scores
+#: Largest number of *partial* matchings :func:`assign_two_lists_bruteforce` scores
 #: when a gate, a non-assignment cost or forbidden pairs are given (7 x 7 fits).
 MAX_PARTIAL_MATCHINGS = 200_000
 
 
-#: Largest number of hypotheses :func:`solve_2d_bruteforce` scores in one call,
+#: Largest number of hypotheses :func:`assign_two_lists_bruteforce` scores in one call,
 #: summed over a batch of cost matrices (bounds its run time).
 MAX_SCORED_HYPOTHESES = 200_000_000
 
@@ -190,7 +190,7 @@ def _solve_sparse(csr, th: float, miss: float | None) -> np.ndarray:
 
 
 def _associate_sparse(cost, threshold, miss_cost) -> Association:
-    """:func:`solve_2d` for a scipy.sparse matrix of gated pair costs."""
+    """:func:`assign_two_lists` for a scipy.sparse matrix of gated pair costs."""
     csr = _as_sparse_cost(cost)
     th = as_threshold(threshold)
     miss = _as_miss_cost(miss_cost)
@@ -215,7 +215,7 @@ def _associate_sparse(cost, threshold, miss_cost) -> Association:
     return Association(row_to_col, col_to_row, total)
 
 
-def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
+def assign_two_lists(cost, *, threshold=None, miss_cost=None) -> Association:
     r"""The joint maximum-likelihood association: an exact linear assignment.
 
     Parameters
@@ -229,7 +229,7 @@ def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
         forbidden one (what ``+inf`` is in a dense matrix); it is solved by a
         sparse assignment (see Notes), in memory and time that grow with the
         stored pairs instead of :math:`n_1 n_2`
-        (:func:`radarfusion_ref.gating.gate_sparse_2d` builds such a matrix).
+        (:func:`radarfusion_ref.gating.gate_sparse` builds such a matrix).
     threshold : float, optional
         Gate :math:`\gamma > 0`: a pair is allowed only if its cost is
         strictly below it, as in
@@ -301,17 +301,17 @@ def solve_2d(cost, *, threshold=None, miss_cost=None) -> Association:
     Examples
     --------
     >>> c = [[0.5, 0.1], [0.2, 3.0]]
-    >>> r = solve_2d(c)
+    >>> r = assign_two_lists(c)
     >>> r.pairs.tolist(), r.cost
     ([[0, 1], [1, 0]], 0.30000000000000004)
-    >>> r = solve_2d([[1.0, 9.0], [9.0, 9.0]], miss_cost=2.0)
+    >>> r = assign_two_lists([[1.0, 9.0], [9.0, 9.0]], miss_cost=2.0)
     >>> r.pairs.tolist(), r.unassigned_rows.tolist(), r.unassigned_cols.tolist(), r.cost
     ([[0, 0]], [1], [1], 5.0)
-    >>> solve_2d([[5.0, 6.0]], threshold=1.0).n_assigned
+    >>> assign_two_lists([[5.0, 6.0]], threshold=1.0).n_assigned
     0
     >>> from scipy import sparse
     >>> gated = sparse.csr_array(([0.5, 0.1, 0.2], ([0, 0, 1], [0, 1, 0])), shape=(2, 3))
-    >>> solve_2d(gated).pairs.tolist()
+    >>> assign_two_lists(gated).pairs.tolist()
     [[0, 1], [1, 0]]
     """
     if sparse.issparse(cost):
@@ -383,10 +383,10 @@ def _n_partial(n1: int, n2: int) -> int:
     return sum(math.comb(n1, k) * math.perm(n2, k) for k in range(min(n1, n2) + 1))
 
 
-def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
+def assign_two_lists_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
     r"""The joint ML association by enumerating every joint hypothesis.
 
-    The reference route for :func:`solve_2d`: the same problem (same
+    The reference route for :func:`assign_two_lists`: the same problem (same
     arguments, same meaning), solved by scoring every hypothesis. Square
     matrices without gate or miss cost enumerate the :math:`n!` permutations
     (chunked, vectorized); otherwise all partial matchings are scored.
@@ -394,9 +394,9 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
     Parameters
     ----------
     cost : array_like, shape (..., n1, n2)
-        As in :func:`solve_2d`.
+        As in :func:`assign_two_lists`.
     threshold, miss_cost : float, optional
-        As in :func:`solve_2d`.
+        As in :func:`assign_two_lists`.
 
     Returns
     -------
@@ -405,7 +405,7 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
     Raises
     ------
     ValueError
-        As :func:`solve_2d`; and, before anything is allocated, if
+        As :func:`assign_two_lists`; and, before anything is allocated, if
         there are more than
         :data:`~radarfusion_ref.engine.assignment.MAX_HYPOTHESES` complete
         hypotheses (:math:`n > 10`), more than
@@ -413,7 +413,7 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
         ones (gate / miss cost / forbidden pairs, e.g. :math:`8 \times 8`), or
         more than :data:`~radarfusion_ref.engine.assignment.MAX_SCORED_HYPOTHESES`
         over the whole batch. The message names
-        the scalable alternative, :func:`solve_2d`.
+        the scalable alternative, :func:`assign_two_lists`.
 
     Notes
     -----
@@ -423,7 +423,7 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
 
     Examples
     --------
-    >>> solve_2d_bruteforce([[0.5, 0.1], [0.2, 3.0]]).row_to_col
+    >>> assign_two_lists_bruteforce([[0.5, 0.1], [0.2, 3.0]]).row_to_col
     array([1, 0])
     """
     c = as_cost(cost)
@@ -442,15 +442,15 @@ def solve_2d_bruteforce(cost, *, threshold=None, miss_cost=None) -> Association:
         a, b = min(n1, n2), max(n1, n2)
         count = check_size(math.perm(b, a), MAX_HYPOTHESES, name="cost",
                            what=f"joint hypotheses (n!-type count for a {n1} x {n2} matrix)",
-                           alternative="solve_2d (exact linear assignment, O(n^3))")
+                           alternative="assign_two_lists (exact linear assignment, O(n^3))")
     else:
         count = check_size(_n_partial(n1, n2), MAX_PARTIAL_MATCHINGS, name="cost",
                            what=f"partial matchings (gated or with a miss cost, {n1} x {n2} "
                                 "matrix)",
-                           alternative="solve_2d (exact linear assignment, O(n^3))")
+                           alternative="assign_two_lists (exact linear assignment, O(n^3))")
     check_size(nb * count, MAX_SCORED_HYPOTHESES, name="cost",
                what=f"hypotheses to score over a batch of {nb} matrices",
-               alternative="solve_2d (exact linear assignment, O(n^3))")
+               alternative="assign_two_lists (exact linear assignment, O(n^3))")
     e = cost_exponents(flat, *(() if miss is None else (miss,)))
     scaled = scale_costs(flat, e)                         # exact; sums of n entries cannot overflow
     if simple:

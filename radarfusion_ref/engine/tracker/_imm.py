@@ -151,9 +151,9 @@ def _modes_iv(probability, x=None, P=None):
         raise ValueError(f"`x` must have shape (..., M, n) with M = {M} modes (the last axis "
                          f"of `probability`) and n = 2, 4 or 6 ([positions, velocities]); "
                          f"received shape {x.shape}")
-    P = as_covariance(P, "P", dim=n)
+    P = as_covariance(P, "cov", dim=n)
     if P.ndim < 3 or P.shape[-3] != M:
-        raise ValueError(f"`P` must have shape (..., {M}, {n}, {n}), one covariance per mode; "
+        raise ValueError(f"`cov` must have shape (..., {M}, {n}, {n}), one covariance per mode; "
                          f"received shape {P.shape}")
     return mu, x, P
 
@@ -229,7 +229,7 @@ def imm_mixing(probability, transition) -> ImmMixing:
                      np.broadcast_to(w, (*lead, M, M)).copy())
 
 
-def imm_predict(probability, x, P, transition, dt, q, *, noise="continuous") -> ImmEstimate:
+def imm_predict(probability, x, cov, transition, dt, q, *, noise="continuous") -> ImmEstimate:
     r"""IMM prediction: mixing, then each constant-velocity mode predicted by `dt`.
 
     Parameters
@@ -238,7 +238,7 @@ def imm_predict(probability, x, P, transition, dt, q, *, noise="continuous") -> 
         Mode probabilities after the last update, in [0, 1], summing to 1.
     x : array_like, shape (..., M, 2 d)
         Each mode's state ``[positions, velocities]``, d = 1, 2 or 3.
-    P : array_like, shape (..., M, 2 d, 2 d)
+    cov : array_like, shape (..., M, 2 d, 2 d)
         Each mode's covariance.
     transition : array_like, shape (..., M, M)
         :math:`\Pi` over this interval; rows sum to 1.
@@ -258,7 +258,7 @@ def imm_predict(probability, x, P, transition, dt, q, *, noise="continuous") -> 
     Raises
     ------
     ValueError
-        As :func:`imm_mixing`, or a state not 2, 4 or 6 long, `P` not positive definite,
+        As :func:`imm_mixing`, or a state not 2, 4 or 6 long, `cov` not positive definite,
         `dt` or `q` negative, shapes that do not broadcast.
     TypeError
         Non-numeric input.
@@ -279,7 +279,7 @@ def imm_predict(probability, x, P, transition, dt, q, *, noise="continuous") -> 
     >>> r.state[:, 0].tolist(), r.covariance[:, 0, 0].tolist()
     ([1.0, 1.0], [2.0, 3.0])
     """
-    mu, x, P = _modes_iv(probability, x, P)
+    mu, x, cov = _modes_iv(probability, x, cov)
     M = mu.shape[-1]
     T = _transition_iv(transition, M)
     dt = as_positive(dt, "dt", strict=False)
@@ -290,20 +290,20 @@ def imm_predict(probability, x, P, transition, dt, q, *, noise="continuous") -> 
     except ValueError:
         raise ValueError(f"`q` must broadcast against (..., {M}), one intensity per mode; "
                          f"received shape {q.shape}") from None
-    lead = _lead("`probability`, `x`, `P`, `transition`, `dt`, `q` (without the mode axis)",
-                 mu.shape[:-1], x.shape[:-2], P.shape[:-3], T.shape[:-2], dt.shape, q_lead)
+    lead = _lead("`probability`, `x`, `cov`, `transition`, `dt`, `q` (without the mode axis)",
+                 mu.shape[:-1], x.shape[:-2], cov.shape[:-3], T.shape[:-2], dt.shape, q_lead)
     n = x.shape[-1]
     check_size(math.prod(lead) * M * n * n, MAX_BATCH, what="batch elements × modes × state "
                "entries", alternative="several calls on slices of the batch")
     with np.errstate(over="ignore", invalid="ignore"):
-        cbar, xp, Pp = imm_predict_kernel(mu, x, P, T, dt, q, noise)
+        cbar, xp, Pp = imm_predict_kernel(mu, x, cov, T, dt, q, noise)
     check_prediction(xp, Pp, dt, q)
     return ImmEstimate(np.broadcast_to(cbar, (*lead, M)).copy(),
                        np.broadcast_to(xp, (*lead, M, n)).copy(),
                        np.broadcast_to(Pp, (*lead, M, n, n)).copy())
 
 
-def imm_update(probability, x, P, z, R) -> ImmEstimate:
+def imm_update(probability, x, cov, z, z_cov) -> ImmEstimate:
     r"""IMM update: each mode's Kalman update with the report, and the mode probabilities.
 
     Parameters
@@ -312,11 +312,11 @@ def imm_update(probability, x, P, z, R) -> ImmEstimate:
         Predicted mode probabilities :math:`\bar c_j` (from :func:`imm_predict`).
     x : array_like, shape (..., M, 2 d)
         Each mode's predicted state.
-    P : array_like, shape (..., M, 2 d, 2 d)
+    cov : array_like, shape (..., M, 2 d, 2 d)
         Each mode's predicted covariance.
     z : array_like, shape (..., d)
         The position report (one per batch element, the same for every mode).
-    R : array_like, shape (..., d, d)
+    z_cov : array_like, shape (..., d, d)
         Its error covariance.
 
     Returns
@@ -346,23 +346,23 @@ def imm_update(probability, x, P, z, R) -> ImmEstimate:
     >>> r.probability.round(4).tolist()
     [0.2907, 0.7093]
     """
-    mu, x, P = _modes_iv(probability, x, P)
+    mu, x, cov = _modes_iv(probability, x, cov)
     M, n = mu.shape[-1], x.shape[-1]
     d = n // 2
     z = as_float_array(z, "z", ndim_min=1, last_dims=(d,))
-    R = as_covariance(R, "R", dim=d)
-    lead = _lead("`probability`, `x`, `P`, `z`, `R` (without the mode axis)", mu.shape[:-1],
-                 x.shape[:-2], P.shape[:-3], z.shape[:-1], R.shape[:-2])
+    z_cov = as_covariance(z_cov, "z_cov", dim=d)
+    lead = _lead("`probability`, `x`, `cov`, `z`, `z_cov` (without the mode axis)", mu.shape[:-1],
+                 x.shape[:-2], cov.shape[:-3], z.shape[:-1], z_cov.shape[:-2])
     check_size(math.prod(lead) * M * n * n, MAX_BATCH, what="batch elements × modes × state "
                "entries", alternative="several calls on slices of the batch")
     mu = np.broadcast_to(mu, (*lead, M))
-    x, P = np.broadcast_to(x, (*lead, M, n)), np.broadcast_to(P, (*lead, M, n, n))
-    z, R = np.broadcast_to(z, (*lead, d)), np.broadcast_to(R, (*lead, d, d))
-    xn, Pn, loglik, post = imm_update_kernel(mu, x, P, z, R)
+    x, cov = np.broadcast_to(x, (*lead, M, n)), np.broadcast_to(cov, (*lead, M, n, n))
+    z, z_cov = np.broadcast_to(z, (*lead, d)), np.broadcast_to(z_cov, (*lead, d, d))
+    xn, Pn, loglik, post = imm_update_kernel(mu, x, cov, z, z_cov)
     return ImmEstimate(post, xn, Pn, loglik)
 
 
-def imm_combine(probability, x, P) -> KalmanEstimate:
+def imm_combine(probability, x, cov) -> KalmanEstimate:
     r"""The IMM's output: the moments of the mode mixture.
 
     Parameters
@@ -370,7 +370,7 @@ def imm_combine(probability, x, P) -> KalmanEstimate:
     probability : array_like, shape (..., M)
         Mode probabilities, in [0, 1], summing to 1.
     x : array_like, shape (..., M, 2 d)
-    P : array_like, shape (..., M, 2 d, 2 d)
+    cov : array_like, shape (..., M, 2 d, 2 d)
 
     Returns
     -------
@@ -397,12 +397,12 @@ def imm_combine(probability, x, P) -> KalmanEstimate:
     >>> r.state.tolist(), r.covariance[0, 0].item()
     ([1.0, 0.0], 2.0)
     """
-    mu, x, P = _modes_iv(probability, x, P)
+    mu, x, cov = _modes_iv(probability, x, cov)
     M, n = mu.shape[-1], x.shape[-1]
-    lead = _lead("`probability`, `x`, `P` (without the mode axis)", mu.shape[:-1],
-                 x.shape[:-2], P.shape[:-3])
+    lead = _lead("`probability`, `x`, `cov` (without the mode axis)", mu.shape[:-1],
+                 x.shape[:-2], cov.shape[:-3])
     check_size(math.prod(lead) * M * n * n, MAX_BATCH, what="batch elements × modes × state "
                "entries", alternative="several calls on slices of the batch")
     mu = np.broadcast_to(mu, (*lead, M))
-    x, P = np.broadcast_to(x, (*lead, M, n)), np.broadcast_to(P, (*lead, M, n, n))
-    return KalmanEstimate(*combine_kernel(mu, x, P))
+    x, cov = np.broadcast_to(x, (*lead, M, n)), np.broadcast_to(cov, (*lead, M, n, n))
+    return KalmanEstimate(*combine_kernel(mu, x, cov))

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..assignment import k_best_2d
+from ..assignment import k_best_two_lists
 from ..validation import as_float_array, as_int, check_size, describe
 
 #: Largest number of joint events :func:`jpda_probabilities` enumerates exactly.
@@ -82,7 +82,7 @@ def jpda_probabilities(ratio, miss, *, k=None) -> JpdaProbabilities:
     k : int, optional
         None (default): exact, every joint event enumerated (refused beyond
         :data:`MAX_EVENTS`). An integer: the `k` best joint events by Murty's
-        ranking (:func:`radarfusion_ref.engine.assignment.k_best_2d`), with a
+        ranking (:func:`radarfusion_ref.engine.assignment.k_best_two_lists`), with a
         proved error bound.
 
     Returns
@@ -160,7 +160,7 @@ def kbest_kernel(r, w, k) -> JpdaProbabilities:
     with np.errstate(divide="ignore"):
         cost[:, :M] = -np.log(r)
     cost[np.arange(T), M + np.arange(T)] = -np.log(w)
-    kb = k_best_2d(cost, k)
+    kb = k_best_two_lists(cost, k)
     events = np.where(kb.row_to_col >= M, -1, kb.row_to_col)
     wts = np.exp(-(kb.cost - kb.cost[0]))
     n_up = event_bound(r)

@@ -134,7 +134,7 @@ def update_kernel(x, P, z, R):
     A = np.eye(x.shape[-1]) - np.concatenate([K, np.zeros(K.shape)], -1)      # I - K H
     Pn = _sym(A @ P @ np.swapaxes(A, -1, -2) + K @ R @ np.swapaxes(K, -1, -2))
     ld: list = []
-    stat = mahalanobis_sq_kernel(nu, S, "`z`, `R`", ld)                  # νᵀ S⁻¹ ν, ln det S
+    stat = mahalanobis_sq_kernel(nu, S, "`z`, `z_cov`", ld)                  # νᵀ S⁻¹ ν, ln det S
     logdet = np.broadcast_to(ld[0], stat.shape)
     return xn, Pn, stat, logdet
 
@@ -145,17 +145,17 @@ def _state_iv(x, P):
     if n not in (2, 4, 6):
         raise ValueError(f"`x` must hold [positions, velocities] of 1, 2 or 3 coordinates "
                          f"(last axis 2, 4 or 6); received shape {x.shape}")
-    return x, as_covariance(P, "P", dim=n)
+    return x, as_covariance(P, "cov", dim=n)
 
 
-def kalman_predict(x, P, dt, q, *, noise="continuous") -> KalmanEstimate:
+def kalman_predict(x, cov, dt, q, *, noise="continuous") -> KalmanEstimate:
     r"""Predict constant-velocity tracks forward by `dt`.
 
     Parameters
     ----------
     x : array_like, shape (..., 2 d)
         States ``[positions, velocities]``, d = 1, 2 or 3.
-    P : array_like, shape (..., 2 d, 2 d)
+    cov : array_like, shape (..., 2 d, 2 d)
         Their covariances, symmetric positive definite.
     dt : float or array_like, shape (...)
         Interval(s) :math:`\Delta t \ge 0`, one per track if an array.
@@ -173,7 +173,7 @@ def kalman_predict(x, P, dt, q, *, noise="continuous") -> KalmanEstimate:
     Raises
     ------
     ValueError
-        If the state is not 2, 4 or 6 long, `P` not positive definite, `dt` or `q`
+        If the state is not 2, 4 or 6 long, `cov` not positive definite, `dt` or `q`
         negative, the shapes do not broadcast, or the batch is too large.
     TypeError
         If an argument is not numeric.
@@ -191,37 +191,37 @@ def kalman_predict(x, P, dt, q, *, noise="continuous") -> KalmanEstimate:
     (array([2., 1.]), array([[5., 2.],
            [2., 1.]]))
     """
-    x, P = _state_iv(x, P)
+    x, cov = _state_iv(x, cov)
     dt = as_positive(dt, "dt", strict=False)
     q = as_positive(q, "q", strict=False)
     noise = as_choice(noise, "noise", ("continuous", "discrete"))
     try:
-        lead = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], dt.shape, q.shape)
+        lead = np.broadcast_shapes(x.shape[:-1], cov.shape[:-2], dt.shape, q.shape)
     except ValueError:
-        raise ValueError(f"`x`, `P`, `dt`, `q` must have broadcasting batch shapes; received "
-                         f"{x.shape}, {P.shape}, {dt.shape}, {q.shape}") from None
+        raise ValueError(f"`x`, `cov`, `dt`, `q` must have broadcasting batch shapes; received "
+                         f"{x.shape}, {cov.shape}, {dt.shape}, {q.shape}") from None
     n = x.shape[-1]
     check_size(math.prod(lead) * n * n, MAX_BATCH, what="batch elements × state entries",
                alternative="several calls on slices of the batch")
     with np.errstate(over="ignore", invalid="ignore"):
-        xp, Pp = predict_kernel(x, P, dt, q, noise)
+        xp, Pp = predict_kernel(x, cov, dt, q, noise)
     check_prediction(xp, Pp, dt, q)
     return KalmanEstimate(np.broadcast_to(xp, (*lead, n)).copy(),
                           np.broadcast_to(Pp, (*lead, n, n)).copy())
 
 
-def kalman_update(x, P, z, R) -> KalmanUpdate:
+def kalman_update(x, cov, z, z_cov) -> KalmanUpdate:
     r"""Update constant-velocity tracks with position reports.
 
     Parameters
     ----------
     x : array_like, shape (..., 2 d)
         Predicted states ``[positions, velocities]``.
-    P : array_like, shape (..., 2 d, 2 d)
+    cov : array_like, shape (..., 2 d, 2 d)
         Their covariances.
     z : array_like, shape (..., d)
         Position reports.
-    R : array_like, shape (..., d, d)
+    z_cov : array_like, shape (..., d, d)
         The reports' error covariances :math:`\Sigma` (each report its own).
 
     Returns
@@ -256,18 +256,18 @@ def kalman_update(x, P, z, R) -> KalmanUpdate:
     >>> r.state, round(float(r.statistic), 9)
     (array([1., 0.]), 2.0)
     """
-    x, P = _state_iv(x, P)
+    x, cov = _state_iv(x, cov)
     d = x.shape[-1] // 2
     z = as_float_array(z, "z", ndim_min=1, last_dims=(d,))
-    R = as_covariance(R, "R", dim=d)
+    z_cov = as_covariance(z_cov, "z_cov", dim=d)
     try:
-        lead = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], z.shape[:-1], R.shape[:-2])
+        lead = np.broadcast_shapes(x.shape[:-1], cov.shape[:-2], z.shape[:-1], z_cov.shape[:-2])
     except ValueError:
-        raise ValueError(f"`x`, `P`, `z`, `R` must have broadcasting batch shapes; received "
-                         f"{x.shape}, {P.shape}, {z.shape}, {R.shape}") from None
+        raise ValueError(f"`x`, `cov`, `z`, `z_cov` must have broadcasting batch shapes; received "
+                         f"{x.shape}, {cov.shape}, {z.shape}, {z_cov.shape}") from None
     n = 2 * d
     check_size(math.prod(lead) * n * n, MAX_BATCH, what="batch elements × state entries",
                alternative="several calls on slices of the batch")
-    x, P = np.broadcast_to(x, (*lead, n)), np.broadcast_to(P, (*lead, n, n))
-    z, R = np.broadcast_to(z, (*lead, d)), np.broadcast_to(R, (*lead, d, d))
-    return KalmanUpdate(*update_kernel(x, P, z, R))
+    x, cov = np.broadcast_to(x, (*lead, n)), np.broadcast_to(cov, (*lead, n, n))
+    z, z_cov = np.broadcast_to(z, (*lead, d)), np.broadcast_to(z_cov, (*lead, d, d))
+    return KalmanUpdate(*update_kernel(x, cov, z, z_cov))

@@ -26,14 +26,14 @@ class SprtThresholds:
     upper: float
 
 
-def sprt_thresholds(alpha, beta) -> SprtThresholds:
+def sprt_thresholds(p_false_confirm, p_false_delete) -> SprtThresholds:
     r"""Wald's confirmation and deletion thresholds from the design rates.
 
     Parameters
     ----------
-    alpha : float
+    p_false_confirm : float
         Design probability of confirming a false track, in (0, 1).
-    beta : float
+    p_false_delete : float
         Design probability of deleting a true track, in (0, 1);
         :math:`\alpha + \beta < 1`.
 
@@ -62,12 +62,12 @@ def sprt_thresholds(alpha, beta) -> SprtThresholds:
     >>> round(t.lower, 4), round(t.upper, 4)
     (-2.3016, 6.8024)
     """
-    a = as_float(as_probability(alpha, "alpha"), "alpha")
-    b = as_float(as_probability(beta, "beta"), "beta")
+    a = as_float(as_probability(p_false_confirm, "p_false_confirm"), "p_false_confirm")
+    b = as_float(as_probability(p_false_delete, "p_false_delete"), "p_false_delete")
     if a + b >= 1:
-        raise ValueError(f"`alpha` + `beta` must be < 1 (else the deletion "
+        raise ValueError(f"`p_false_confirm` + `p_false_delete` must be < 1 (else the deletion "
                          f"threshold is not below the confirmation "
-                         f"threshold); received alpha={a!r}, beta={b!r}")
+                         f"threshold); received p_false_confirm={a!r}, p_false_delete={b!r}")
     lower = math.log(b / (1 - a))          # T1 = ln(beta / (1 - alpha))
     upper = math.log((1 - b) / a)          # T2 = ln((1 - beta) / alpha)
     return SprtThresholds(lower, upper)
