@@ -413,6 +413,19 @@ MUTATIONS = {
                     n_missed=r.n_missed - far, n_false=r.n_false - far)
             return g
         """),
+    # the NEES consistency range with d - 1 degrees of freedom per estimate instead of d
+    "book/11_capstone:nees-range-dof": ("radarfusion_ref.engine.metrics", "nees", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(error, cov, *, level=0.95):
+                from scipy import stats
+                r = f(error, cov, level=level)
+                k = (r.dof - 1) * r.count
+                return dataclasses.replace(
+                    r, low=float(stats.chi2.ppf((1 - level) / 2, k) / r.count),
+                    high=float(stats.chi2.ppf((1 + level) / 2, k) / r.count))
+            return g
+        """),
     # chapter 12: the piecewise-constant (discrete) process noise where the continuous
     # white-noise acceleration is derived
     "book/12_tracking": ("radarfusion_ref.engine.tracker", "kalman_predict", """
