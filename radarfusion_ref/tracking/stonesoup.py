@@ -24,15 +24,24 @@ import math
 import numpy as np
 
 from ..engine._optional import require
-from ..engine._validation import _describe, as_bool, as_choice, as_float_array
+from ..engine._validation import (
+    _describe,
+    as_bool,
+    as_choice,
+    as_float,
+    as_float_array,
+    as_positive,
+)
 from ._motion import axis_q, velocity_sd
 from ._settings import TrackerSettings, TrackHistory, _in_unit
 
-__all__ = ["STONESOUP_TRACKERS", "stonesoup_track"]
+__all__ = ["HOLD_DEFAULT", "STONESOUP_TRACKERS", "stonesoup_track"]
 
 #: Trackers of :func:`stonesoup_track`.
 STONESOUP_TRACKERS = ("gnn", "jpda", "jpda_enumerate")
 
+#: The initiator's hold time when `hold` is None: this many revisits of the slowest radar.
+HOLD_DEFAULT = 1.5
 #: Stone Soup state order [x, vx, y, vy, z, vz] -> ours [x, y, z, vx, vy, vz].
 _TO_OURS = np.array([0, 2, 4, 1, 3, 5])
 #: An arbitrary epoch: Stone Soup's clock needs dates; seconds are added to it.
@@ -113,7 +122,7 @@ def _pregate_class():
 
 
 def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
-                    settings=None, pregate=True) -> TrackHistory:
+                    settings=None, pregate=True, hold=None) -> TrackHistory:
     r"""Stone Soup's GNN or JPDA tracker on reports in the common frame.
 
     Parameters
@@ -144,6 +153,13 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
         the tracks are the same as without it, and Stone Soup's per-pair work falls from
         every track x every detection of a scan to the pairs inside the gates. ``False``:
         Stone Soup's configuration alone.
+    hold : float, optional
+        How long the initiator keeps a tentative track without an update before it forgets
+        it, in revisits of the slowest radar (the median spacing of one radar's scans):
+        a number > 0, the time capped at `settings.max_coast`. None (default):
+        ``HOLD_DEFAULT`` (1.5) revisits. With `settings.m` (the initiator's ``min_points``),
+        `settings.max_coast` (the deleter) and `settings.p_false_reject` (the missed
+        distance, the gate) it is what a Stone Soup user tunes of track management.
 
     Returns
     -------
@@ -161,7 +177,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
         arrays.
     ValueError
         Arrays that do not describe the same reports, non-finite values, reports out of
-        time order (refused: sort them), an unknown `tracker`.
+        time order (refused: sort them), an unknown `tracker`, a `hold` not > 0.
 
     Notes
     -----
@@ -175,7 +191,7 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     ``DistanceGater`` around a ``PDAHypothesiser`` with the clutter density and
     :math:`P_D`), the ``MultiMeasurementInitiator`` (new tracks from single reports with
     velocity spread `speed_max`, vertically `speed_max_vertical` if set, released after `m` updates, held ones forgotten after
-    1.5 of the longest radar revisit), and the ``UpdateTimeDeleter`` at `max_coast`
+    `hold` revisits of the slowest radar), and the ``UpdateTimeDeleter`` at `max_coast`
     seconds without an update — the closest of Stone Soup's initiators and deleters to
     the book's M-of-N start and coasting limit.
     """
@@ -187,6 +203,12 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
         raise TypeError(f"`settings` must be a TrackerSettings or None; received "
                         f"{_describe(settings)}")
     pregate = as_bool(pregate, "pregate")
+    if hold is None:
+        hold = HOLD_DEFAULT
+    elif isinstance(hold, bool) or not isinstance(hold, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`hold` must be a number of revisits of the slowest radar (> 0) or "
+                        f"None; received {_describe(hold)}")
+    hold = as_float(as_positive(hold, "hold"), "hold")
     if settings.motion != "cv":
         raise ValueError(f"`settings`: the Stone Soup adapter runs the constant-velocity model "
                          f"(Stone Soup has no interacting multiple model); received "
@@ -240,9 +262,9 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
         ti = np.unique(t[radar == i])
         if ti.size > 1:
             revisit = max(revisit, float(np.median(np.diff(ti))))
-    hold = min(1.5 * revisit if revisit else settings.max_coast, settings.max_coast)
+    hold_s = min(hold * revisit if revisit else settings.max_coast, settings.max_coast)
     initiator = MultiMeasurementInitiator(
-        prior_state=prior, deleter=UpdateTimeDeleter(dt.timedelta(seconds=hold)),
+        prior_state=prior, deleter=UpdateTimeDeleter(dt.timedelta(seconds=hold_s)),
         data_associator=gnn, updater=updater, min_points=settings.m,
         initiator=_Counting(prior_state=prior, measurement_model=None))
     deleter = UpdateTimeDeleter(dt.timedelta(seconds=settings.max_coast))
