@@ -38,10 +38,10 @@ The protocol (fixed before any scored run; it is not changed after scored result
   beta 1e-2, relinking at p_relink 1e-20, IMM modes (5, 300)); Stone Soup's initiator
   ``min_points`` 3, deleter ``max_coast`` 40 s, hold 1.5 x the slowest radar's revisit
   (the adapter's rule without `hold`).
-* Motion grids, shared: q in {20, 50, 120}; vertical q in {0.5, 2, 10}; vertical-velocity
+* Motion grids, shared: q in {20, 50, 120}; vertical q in {0.03, 0.3, 2}; vertical-velocity
   prior in {5, 15, 50}. Ours with the IMM has two modes, so one motion knob more: the quiet
   mode's q in {2, 5, 10} and the manoeuvre mode's q in {150, 300, 600} in place of the one q
-  (``imm_q`` = (quiet, manoeuvre)), a vertical q in {0.5, 2, 10} for both modes
+  (``imm_q`` = (quiet, manoeuvre)), a vertical q in {0.03, 0.3, 2} for both modes
   (``imm_q_vertical``), and the vertical-velocity prior as above.
 * Track-management grids, four knobs each. Ours: SPRT alpha in {1e-2, 1e-3, 1e-4}, beta in
   {1e-3, 1e-2, 1e-1}, relinking ``p_relink`` in {off, 1e-20, 1e-10}, gate ``p_false_reject``
@@ -81,10 +81,10 @@ GATE_8 = float(stats.chi2.sf(64.0, 3))
 OUT = Path(__file__).resolve().parent / "data" / "tracking_tuning.csv"
 TRACKERS = ("ours_cv", "ours_imm", "gnn", "jpda")
 
-_MOTION = {"q": (20.0, 50.0, 120.0), "q_vertical": (0.5, 2.0, 10.0),
+_MOTION = {"q": (20.0, 50.0, 120.0), "q_vertical": (0.03, 0.3, 2.0),
            "speed_max_vertical": (5.0, 15.0, 50.0)}
 _IMM_MOTION = {"imm_q_quiet": (2.0, 5.0, 10.0), "imm_q_manoeuvre": (150.0, 300.0, 600.0),
-               "imm_q_vertical": (0.5, 2.0, 10.0), "speed_max_vertical": (5.0, 15.0, 50.0)}
+               "imm_q_vertical": (0.03, 0.3, 2.0), "speed_max_vertical": (5.0, 15.0, 50.0)}
 _GATES = (1e-4, 1e-6, GATE_8)
 _OURS_TM = {"alpha": (1e-2, 1e-3, 1e-4), "beta": (1e-3, 1e-2, 1e-1),
             "p_relink": ("off", 1e-20, 1e-10), "p_false_reject": _GATES}
@@ -314,9 +314,11 @@ def main(workers: int = 2) -> int:
 
     only = [a for a in sys.argv[1:] if a in TRACKERS] or list(TRACKERS)
     kept = []
-    if set(only) != set(TRACKERS):            # a subset re-run keeps the others' rows
+    if set(only) != set(TRACKERS) and OUT.exists():  # a subset keeps the others' rows
         with open(OUT, newline="") as f:
-            kept = [r for r in csv.DictReader(f) if r["tracker"] not in only]
+            reader = csv.DictReader(f)
+            if tuple(reader.fieldnames or ()) == FIELDS:
+                kept = [r for r in reader if r["tracker"] not in only]
     with ProcessPoolExecutor(max_workers=workers) as pool, \
             ThreadPoolExecutor(max_workers=len(only)) as searches:
         # the slow Stone Soup searches first, so that the pool is never idle
