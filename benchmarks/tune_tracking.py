@@ -313,18 +313,18 @@ def main(workers: int = 2) -> int:
                   f"{knobs}: {what}", flush=True)
 
     only = [a for a in sys.argv[1:] if a in TRACKERS] or list(TRACKERS)
-    kept = []
-    if set(only) != set(TRACKERS) and OUT.exists():  # a subset keeps the others' rows
-        with open(OUT, newline="") as f:
-            reader = csv.DictReader(f)
-            if tuple(reader.fieldnames or ()) == FIELDS:
-                kept = [r for r in reader if r["tracker"] not in only]
     with ProcessPoolExecutor(max_workers=workers) as pool, \
             ThreadPoolExecutor(max_workers=len(only)) as searches:
         # the slow Stone Soup searches first, so that the pool is never idle
         order = sorted(only, key=lambda t: ("jpda", "gnn", "ours_imm", "ours_cv").index(t))
         futures = {t: searches.submit(_search, t, pool, log) for t in order}
         new = {t: f.result() for t, f in futures.items()}
+    kept = []
+    if set(only) != set(TRACKERS) and OUT.exists():  # a subset keeps the others' rows
+        with open(OUT, newline="") as f:
+            reader = csv.DictReader(f)
+            if tuple(reader.fieldnames or ()) == FIELDS:
+                kept = [r for r in reader if r["tracker"] not in only]
     rows = [r for t in TRACKERS
             for r in (new[t] if t in new else [k for k in kept if k["tracker"] == t])]
     OUT.parent.mkdir(exist_ok=True)
