@@ -28,6 +28,7 @@ The protocol (fixed before any scored run; it is not changed after scored result
   lower mean confirmation latency. If no setting is feasible, the smallest sum of relative
   excesses wins, max(0, tracks per aircraft - 1.05) / 0.05 + max(0, false tracks per hour -
   12) / 12 (ties broken as among feasible settings). A run that failed is never chosen.
+  Ties left after these go to the value listed first in the knob's grid.
 * Search: coordinate-wise, one pass over the knobs in the fixed order listed below (motion
   knobs first, then track management); each knob is tried over its grid with every other knob
   at its current best value, and the best of those runs by the criterion sets the knob; a
