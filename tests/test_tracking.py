@@ -138,18 +138,19 @@ def test_out_of_order_input_is_sorted_by_time_then_radar():
 def test_lone_target_matches_a_hand_written_kalman_filter():
     inputs, _ = _scene(scans=12)
     t, z, R, _, _ = inputs
-    s = TrackerSettings(q=30.0)
+    s = TrackerSettings(q=30.0, q_vertical=0.5, speed_max_vertical=20.0)
     h = track_reports(*inputs, settings=s)
     assert h.n_confirmed == 1 and np.unique(h.track).size == 1
     x = np.r_[z[0], 0, 0, 0]
     P = np.zeros((6, 6))
-    P[:3, :3], P[3:, 3:] = R[0], s.speed_max**2 * np.eye(3)
+    P[:3, :3] = R[0]
+    P[3:, 3:] = np.diag([s.speed_max**2, s.speed_max**2, 20.0**2])   # vertical prior apart
+    qa = np.diag([30.0, 30.0, 0.5])                                  # vertical noise apart
     H = np.hstack([np.eye(3), np.zeros((3, 3))])
     for k in range(1, t.size):
         dt = t[k] - t[k - 1]
         F = np.eye(6) + np.diag([dt] * 3, 3)
-        Q = s.q * np.block([[dt**3 / 3 * np.eye(3), dt**2 / 2 * np.eye(3)],
-                            [dt**2 / 2 * np.eye(3), dt * np.eye(3)]])
+        Q = np.block([[dt**3 / 3 * qa, dt**2 / 2 * qa], [dt**2 / 2 * qa, dt * qa]])
         x, P = F @ x, F @ P @ F.T + Q
         K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R[k])
         x, P = x + K @ (z[k] - H @ x), (np.eye(6) - K @ H) @ P
@@ -418,7 +419,7 @@ def test_motion_settings_refused_by_name(field, value):
 @pytest.mark.parametrize("arch", ["a", "b", "c"])
 def test_vertical_settings_equal_to_the_horizontal_change_nothing(arch):
     inputs, _ = _scene(n_targets=2, scans=20, radars=2, clutter=1, seed=3, p_detect=0.9)
-    base = TrackerSettings(alpha=1e-4)
+    base = TrackerSettings(alpha=1e-4, q_vertical=None, speed_max_vertical=None)  # isotropic
     same = TrackerSettings(alpha=1e-4, q_vertical=base.q, speed_max_vertical=base.speed_max)
     run = {"a": track_reports,
            "b": lambda *a, settings: fuse_then_track(*a, window=5.0, settings=settings),
@@ -593,7 +594,7 @@ def test_imm_jpda_on_one_target_is_the_mixture_over_event_and_mode_by_hand():
     # a clutter density this high makes the miss event weigh (beta 0.79 at the second scan)
     s = TrackerSettings(motion="imm", association="jpda", alpha=0.1, imm_q=(3.0, 200.0),
                         imm_sojourn=(60.0, 15.0), imm_probability=(0.7, 0.3),
-                        clutter_density=5e-11)
+                        clutter_density=5e-11, q_vertical=None, speed_max_vertical=None)
     h = track_reports(*inputs, settings=s)
     assert np.unique(h.track).size == 1 and len(h) == t.size
     a, b = 1 / 60.0, 1 / 15.0
@@ -631,7 +632,8 @@ def test_imm_gnn_on_one_target_is_the_engine_s_imm_cycle_by_hand():
     inputs, _ = _scene(scans=10)
     t, z, R, _, _ = inputs
     s = TrackerSettings(motion="imm", alpha=0.1, imm_q=(3.0, 200.0), imm_sojourn=(60.0, 15.0),
-                        imm_probability=(0.7, 0.3), speed_max_vertical=30.0)
+                        imm_probability=(0.7, 0.3), speed_max_vertical=30.0,
+                        q_vertical=None)    # each mode's own q vertically too
     h = track_reports(*inputs, settings=s)
     assert np.unique(h.track).size == 1 and len(h) == t.size
     gen = np.array([[-1 / 60.0, 1 / 60.0], [1 / 15.0, -1 / 15.0]])
