@@ -45,7 +45,8 @@ either way (a benchmark, not a test). The last line is exactly::
 
 with ours = ``ours_imm`` and Stone Soup = its better tuned tracker, means over the seeds.
 ``--quick`` runs ten minutes of the hour; ``--trackers ours_cv ours_imm`` runs those only and
-keeps the table's rows of the others (same seeds).
+keeps the table's rows of the others (same seeds); ``--report`` runs nothing and prints the
+summaries and goals of the table's rows.
 """
 
 from __future__ import annotations
@@ -181,8 +182,10 @@ def goals(ours, ss):
     ]
 
 
-def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None) -> int:
-    """Run the benchmark; `only` (tracker keys) runs those and keeps the table's other rows."""
+def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None,
+         from_table=False) -> int:
+    """Run the benchmark; `only` (tracker keys) runs those and keeps the table's other rows;
+    `from_table` runs nothing and reports the table's rows."""
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}")
     cv = trk.TrackerSettings()
     print(f"ours CV: q {cv.q:g}, q_vertical {cv.q_vertical}, speed_max_vertical "
@@ -200,10 +203,11 @@ def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None) -> int
               f"{s.speed_max_vertical}, min_points {s.m}, hold {kw['hold']} revisits, "
               f"max_coast {s.max_coast:g} s, p_false_reject {s.p_false_reject:g}")
     duration = 600.0 if quick else 3600.0
-    trackers = [t for t in TRACKERS if (jpda or t != "jpda") and (not only or t in only)]
+    trackers = [t for t in TRACKERS if (jpda or t != "jpda") and (not only or t in only)
+                and not from_table]
     path = Path(out) if out else (None if quick else OUT)
     kept = []
-    if only and path is not None and path.exists():
+    if (only or from_table) and path is not None and path.exists():
         with open(path, newline="") as f:
             reader = csv.DictReader(f)
             if tuple(reader.fieldnames or ()) == COLUMNS:
@@ -220,14 +224,14 @@ def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None) -> int
             f"{'RMSE':>6}{'trk/ac':>7}{'sw':>4}{'fal/h':>6}{'lat':>6}{'NEES':>6}")
     with ProcessPoolExecutor(max_workers=workers) as pool:
         futures = []
-        for seed in seed_list:                  # the pool tracks a seed while the next one
+        for seed in seed_list if trackers else ():   # the pool tracks a seed meanwhile
             det, reports = detections(scene["traffic"], scene["radars"], duration, seed)
             print(f"seed {seed}: {len(det)} reports ({int(np.sum(det.aircraft < 0))} false); "
                   f"simulated at {time.perf_counter() - t0:.0f} s", flush=True)
             # the slow ones first
             for t in sorted(trackers, key=lambda t: t not in ("jpda", "gnn")):
                 futures.append(pool.submit(_job, (t, seed, duration, reports)))
-        print("\n" + head)
+        print("\n" + head if trackers else "")
         for f in futures:
             row, m = f.result()
             rows.append(row)
@@ -243,7 +247,7 @@ def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None) -> int
             r["tracker"] for r in kept)))
     rows.sort(key=lambda r: (TRACKERS.index(r["tracker"]), r["seed"]))
     present = [t for t in TRACKERS if any(r["tracker"] == t for r in rows)]
-    if path is not None:
+    if path is not None and trackers:
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(path, "w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=COLUMNS)
@@ -256,11 +260,6 @@ def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None) -> int
     def mean_of(t, col):
         return float(np.mean([r[col] for r in rows if r["tracker"] == t]))
 
-    stone = [t for t in present if t in ("gnn", "jpda")]
-    if not stone or "ours_imm" not in present:
-        print("\n(no Stone Soup or no IMM rows: no goals and no last line)")
-        return 0
-    ss_name = min(stone, key=lambda t: mean_of(t, "mean_gospa"))
     if len(seed_list) >= 2:
         summ = summaries(rows, metrics)
         print(f"\nover {len(seed_list)} seeds ({seed_list[0]}..{seed_list[-1]}): mean "
@@ -269,6 +268,12 @@ def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None) -> int
             print(f"  {col}")
             for t in present:
                 print(f"    {LABELS[t]:<28}{summ[t][col].format(digits=4)}")
+    stone = [t for t in present if t in ("gnn", "jpda")]
+    if not stone or "ours_imm" not in present:
+        print("\n(no Stone Soup rows or no IMM rows: no goals and no last line)")
+        return 0
+    ss_name = min(stone, key=lambda t: mean_of(t, "mean_gospa"))
+    if len(seed_list) >= 2:
         print(f"\nStone Soup's better tuned tracker: {LABELS[ss_name]}")
         for what, ok, value in goals(summ["ours_imm"], summ[ss_name]):
             print(f"{'PASS' if ok else 'MISS'}  {what}: {value}")
@@ -307,6 +312,9 @@ if __name__ == "__main__":
                              "for the full hour, none for --quick)")
     parser.add_argument("--trackers", nargs="+", choices=TRACKERS, default=None,
                         help="run these only, keeping the table's rows of the others")
+    parser.add_argument("--report", action="store_true",
+                        help="run nothing: the summaries and goals of the table's rows")
     args = parser.parse_args()
     sys.exit(main(quick=args.quick, jpda=not args.no_jpda, seeds=args.seeds, out=args.out,
-                  workers=min(2, os.cpu_count() or 1), only=args.trackers))
+                  workers=min(2, os.cpu_count() or 1), only=args.trackers,
+                  from_table=args.report))
