@@ -183,7 +183,12 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     -----
     The configuration follows Stone Soup's tutorials: a constant-velocity model per axis
     (``ConstantVelocity(q)``, continuous white-noise acceleration of intensity
-    :math:`q`; vertically `q_vertical` if set), a Kalman predictor and updater (its Joseph form, symmetrised: the plain
+    :math:`q`; vertically `q_vertical` if set), combined into one model whose transition
+    and noise matrices are kept per time interval (an experienced user's configuration
+    choice: Stone Soup's ``CombinedLinearGaussianTransitionModel`` rebuilds both
+    block-diagonal matrices for every track at every scan, about 40 % of an hour's run;
+    the kept matrices are Stone Soup's own, so the tracks are the same bit for bit), a
+    Kalman predictor and updater (its Joseph form, symmetrised: the plain
     form leaves some covariances indefinite over an hour), each report with its own
     ``LinearGaussian`` measurement model (its covariance), Mahalanobis gating at
     :math:`\sqrt{\gamma}` with :math:`\gamma` the :math:`\chi^2_3` quantile of
@@ -287,15 +292,51 @@ def stonesoup_track(time, position, covariance, radar, scan, *, tracker="gnn",
     return _in_unit(_history(every, settings.m, started[0], Update), settings.length_unit)
 
 
-def _transition_model(settings):
-    """Stone Soup's transition model of `settings`: one ``ConstantVelocity`` per axis, each
-    with its own intensity (:func:`~radarfusion_ref.tracking._motion.axis_q`)."""
+def _transition_model(settings, cached=True):
+    r"""Stone Soup's transition model of `settings`: one ``ConstantVelocity`` per axis, each
+    with its own intensity (:func:`~radarfusion_ref.tracking._motion.axis_q`), combined;
+    `cached`: Stone Soup's combined model with :math:`F(\Delta t)` and :math:`Q(\Delta t)`
+    kept per interval (:func:`_cached_model_class`), else Stone Soup's own class."""
     from stonesoup.models.transition.linear import (
         CombinedLinearGaussianTransitionModel,
         ConstantVelocity,
     )
-    return CombinedLinearGaussianTransitionModel(
-        [ConstantVelocity(float(q)) for q in axis_q(settings)])
+    cls = _cached_model_class() if cached else CombinedLinearGaussianTransitionModel
+    return cls([ConstantVelocity(float(q)) for q in axis_q(settings)])
+
+
+@functools.cache
+def _cached_model_class():
+    """Stone Soup's ``CombinedLinearGaussianTransitionModel`` that keeps the matrices it
+    computed: the same ``matrix`` and ``covar`` (Stone Soup's own computation, once per time
+    interval), returned as copies. Every track predicted over the same interval (all the
+    tracks updated by one scan, predicted to the next) reuses them instead of rebuilding
+    the block-diagonal matrices (made once here)."""
+    from stonesoup.models.transition.linear import CombinedLinearGaussianTransitionModel
+
+    class CachedCombinedLinearGaussianTransitionModel(CombinedLinearGaussianTransitionModel):
+        """The combined linear Gaussian model with F and Q kept per time interval."""
+
+        _SIZE = 4096                     # intervals kept; the store is emptied beyond it
+
+        def _kept(self, which, compute, kwargs):
+            store = self.__dict__.setdefault("_kept_matrices", {})
+            key = (which, kwargs.get("time_interval"))
+            if set(kwargs) - {"time_interval", "prior"}:
+                return compute(**kwargs)            # anything else: Stone Soup's own route
+            if key not in store:
+                if len(store) >= self._SIZE:
+                    store.clear()
+                store[key] = compute(**kwargs)
+            return store[key].copy()
+
+        def matrix(self, **kwargs):
+            return self._kept("F", super().matrix, kwargs)
+
+        def covar(self, **kwargs):
+            return self._kept("Q", super().covar, kwargs)
+
+    return CachedCombinedLinearGaussianTransitionModel
 
 
 def _prior_covariance(settings):
