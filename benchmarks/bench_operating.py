@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
+import itertools
 import os
 import sys
 import time
@@ -44,9 +45,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench_tracking as bt  # noqa: E402  (the scored benchmark's data and scoring)
+import bench_tracking as bt  # the scored benchmark's data and scoring
 
-from radarfusion_ref import tracking as trk  # noqa: E402
+from radarfusion_ref import tracking as trk
 
 OUT = Path(__file__).resolve().parent / "data" / "tracking_operating.csv"
 COLUMNS = ("tracker", "seed", "threshold_name", "threshold", "false_tracks_per_hour",
@@ -101,7 +102,7 @@ def fewest_false_within(points, latency):
     never has a latency that small."""
     best = None
     cands = [f for f, lat in points if lat <= latency]
-    for (f0, l0), (f1, l1) in zip(points[:-1], points[1:], strict=True):
+    for (f0, l0), (f1, l1) in itertools.pairwise(points):
         if (l0 - latency) * (l1 - latency) < 0:             # the segment crosses `latency`
             cands.append(f0 + (f1 - f0) * (latency - l0) / (l1 - l0))
     if cands:
@@ -109,7 +110,8 @@ def fewest_false_within(points, latency):
     return best
 
 
-def main(seeds=5, stonesoup=None, quick=False, out=None, workers=2) -> int:
+def main(seeds=5, stonesoup=None, quick=False, out=None, workers=2, ours_only=False) -> int:
+    """Run the sweep; `ours_only`: ours' curves only (no Stone Soup runs, no verdict)."""
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}")
     stonesoup = stonesoup or better_stonesoup() or "gnn"
     duration = 600.0 if quick else 3600.0
@@ -124,7 +126,8 @@ def main(seeds=5, stonesoup=None, quick=False, out=None, workers=2) -> int:
         for seed in seed_list:
             _, reports = bt.detections(scene["traffic"], scene["radars"], duration, seed)
             print(f"seed {seed} simulated at {time.perf_counter() - t0:.0f} s", flush=True)
-            jobs = [(stonesoup, seed, duration, "min_points", k, reports) for k in MIN_POINTS]
+            jobs = [] if ours_only else [(stonesoup, seed, duration, "min_points", k, reports)
+                                         for k in MIN_POINTS]
             jobs += [(t, seed, duration, "alpha", a, reports) for t in ("ours_imm", "ours_cv")
                      for a in ALPHAS]
             futures += [pool.submit(_job, j) for j in jobs]
@@ -146,6 +149,9 @@ def main(seeds=5, stonesoup=None, quick=False, out=None, workers=2) -> int:
     curves = {t: curve(rows, t) for t in ("ours_imm", "ours_cv", stonesoup)}
     for t, c in curves.items():
         print(f"  {t}: " + "; ".join(f"{v:g}: {f:.1f}/h {lat:.1f} s" for v, f, lat in c))
+    if ours_only:
+        print("(ours only: no Stone Soup curve, no verdict)")
+        return 0
     for ours in ("ours_imm", "ours_cv"):
         points = [(f, lat) for _, f, lat in curves[ours]]
         below = True
@@ -171,6 +177,8 @@ if __name__ == "__main__":
                         help="Stone Soup's tracker (default: the better in the scored table)")
     parser.add_argument("--quick", action="store_true", help="ten minutes instead of the hour")
     parser.add_argument("--out", default=None, help="the table's path")
+    parser.add_argument("--ours-only", action="store_true",
+                        help="ours' curves only (Stone Soup not run, no verdict)")
     args = parser.parse_args()
     sys.exit(main(seeds=args.seeds, stonesoup=args.stonesoup, quick=args.quick, out=args.out,
-                  workers=min(2, os.cpu_count() or 1)))
+                  workers=min(2, os.cpu_count() or 1), ours_only=args.ours_only))

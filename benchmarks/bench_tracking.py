@@ -19,8 +19,10 @@ each seed go to
   ``MultiTargetMixtureTracker`` (``JPDAwithEHM2``) through ``tracking.stonesoup_track``
   with ``tracking.STONESOUP_SETTINGS``.
 
-Every setting was tuned on the other hour of the same day by ``benchmarks/tune_tracking.py``
-under one protocol (its docstring); nothing is tuned on this scored hour.
+Every setting is tuned on the other hour of the same day by ``benchmarks/tune_tracking.py``
+under one protocol (its docstring); nothing is tuned on this scored hour. (Stone Soup's
+searches are not run yet: until they are, ``STONESOUP_SETTINGS`` is the protocol's start
+point, and the committed table holds ours' rows only.)
 
 Each run is scored by ``tracking.evaluate_tracks_over_time`` every 10 s from 60 s against the
 ADS-B truth inside the radars' coverage (GOSPA c = 2000 m, p = 2). Per run: mean GOSPA; its
