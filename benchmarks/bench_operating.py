@@ -139,11 +139,7 @@ def main(seeds=5, stonesoup=None, quick=False, out=None, workers=2, ours_only=Fa
                   f"{r['mean_latency']:5.1f} s  GOSPA {r['mean_gospa']:6.0f} m", flush=True)
     path = Path(out) if out else (None if quick else OUT)
     if path is not None:
-        with open(path, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=COLUMNS)
-            writer.writeheader()
-            writer.writerows(rows)
-        print(f"wrote {path}")
+        bt.write_table(path, COLUMNS, rows)
     print(f"\ncurves (means over {len(seed_list)} seed{'s' * (len(seed_list) > 1)}; total "
           f"{time.perf_counter() - t0:.0f} s):")
     curves = {t: curve(rows, t) for t in ("ours_imm", "ours_cv", stonesoup)}

@@ -141,6 +141,17 @@ def _job(job):
     return row_of(tracker, seed, seconds, m), m
 
 
+def write_table(path, columns, rows):
+    """Write `rows` (dicts) to the CSV file `path` with `columns`, and say so."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"wrote {path}")
+
+
 def summaries(rows, metrics):
     """Per tracker: each column's mean over seeds with its 95 % Student-t interval
     (``tracking.summarise_runs`` for the runs of `metrics`, ``engine.montecarlo.mean`` for
@@ -250,12 +261,7 @@ def main(quick=False, jpda=True, seeds=5, out=None, workers=2, only=None,
     rows.sort(key=lambda r: (TRACKERS.index(r["tracker"]), r["seed"]))
     present = [t for t in TRACKERS if any(r["tracker"] == t for r in rows)]
     if path is not None and trackers:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=COLUMNS)
-            writer.writeheader()
-            writer.writerows(rows)
-        print(f"wrote {path}")
+        write_table(path, COLUMNS, rows)
     print(f"(GOSPA parts: root mean square over instants, m; RMSE: confirmed tracks paired "
           f"within c, m; NEES: position, 3 dof; total {time.perf_counter() - t0:.0f} s)")
 
