@@ -26,18 +26,20 @@ from radarfusion_ref import tracking as trk
 SEED = 2018
 C_CUT, P_ORDER, STEP = 2000.0, 2.0, 10.0
 
-#: The runs compared (TrackerSettings keywords); "vertical" is the motion model both sides
-#: share with Stone Soup (vertical noise 2 m²/s³, vertical-velocity prior 15 m/s).
+#: The runs compared (TrackerSettings keywords). "cv" and "imm" are the package's tuned
+#: settings (``TrackerSettings()`` and ``tracking.IMM_SETTINGS``, chosen on the tuning hour by
+#: ``benchmarks/tune_tracking.py``); "cv isotropic" and "imm isotropic" set the vertical
+#: process noise and prior equal to the horizontal ones (one q for x, y and z); "cv
+#: vertical 2" is the vertical model an experienced Stone Soup user sets up (vertical noise
+#: 2 m²/s³, vertical-velocity prior 15 m/s), the tuning protocol's start point.
+_IMM_FIELDS = ("motion", "imm_q", "imm_q_vertical", "imm_sojourn", "imm_probability",
+               "speed_max_vertical", "p_false_confirm", "p_false_delete", "relink", "p_relink", "p_false_reject")
 VARIANTS = {
     "cv": {},
-    "cv vertical": {"q_vertical": 2.0, "speed_max_vertical": 15.0},
-    "imm": {"motion": "imm"},
-    "imm vertical": {"motion": "imm", "q_vertical": 2.0, "speed_max_vertical": 15.0},
-    # the lowest GOSPA on the tuning hour among imm_q (2, 200), (5, 300), (10, 300), (5, 600),
-    # (2, 1000) with the vertical settings above, then vertical mode intensities (1, 10),
-    # (0.5, 20) and sojourns (60, 10) around (5, 600): 1402 m against 1487 m for "cv vertical"
-    "imm tuned": {"motion": "imm", "imm_q": (5.0, 600.0), "imm_q_vertical": (0.5, 20.0),
-                  "speed_max_vertical": 15.0},
+    "cv isotropic": {"q_vertical": None, "speed_max_vertical": None},
+    "cv vertical 2": {"q_vertical": 2.0, "speed_max_vertical": 15.0},
+    "imm": {f: getattr(trk.IMM_SETTINGS, f) for f in _IMM_FIELDS},
+    "imm isotropic": {"motion": "imm", "q_vertical": None, "speed_max_vertical": None},
 }
 
 

@@ -121,18 +121,19 @@ def test_example_scene_is_not_trivial(run):
 
 
 def _kalman(t, z, R, q, v_max):
-    """Constant-velocity Kalman filter (continuous white acceleration of intensity q) on
-    position reports in time order, started at the first report with velocity 0 ± v_max;
-    returns the last time and state."""
+    """Constant-velocity Kalman filter (continuous white acceleration of intensity q per
+    axis, x y z) on position reports in time order, started at the first report with
+    velocity 0 ± v_max (per axis); returns the last time and state."""
+    q = np.diag(np.broadcast_to(np.asarray(q, float), 3))
     x = np.r_[z[0], 0.0, 0.0, 0.0]
     P = np.zeros((6, 6))
-    P[:3, :3], P[3:, 3:] = R[0], v_max**2 * np.eye(3)
+    P[:3, :3] = R[0]
+    P[3:, 3:] = np.diag(np.broadcast_to(np.asarray(v_max, float), 3) ** 2)
     H = np.hstack([np.eye(3), np.zeros((3, 3))])
     for k in range(1, len(t)):
         dt = t[k] - t[k - 1]
         F = np.eye(6) + np.diag([dt] * 3, 3)
-        Q = q * np.block([[dt**3 / 3 * np.eye(3), dt**2 / 2 * np.eye(3)],
-                          [dt**2 / 2 * np.eye(3), dt * np.eye(3)]])
+        Q = np.block([[dt**3 / 3 * q, dt**2 / 2 * q], [dt**2 / 2 * q, dt * q]])
         x, P = F @ x, F @ P @ F.T + Q
         K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R[k])
         x, P = x + K @ (z[k] - H @ x), (np.eye(6) - K @ H) @ P
@@ -144,7 +145,9 @@ def test_tracking_example_prints_each_aircraft_filtered(run_tracking):
     t, z, R = (np.asarray(ns[k], dtype=float) for k in ("time", "position", "covariance"))
     radar, aircraft = np.asarray(ns["radar"]), np.asarray(ns["aircraft"])
     assert "length_unit=1000.0" in _section(), "positions in km, settings in SI"
-    q_km, v_km = 50.0 / 1e6, 250.0 / 1e3           # the defaults' m²/s³ and m/s, in km
+    # the defaults' m²/s³ and m/s (horizontal, horizontal, vertical), in km
+    q_km = np.array([50.0, 50.0, 0.03]) / 1e6
+    v_km = np.array([250.0, 250.0, 5.0]) / 1e3
     printed = re.findall(r"track (\d+): at \[([^\]]*)\] km, moving \[([^\]]*)\] km/s", out)
     assert len(printed) == 2, out
     assert re.search(r"TrackHistory\(\d+ rows, 2 tracks, 2 confirmed", out), out

@@ -265,7 +265,8 @@ def _in_km(rep):
     return t, z / 1000.0, R / 1e6, radar, scan
 
 
-SI_FIELDS = {"clutter_density": -3, "q": 2, "speed_max": 1}   # power of the metre
+SI_FIELDS = {"clutter_density": -3, "q": 2, "speed_max": 1,      # power of the metre
+             "q_vertical": 2, "speed_max_vertical": 1}
 
 
 @given(seed=st.integers(0, 10**6), clutter=st.sampled_from([0.0, 2.0, 8.0]),
@@ -284,7 +285,8 @@ def test_metres_and_kilometres_give_the_same_tracks(seed, clutter, association,
     h_km = trk.track_reports(*km, settings=dataclasses.replace(si, length_unit=1000.0))
     _same_history(h_m, h_km, scale=1000.0)
     by_hand = dataclasses.replace(si, **{f: getattr(si, f) * 1000.0 ** -e
-                                         for f, e in SI_FIELDS.items()})
+                                         for f, e in SI_FIELDS.items()
+                                         if getattr(si, f) is not None})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RadarFusionWarning)   # 0.05 "m" reports
         _same_history(h_m, trk.track_reports(*km, settings=by_hand), scale=1000.0)

@@ -510,6 +510,12 @@ def test_stonesoup_bad_input_and_missing_package(monkeypatch):
         tk.stonesoup_track(t, np.full((2, 3), np.nan), P, r, r)
     with pytest.raises(ValueError, match="`scan`"):
         tk.stonesoup_track(t, x, P, r, [0.5, 1.5])
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="`hold`"):
+            tk.stonesoup_track(t, x, P, r, r, hold=bad)
+    for bad in ("1.5", True, [1.5]):
+        with pytest.raises(TypeError, match=r"`hold` must be a number of revisits"):
+            tk.stonesoup_track(t, x, P, r, r, hold=bad)
     monkeypatch.setitem(__import__("sys").modules, "stonesoup", None)
     with pytest.raises(ImportError,
                        match=r"stonesoup_track needs stonesoup.*'radarfusion-ref\[stonesoup\]'"):
@@ -532,6 +538,32 @@ def test_stonesoup_state_order_and_a_lone_target():
     assert np.allclose(h.state[-1, 3:], v, atol=5.0)
     assert h.initiated == 1
     np.testing.assert_array_equal(h.covariance, np.swapaxes(h.covariance, 1, 2))
+
+
+def test_stonesoup_hold_is_the_initiators_patience_in_revisits():
+    """One radar scanning every second sees a target at 0 and 1 s, misses it at 2 and 3 s
+    (a far-away report keeps the scans going), then sees it from 4 s on; min_points 3.
+    Stone Soup's initiator forgets a tentative track with no update in the last `hold`
+    revisits: 2.5 s keeps the track started at 0 s (confirmed at its third update, 4 s);
+    1.5 s (the default rule) drops it at 3 s, and the track confirmed is the one started
+    at 4 s (confirmed at 6 s)."""
+    v = np.array([200.0, -100.0, 0.0])
+    t = np.arange(0.0, 12.0)
+    x = np.array([1e4, 2e4, 9e3]) + t[:, None] * v
+    away = np.isin(t, (2.0, 3.0))
+    x[away] = [-5e5, -5e5, 9e3]
+    P = np.broadcast_to(np.diag([50.0**2] * 3), (t.size, 3, 3))
+    args = (t, x, P, np.zeros(t.size, dtype=np.int64), np.arange(t.size))
+    s = tk.TrackerSettings(m=3, max_coast=10.0)
+    first_confirmed = {}
+    for hold in (None, 1.5, 2.5):
+        h = tk.stonesoup_track(*args, settings=s, hold=hold)
+        assert h.n_confirmed == 1, hold
+        ident = h.track[h.confirmed][0]
+        first_confirmed[hold] = (h.time[h.track == ident].min(),
+                                 h.time[(h.track == ident) & h.confirmed].min())
+    assert first_confirmed[2.5] == (0.0, 4.0)
+    assert first_confirmed[1.5] == first_confirmed[None] == (4.0, 6.0)
 
 
 @pytest.fixture(scope="module")
@@ -564,6 +596,34 @@ def test_side_by_side_with_stone_soup_on_a_short_window(side_by_side):
     best = min(side_by_side["gnn"].mean_gospa, side_by_side["jpda"].mean_gospa)
     assert side_by_side["ours"].mean_gospa <= 1.05 * best
     assert abs(side_by_side["ours"].n_tracks - side_by_side["gnn"].n_tracks) <= 3
+
+
+def test_stonesoup_kept_transition_matrices_change_nothing_but_the_work(traffic, monkeypatch):
+    """The adapter's combined model that keeps F(dt) and Q(dt) per interval gives the very
+    same tracks, bit for bit, as Stone Soup's own CombinedLinearGaussianTransitionModel
+    (GNN and JPDA, a 20 s window of the realistic radars), and it does keep them."""
+    from radarfusion_ref.tracking import stonesoup as ss
+
+    radars = cp.realistic_radars()
+    det = cp.simulate_detections(traffic, radars, start=1200.0, duration=20.0, rng=4)
+    x, P = cp.to_common(det, radars, np.array([r.biases for r in radars]))
+    made = []
+    original = ss._transition_model
+
+    def spy(settings, cached=True):
+        made.append(original(settings, cached=cached))
+        return made[-1]
+
+    for name in ("gnn", "jpda"):
+        monkeypatch.setattr(ss, "_transition_model", spy)
+        a = tk.stonesoup_track(det.time, x, P, det.radar, det.scan, tracker=name)
+        assert len(made[-1].__dict__.get("_kept_matrices", {})) > 2      # it keeps them
+        monkeypatch.setattr(ss, "_transition_model",
+                            lambda settings: original(settings, cached=False))
+        b = tk.stonesoup_track(det.time, x, P, det.radar, det.scan, tracker=name)
+        assert len(a) == len(b) > 0
+        for f in ("track", "time", "state", "covariance", "confirmed"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
 
 
 def test_stonesoup_pregate_changes_nothing_but_the_work(traffic):

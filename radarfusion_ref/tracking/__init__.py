@@ -1,7 +1,9 @@
 r"""From reports to tracks: one tracker over the radars' reports, and three architectures.
 
 * :class:`TrackerSettings` — the tracker's settings, validated when built (defaults tuned
-  on the tuning hour); :data:`STONESOUP_SETTINGS` — Stone Soup's, tuned the same way;
+  on the tuning hour); :data:`IMM_SETTINGS` — ours with the interacting multiple model and
+  :data:`STONESOUP_SETTINGS` — Stone Soup's (``stonesoup_track`` keyword arguments), tuned
+  by the same protocol;
 * :class:`TrackHistory` — tracks over time, one row per (track, update);
 * :func:`track_reports` — architecture (a): every report, in time order, updates one
   tracker (GNN or JPDA, the track score's sequential test or M-of-N logic);
@@ -41,6 +43,7 @@ from ._evaluation import (
 from ._settings import (
     ASSOCIATIONS,
     CONFIRMATIONS,
+    IMM_SETTINGS,
     STONESOUP_SETTINGS,
     TrackerSettings,
     TrackHistory,
@@ -50,6 +53,7 @@ from .stonesoup import STONESOUP_TRACKERS, stonesoup_track
 __all__ = [
     "ASSOCIATIONS",
     "CONFIRMATIONS",
+    "IMM_SETTINGS",
     "MAX_REPORTS",
     "STONESOUP_SETTINGS",
     "STONESOUP_TRACKERS",

@@ -24,16 +24,24 @@ import math
 import numpy as np
 
 from ..engine.optional import require
-from ..engine.validation import as_bool, as_choice, as_float_array
-from ..engine.validation import describe as _describe
+from ..engine.validation import (
+    as_bool,
+    as_choice,
+    as_float,
+    as_float_array,
+    as_positive,
+    describe,
+)
 from ._motion import axis_q, velocity_sd
 from ._settings import TrackerSettings, TrackHistory, _in_unit
 
-__all__ = ["STONESOUP_TRACKERS", "stonesoup_track"]
+__all__ = ["HOLD_DEFAULT", "STONESOUP_TRACKERS", "stonesoup_track"]
 
 #: Trackers of :func:`stonesoup_track`.
 STONESOUP_TRACKERS = ("gnn", "jpda", "jpda_enumerate")
 
+#: The initiator's hold time when `hold` is None: this many revisits of the slowest radar.
+HOLD_DEFAULT = 1.5
 #: Stone Soup state order [x, vx, y, vy, z, vz] -> ours [x, y, z, vx, vy, vz].
 _TO_OURS = np.array([0, 2, 4, 1, 3, 5])
 #: An arbitrary epoch: Stone Soup's clock needs dates; seconds are added to it.
@@ -57,7 +65,7 @@ def _inputs_iv(time, position, cov, radar, scan):
     for name, v in (("radar", radar), ("scan", scan)):
         a = np.asarray(v)
         if a.dtype.kind not in "iu" or a.shape != (n,):
-            raise ValueError(f"`{name}` must be N = {n} integers; received {_describe(v)}")
+            raise ValueError(f"`{name}` must be N = {n} integers; received {describe(v)}")
         ints.append(a.astype(np.int64))
     if n and np.any(np.diff(t) < 0):
         k = int(np.flatnonzero(np.diff(t) < 0)[0])
@@ -114,7 +122,7 @@ def _pregate_class():
 
 
 def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
-                    settings=None, pregate=True) -> TrackHistory:
+                    settings=None, pregate=True, hold=None) -> TrackHistory:
     r"""Stone Soup's GNN or JPDA tracker on reports in the common frame.
 
     Parameters
@@ -145,6 +153,13 @@ def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
         the tracks are the same as without it, and Stone Soup's per-pair work falls from
         every track x every detection of a scan to the pairs inside the gates. ``False``:
         Stone Soup's configuration alone.
+    hold : float, optional
+        How long the initiator keeps a tentative track without an update before it forgets
+        it, in revisits of the slowest radar (the median spacing of one radar's scans):
+        a number > 0, the time capped at `settings.max_coast`. None (default):
+        ``HOLD_DEFAULT`` (1.5) revisits. With `settings.m` (the initiator's ``min_points``),
+        `settings.max_coast` (the deleter) and `settings.p_false_reject` (the missed
+        distance, the gate) it is what a Stone Soup user tunes of track management.
 
     Returns
     -------
@@ -162,13 +177,18 @@ def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
         arrays.
     ValueError
         Arrays that do not describe the same reports, non-finite values, reports out of
-        time order (refused: sort them), an unknown `tracker`.
+        time order (refused: sort them), an unknown `tracker`, a `hold` not > 0.
 
     Notes
     -----
     The configuration follows Stone Soup's tutorials: a constant-velocity model per axis
     (``ConstantVelocity(q)``, continuous white-noise acceleration of intensity
-    :math:`q`; vertically `q_vertical` if set), a Kalman predictor and updater (its Joseph form, symmetrised: the plain
+    :math:`q`; vertically `q_vertical` if set), combined into one model whose transition
+    and noise matrices are kept per time interval (an experienced user's configuration
+    choice: Stone Soup's ``CombinedLinearGaussianTransitionModel`` rebuilds both
+    block-diagonal matrices for every track at every scan, about 40 % of an hour's run;
+    the kept matrices are Stone Soup's own, so the tracks are the same bit for bit), a
+    Kalman predictor and updater (its Joseph form, symmetrised: the plain
     form leaves some covariances indefinite over an hour), each report with its own
     ``LinearGaussian`` measurement model (its covariance), Mahalanobis gating at
     :math:`\sqrt{\gamma}` with :math:`\gamma` the :math:`\chi^2_3` quantile of
@@ -176,7 +196,7 @@ def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
     ``DistanceGater`` around a ``PDAHypothesiser`` with the clutter density and
     :math:`P_D`), the ``MultiMeasurementInitiator`` (new tracks from single reports with
     velocity spread `speed_max`, vertically `speed_max_vertical` if set, released after `m` updates, held ones forgotten after
-    1.5 of the longest radar revisit), and the ``UpdateTimeDeleter`` at `max_coast`
+    `hold` revisits of the slowest radar), and the ``UpdateTimeDeleter`` at `max_coast`
     seconds without an update — the closest of Stone Soup's initiators and deleters to
     the book's M-of-N start and coasting limit.
     """
@@ -186,8 +206,14 @@ def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
         settings = TrackerSettings()
     if not isinstance(settings, TrackerSettings):
         raise TypeError(f"`settings` must be a TrackerSettings or None; received "
-                        f"{_describe(settings)}")
+                        f"{describe(settings)}")
     pregate = as_bool(pregate, "pregate")
+    if hold is None:
+        hold = HOLD_DEFAULT
+    elif isinstance(hold, bool) or not isinstance(hold, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`hold` must be a number of revisits of the slowest radar (> 0) or "
+                        f"None; received {describe(hold)}")
+    hold = as_float(as_positive(hold, "hold"), "hold")
     if settings.motion != "cv":
         raise ValueError(f"`settings`: the Stone Soup adapter runs the constant-velocity model "
                          f"(Stone Soup has no interacting multiple model); received "
@@ -241,9 +267,9 @@ def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
         ti = np.unique(t[radar == i])
         if ti.size > 1:
             revisit = max(revisit, float(np.median(np.diff(ti))))
-    hold = min(1.5 * revisit if revisit else settings.max_coast, settings.max_coast)
+    hold_s = min(hold * revisit if revisit else settings.max_coast, settings.max_coast)
     initiator = MultiMeasurementInitiator(
-        prior_state=prior, deleter=UpdateTimeDeleter(dt.timedelta(seconds=hold)),
+        prior_state=prior, deleter=UpdateTimeDeleter(dt.timedelta(seconds=hold_s)),
         data_associator=gnn, updater=updater, min_points=settings.m,
         initiator=_Counting(prior_state=prior, measurement_model=None))
     deleter = UpdateTimeDeleter(dt.timedelta(seconds=settings.max_coast))
@@ -266,15 +292,51 @@ def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
     return _in_unit(_history(every, settings.m, started[0], Update), settings.length_unit)
 
 
-def _transition_model(settings):
-    """Stone Soup's transition model of `settings`: one ``ConstantVelocity`` per axis, each
-    with its own intensity (:func:`~radarfusion_ref.tracking._motion.axis_q`)."""
+def _transition_model(settings, cached=True):
+    r"""Stone Soup's transition model of `settings`: one ``ConstantVelocity`` per axis, each
+    with its own intensity (:func:`~radarfusion_ref.tracking._motion.axis_q`), combined;
+    `cached`: Stone Soup's combined model with :math:`F(\Delta t)` and :math:`Q(\Delta t)`
+    kept per interval (:func:`_cached_model_class`), else Stone Soup's own class."""
     from stonesoup.models.transition.linear import (
         CombinedLinearGaussianTransitionModel,
         ConstantVelocity,
     )
-    return CombinedLinearGaussianTransitionModel(
-        [ConstantVelocity(float(q)) for q in axis_q(settings)])
+    cls = _cached_model_class() if cached else CombinedLinearGaussianTransitionModel
+    return cls([ConstantVelocity(float(q)) for q in axis_q(settings)])
+
+
+@functools.cache
+def _cached_model_class():
+    """Stone Soup's ``CombinedLinearGaussianTransitionModel`` that keeps the matrices it
+    computed: the same ``matrix`` and ``covar`` (Stone Soup's own computation, once per time
+    interval), returned as copies. Every track predicted over the same interval (all the
+    tracks updated by one scan, predicted to the next) reuses them instead of rebuilding
+    the block-diagonal matrices (made once here)."""
+    from stonesoup.models.transition.linear import CombinedLinearGaussianTransitionModel
+
+    class CachedCombinedLinearGaussianTransitionModel(CombinedLinearGaussianTransitionModel):
+        """The combined linear Gaussian model with F and Q kept per time interval."""
+
+        _SIZE = 4096                     # intervals kept; the store is emptied beyond it
+
+        def _kept(self, which, compute, kwargs):
+            store = self.__dict__.setdefault("_kept_matrices", {})
+            key = (which, kwargs.get("time_interval"))
+            if set(kwargs) - {"time_interval", "prior"}:
+                return compute(**kwargs)            # anything else: Stone Soup's own route
+            if key not in store:
+                if len(store) >= self._SIZE:
+                    store.clear()
+                store[key] = compute(**kwargs)
+            return store[key].copy()
+
+        def matrix(self, **kwargs):
+            return self._kept("F", super().matrix, kwargs)
+
+        def covar(self, **kwargs):
+            return self._kept("Q", super().covar, kwargs)
+
+    return CachedCombinedLinearGaussianTransitionModel
 
 
 def _prior_covariance(settings):
