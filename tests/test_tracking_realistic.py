@@ -467,6 +467,48 @@ def test_summarise_runs_is_the_student_t_interval(tmp_path):
         tk.summarise_runs(runs[:1])
 
 
+def test_load_scored_runs_is_the_student_t_interval_per_group(tmp_path):
+    table = tmp_path / "runs.csv"
+    table.write_text("tracker,seed,threshold_name,threshold,gospa,false\n"
+                     "b,1,alpha,0.1,9.0,2\nb,2,alpha,0.1,10.0,1\nb,3,alpha,0.1,14.0,0\n"
+                     "a,1,alpha,0.1,1.0,0\na,2,alpha,0.1,2.0,0\n"
+                     "a,1,alpha,0.2,5.0,1\na,2,alpha,0.2,6.0,3\n", encoding="utf-8")
+    runs = tk.load_scored_runs(table, by=("tracker", "threshold"))
+    assert list(runs) == [("b", "0.1"), ("a", "0.1"), ("a", "0.2")]     # the table's order
+    assert set(runs["b", "0.1"]) == {"gospa", "false"}     # labels and the seed left out
+    g = [9.0, 10.0, 14.0]
+    lo, hi = stats.t.interval(0.95, df=2, loc=np.mean(g), scale=stats.sem(g))
+    b = runs["b", "0.1"]["gospa"]
+    assert (b.estimate, b.low, b.high, b.trials) == pytest.approx((11.0, lo, hi, 3))
+    assert runs["a", "0.2"]["false"].estimate == pytest.approx(2.0)
+    assert tk.load_scored_runs(str(table), by=("tracker", "threshold")).keys() == runs.keys()
+    with pytest.raises(ValueError, match=r"`path`: 'alpha' must have at least two rows, one "
+                                         r"per seed; received seeds \['1', '2', '3', '1'"):
+        tk.load_scored_runs(table, by="threshold_name")
+
+
+@pytest.mark.parametrize(("text", "kw", "exc", "match"), [
+    (None, dict(), ValueError, "`path` must name an existing CSV file"),
+    ("tracker,seed,g\na,1,1\n", dict(), ValueError, "'a' must have at least two rows"),
+    ("tracker,seed,g\na,1,1\na,1,2\n", dict(), ValueError, r"received seeds \['1', '1'\]"),
+    ("tracker,g\na,1\na,2\n", dict(), ValueError, r"lacks \['seed'\]"),
+    ("tracker,seed,g\na,1,1\na,2,nan\n", dict(), ValueError, "'g' of 'a' must be finite; "
+                                                             "line 3 holds 'nan'"),
+    ("tracker,seed,g\na,1,1\na,2,\n", dict(), ValueError, "'g' must be numeric in every "
+                                                          "row; line 3 holds ''"),
+    ("tracker,seed,g\na,1,1\na,2,2\n", dict(by=["tracker"]), TypeError, "`by`"),
+    ("tracker,seed,g\na,1,1\na,2,2\n", dict(by="radar"), ValueError, r"lacks \['radar'\]"),
+])
+def test_load_scored_runs_bad_input(tmp_path, text, kw, exc, match):
+    path = tmp_path / "t.csv"
+    if text is not None:
+        path.write_text(text, encoding="utf-8")
+    with pytest.raises(exc, match=match):
+        tk.load_scored_runs(path, **kw)
+    with pytest.raises(TypeError, match="`path`"):
+        tk.load_scored_runs(3.0)
+
+
 def test_evaluation_bad_input(tmp_path):
     traffic = _two_aircraft(tmp_path)
     h = _history([(0, 0.0, np.zeros(3), np.zeros(3), 1.0)])

@@ -17,7 +17,8 @@ r"""From reports to tracks: one tracker over the radars' reports, and three arch
 * :func:`evaluate_tracks` — GOSPA over time, track switches against the true identities,
   tracks per target, false tracks per hour, confirmation latency and NEES, against a
   truth given as arrays (time, position, id); :func:`evaluate_tracks_over_time` the same
-  against the ADS-B truth; :func:`summarise_runs` their means over seeds with intervals.
+  against the ADS-B truth; :func:`summarise_runs` their means over seeds with intervals,
+  and :func:`load_scored_runs` the same from a benchmark's CSV table.
 
 The formulas (Kalman filter, track score, JPDA probabilities) live in
 :mod:`radarfusion_ref.engine.tracker`.
@@ -37,6 +38,7 @@ from ._evaluation import (
     TrackStates,
     evaluate_tracks,
     evaluate_tracks_over_time,
+    load_scored_runs,
     summarise_runs,
     tracks_at,
 )
@@ -65,6 +67,7 @@ __all__ = [
     "evaluate_tracks",
     "evaluate_tracks_over_time",
     "fuse_then_track",
+    "load_scored_runs",
     "stonesoup_track",
     "summarise_runs",
     "track_reports",

@@ -4,12 +4,16 @@ r"""Tracks against the truth over time: GOSPA, identity, fragmentation, latency,
 instants; :func:`evaluate_tracks` scores it against a truth given as arrays (time,
 position, identity), and :func:`evaluate_tracks_over_time` against the ADS-B truth
 (:func:`radarfusion_ref.capstone.truth_at`), by the same scoring;
-:func:`summarise_runs` gives each metric's mean over seeds with its Student-t interval.
+:func:`summarise_runs` gives each metric's mean over seeds with its Student-t interval,
+and :func:`load_scored_runs` the same for runs stored one row per seed in a CSV table.
 """
 
 from __future__ import annotations
 
+import csv
+import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -32,7 +36,7 @@ from ..engine.validation import (
 from ._settings import TrackHistory
 
 __all__ = ["TrackStates", "TrackingMetrics", "evaluate_tracks", "evaluate_tracks_over_time",
-           "summarise_runs", "tracks_at"]
+           "load_scored_runs", "summarise_runs", "tracks_at"]
 
 
 @dataclass(frozen=True)
@@ -538,3 +542,114 @@ def summarise_runs(runs) -> dict[str, MeanEstimate]:
         "mean_latency")}
     out["nees"] = mean([r.nees.mean for r in runs])
     return out
+
+
+def _scored_runs_iv(path, by):
+    if not isinstance(path, (str, Path)) or not str(path):
+        raise TypeError(f"`path` must be the path of a CSV file (str or pathlib.Path); "
+                        f"received {_describe(path)}")
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"`path` must name an existing CSV file; received {str(path)!r}")
+    by = (by,) if isinstance(by, str) else by
+    if (not isinstance(by, tuple) or not by
+            or not all(isinstance(b, str) and b for b in by)):
+        raise TypeError(f"`by` must be a column name or a tuple of column names; received "
+                        f"{_describe(by)}")
+    with path.open(newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    columns = list(rows[0]) if rows else []
+    missing = [b for b in (*by, "seed") if b not in columns]
+    if missing:
+        raise ValueError(f"`path`: the table {path.name!r} must have the columns "
+                         f"{[*by, 'seed']} and numeric ones; it lacks {missing} (its columns: "
+                         f"{columns})")
+    return path, by, rows, columns
+
+
+def load_scored_runs(path, *, by="tracker") -> dict:
+    r"""Each metric's mean over seeds, with its Student-t interval, from a CSV of runs.
+
+    The reader of the benchmark tables (one row per run and seed, e.g.
+    ``benchmarks/data/tracking_scored.csv``): the rows are grouped by the column(s) `by`,
+    and every other numeric column is summarised over each group's seeds by
+    :func:`radarfusion_ref.engine.montecarlo.mean`, as :func:`summarise_runs` does for
+    runs in memory.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A CSV file with a header row, a ``seed`` column, the column(s) `by`, and numeric
+        metric columns (a column of labels, non-numeric in every row, is left out; one
+        numeric in some rows only refuses the table).
+    by : str or tuple of str, optional
+        The column(s) that name a run (default ``"tracker"``).
+
+    Returns
+    -------
+    dict
+        Keyed by the value of `by` (a tuple of the values when `by` is a tuple), in the
+        table's order; each value a dict of column name to
+        :class:`~radarfusion_ref.engine.montecarlo.MeanEstimate` (95 %).
+
+    Raises
+    ------
+    TypeError
+        `path` not a str or path, `by` not column names.
+    ValueError
+        No such file, a missing column, a group with fewer than two seeds or one seed
+        twice, a metric column empty, non-numeric or not finite in some row.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     f = os.path.join(d, "runs.csv")
+    ...     _ = open(f, "w").write("tracker,seed,gospa\na,1,10\na,2,12\nb,1,9\nb,2,9\n")
+    ...     runs = load_scored_runs(f)
+    >>> list(runs), runs["a"]["gospa"].estimate, runs["b"]["gospa"].trials
+    (['a', 'b'], 11.0, 2)
+    """
+    path, by, rows, columns = _scored_runs_iv(path, by)
+    metrics = []
+    for c in columns:
+        if c in (*by, "seed"):
+            continue
+        numeric = [_is_number(r[c]) for r in rows]
+        if all(numeric):
+            metrics.append(c)
+        elif any(numeric):
+            n = numeric.index(False) + 2
+            raise ValueError(f"`path`: column {c!r} must be numeric in every row; line {n} "
+                             f"holds {rows[n - 2][c]!r}")
+    groups: dict = {}
+    for n, r in enumerate(rows, start=2):
+        key = tuple(r[b] for b in by)
+        groups.setdefault(key, []).append((n, r))
+    out = {}
+    for key, members in groups.items():
+        seeds = [r["seed"] for _, r in members]
+        name = key[0] if len(by) == 1 else key
+        if len(set(seeds)) != len(seeds) or len(seeds) < 2:
+            raise ValueError(f"`path`: {name!r} must have at least two rows, one per seed; "
+                             f"received seeds {seeds}")
+        summary = {}
+        for c in metrics:
+            values = [float(r[c]) for _, r in members]
+            bad = [(n, r[c]) for (n, r), v in zip(members, values, strict=True)
+                   if not math.isfinite(v)]
+            if bad:
+                raise ValueError(f"`path`: column {c!r} of {name!r} must be finite; line "
+                                 f"{bad[0][0]} holds {bad[0][1]!r}")
+            summary[c] = mean(values)
+        out[name] = summary
+    return out
+
+
+def _is_number(text) -> bool:
+    """Whether a CSV entry reads as a number (NaN and inf included: refused later)."""
+    try:
+        float(text)
+    except (TypeError, ValueError):
+        return False
+    return True

@@ -31,8 +31,8 @@ MOTIONS = ("cv", "imm")
 class TrackerSettings:
     r"""Settings of :func:`~radarfusion_ref.tracking.track_reports` (validated when built).
 
-    The defaults of `q`, `q_vertical`, `speed_max_vertical`, `alpha`, `beta`, `relink`,
-    `p_relink` and `p_false_reject` are tuned on the tuning hour by
+    The defaults of `q`, `q_vertical`, `speed_max_vertical`, `p_false_confirm`,
+    `p_false_delete`, `relink`, `p_relink` and `p_false_reject` are tuned on the tuning hour by
     benchmarks/tune_tracking.py (``capstone.load_traffic(hour="tuning")``, never the scored
     hour; its protocol is the script's docstring, its runs are in
     benchmarks/data/tracking_tuning.csv). The others are stated design values.
@@ -318,7 +318,8 @@ def _in_unit(history, unit):
 #: choice differs from this, and a test checks it against the committed table
 #: (``benchmarks/data/tracking_tuning.csv``).
 IMM_SETTINGS = TrackerSettings(motion="imm", imm_q=(2.0, 300.0), imm_q_vertical=(0.03, 0.03),
-                               speed_max_vertical=5.0, alpha=1e-3, beta=1e-3, relink=True,
+                               speed_max_vertical=5.0, p_false_confirm=1e-3,
+                               p_false_delete=1e-3, relink=True,
                                p_relink=1e-20, p_false_reject=8.208052945144475e-14)
 
 #: Stone Soup's settings, tuned on the tuning hour by ``benchmarks/tune_tracking.py`` with
