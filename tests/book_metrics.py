@@ -252,19 +252,22 @@ def shown_lines(listing: Listing) -> list[tuple[int | None, str]]:
     lines: list[tuple[int | None, str]] = [(n, text[n - 1])
                                            for n in range(span[0], span[1] + 1)]
     opts = listing.options
+
+    def marker(key: str) -> int:
+        """Index of the first shown line holding the option's text."""
+        at = next((i for i, (_, s) in enumerate(lines) if opts[key] in s), None)
+        if at is None:
+            raise LookupError(f"{listing.page.name}:{listing.page_line}: "
+                              f":{key}: {opts[key]!r} not in {listing.pyobject}")
+        return at
+
     for key, keep_marker in (("start-at", True), ("start-after", False)):
         if key in opts:
-            at = next((i for i, (_, s) in enumerate(lines) if opts[key] in s), None)
-            if at is None:
-                raise LookupError(f"{listing.page.name}:{listing.page_line}: "
-                                  f":{key}: {opts[key]!r} not in {listing.pyobject}")
+            at = marker(key)
             lines = lines[at if keep_marker else at + 1:]
     for key, keep_marker in (("end-at", True), ("end-before", False)):
         if key in opts:
-            at = next((i for i, (_, s) in enumerate(lines) if opts[key] in s), None)
-            if at is None:
-                raise LookupError(f"{listing.page.name}:{listing.page_line}: "
-                                  f":{key}: {opts[key]!r} not in {listing.pyobject}")
+            at = marker(key)
             lines = lines[:at + 1 if keep_marker else at]
     if "lines" in opts:
         lines = [lines[i] for i in _line_spec(opts["lines"], len(lines))]
