@@ -15,7 +15,11 @@ From the source (the MyST notebook, read with jupytext):
   comments left out and inline math counted as one word;
 * **summary**, **learn / know** — the admonitions the chapter shape requires;
 * **exercises** — ``{exercise-start}`` / ``{exercise}`` directives;
-* **dead controls** — visible code cells that build live controls (``controls(``).
+* **dead controls** — visible code cells that build live controls (``controls(``);
+* **long boxes** — visible code cells longer than :data:`MAX_BOX_LINES` lines;
+* **door boxes** — visible code cells that call a validation function (``as_*``,
+  ``require*``) or use a private name (``_x``) of ``radarfusion_ref``: the package's door
+  and plumbing, where the reader should see the equation (see :func:`code_box_problems`).
 
 From the built page (``_build/html``), when it exists:
 
@@ -27,8 +31,10 @@ From the built page (``_build/html``), when it exists:
 
 from __future__ import annotations
 
+import ast
 import re
 import sys
+import textwrap
 from dataclasses import asdict, dataclass, fields
 from html import unescape
 from pathlib import Path
@@ -41,6 +47,10 @@ CHECK_CALL = re.compile(
 #: A code cell of a MyST page, its body (options and code) as group 1.
 CODE_CELL = re.compile(r"```\{code-cell\}[^\n]*\n(.*?)```", re.S)
 WORDS_PER_MINUTE = 200
+#: The longest visible code box, in lines: longer code is folded (``hide-input``).
+MAX_BOX_LINES = 15
+#: A call of the package's validation doors (``as_rng(...)``, ``checks.require(...)``).
+VALIDATION_CALL = re.compile(r"(?<![\w.])(?:\w+\.)*(as_\w+|require(?:_\w+)?)\s*\(")
 CODE_LINES_PER_MINUTE = 10
 
 
@@ -60,6 +70,8 @@ class PageMetrics:
     learn_know: bool
     exercises: int
     dead_controls: int
+    long_boxes: int = 0
+    door_boxes: int = 0
     figure_first: bool | None = None
     first_exercise: str | None = None
     widget_state_bytes: int | None = None
@@ -79,6 +91,269 @@ def _prose_words(markdown: str) -> int:
     return len(re.findall(r"\S+", "\n".join(lines)))
 
 
+def _package_names(cells) -> tuple[set[str], set[str]]:
+    """Names a page binds by importing ``radarfusion_ref``: (modules/objects, private ones)."""
+    bound: set[str] = set()
+    private: set[str] = set()
+    for src in cells:
+        tree = parse_cell(src)
+        if tree is None:
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.split(".")[0] == "radarfusion_ref":
+                        bound.add(a.asname or a.name.split(".")[0])
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+                    "radarfusion_ref"):
+                for a in node.names:
+                    bound.add(a.asname or a.name)
+                    if _private(a.name) or any(map(_private, node.module.split("."))):
+                        private.add(a.asname or a.name)
+    return bound, private
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def parse_cell(src: str):
+    """The syntax tree of a cell, IPython magics and shell lines left out (None if invalid)."""
+    code = "\n".join("" if ln.lstrip().startswith(("%", "!")) else ln
+                     for ln in src.splitlines())
+    try:
+        return ast.parse(code)
+    except SyntaxError:
+        return None
+
+
+def box_too_long(src: str) -> str | None:
+    """A message if a code box is longer than :data:`MAX_BOX_LINES` lines (blank ends left out)."""
+    lines = src.strip("\n").splitlines()
+    if len(lines) <= MAX_BOX_LINES:
+        return None
+    return f"{len(lines)} lines (at most {MAX_BOX_LINES}): {lines[0].strip()[:50]!r}"
+
+
+def box_shows_the_door(src: str, package: set[str], private: set[str]) -> list[str]:
+    """What a code box shows of the package's door and plumbing instead of the equation.
+
+    A call of a validation function (``as_*``, ``require*``), and a private name of the
+    package: an import from a ``_module`` or of a ``_name`` of ``radarfusion_ref``, an
+    attribute ``_x`` reached from a name the page imported from the package, or a private
+    name the page imported, used here. `package` and `private` are the names the page's
+    ``radarfusion_ref`` imports bind (:func:`_package_names`).
+    """
+    found = []
+    calls = sorted({m.group(1) for m in VALIDATION_CALL.finditer(src)})
+    if calls:
+        found.append(f"calls the validation functions {calls}")
+    tree = parse_cell(src)
+    if tree is None:
+        return found
+    hidden: set[str] = set()
+    own_package, own_private = _package_names([src])
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+                "radarfusion_ref"):
+            hidden |= {f"{node.module}.{a.name}" for a in node.names
+                       if _private(a.name) or any(map(_private, node.module.split(".")))}
+        elif isinstance(node, ast.Attribute) and _private(node.attr):
+            root = node.value
+            while isinstance(root, ast.Attribute):
+                root = root.value
+            if isinstance(root, ast.Name) and root.id in package | own_package:
+                hidden.add(f"{ast.unparse(node.value)}.{node.attr}")
+        elif isinstance(node, ast.Name) and node.id in private | own_private:
+            hidden.add(node.id)
+    if hidden:
+        found.append(f"shows the package's private names {sorted(hidden)}")
+    return found
+
+
+# ------------------------------------------------------------- package code shown by a page
+#: Characters a code box shows without scrolling on a 1280 px page.
+MAX_WIDTH = 76
+
+_DIRECTIVE = re.compile(r"^```\{literalinclude\}[ \t]+(\S+)[ \t]*\n((?::[\w-]+:[^\n]*\n)*)",
+                        flags=re.M)
+_OPTION = re.compile(r"^:([\w-]+):[ \t]*(.*?)[ \t]*$", flags=re.M)
+
+
+@dataclass(frozen=True)
+class Listing:
+    """One ``{literalinclude}`` with ``:pyobject:`` on a page."""
+
+    page: Path
+    page_line: int
+    source: Path
+    options: dict[str, str]
+
+    @property
+    def pyobject(self) -> str:
+        return self.options["pyobject"]
+
+
+def listings_of(page: Path) -> list[Listing]:
+    """Every ``{literalinclude}`` with ``:pyobject:`` on one page."""
+    found = []
+    text = page.read_text(encoding="utf-8")
+    for m in _DIRECTIVE.finditer(text):
+        options = dict(_OPTION.findall(m.group(2)))
+        if "pyobject" in options:
+            found.append(Listing(page, text.count("\n", 0, m.start()) + 1,
+                                 (page.parent / m.group(1)).resolve(), options))
+    return found
+
+
+def listings(book: Path) -> list[Listing]:
+    """Every ``{literalinclude}`` with ``:pyobject:`` in the pages under *book*."""
+    return [x for page in sorted(book.rglob("*.md")) for x in listings_of(page)]
+
+
+def _object_span(tree: ast.Module, dotted: str) -> tuple[int, int] | None:
+    """1-based first (decorator) and last line of ``Class.method``-style *dotted*."""
+    body: list[ast.stmt] = tree.body
+    node: ast.AST | None = None
+    for part in dotted.split("."):
+        node = next((n for n in body
+                     if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))
+                     and n.name == part), None)
+        if node is None:
+            return None
+        body = node.body
+    assert isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))
+    first = min([node.lineno, *(d.lineno for d in node.decorator_list)])
+    return first, node.end_lineno or node.lineno
+
+
+def _line_spec(spec: str, total: int) -> list[int]:
+    """0-based indices of a ``:lines:`` spec such as ``1,30-`` or ``1-2,41-``."""
+    picked: list[int] = []
+    for part in (p.strip() for p in spec.split(",")):
+        if "-" in part:
+            lo, hi = part.split("-", 1)
+            start = int(lo) - 1 if lo else 0
+            stop = int(hi) if hi else total
+            picked.extend(range(start, stop))
+        else:
+            picked.append(int(part) - 1)
+    return [i for i in picked if 0 <= i < total]
+
+
+def shown_lines(listing: Listing) -> list[tuple[int | None, str]]:
+    """The lines the directive shows, each with its 1-based source line (None if added)."""
+    source = listing.source.read_text(encoding="utf-8")
+    span = _object_span(ast.parse(source), listing.pyobject)
+    if span is None:
+        raise LookupError(f"{listing.page.name}:{listing.page_line}: no object "
+                          f"{listing.pyobject!r} in {listing.source}")
+    text = source.splitlines()
+    lines: list[tuple[int | None, str]] = [(n, text[n - 1])
+                                           for n in range(span[0], span[1] + 1)]
+    opts = listing.options
+
+    def marker(key: str) -> int:
+        """Index of the first shown line holding the option's text."""
+        at = next((i for i, (_, s) in enumerate(lines) if opts[key] in s), None)
+        if at is None:
+            raise LookupError(f"{listing.page.name}:{listing.page_line}: "
+                              f":{key}: {opts[key]!r} not in {listing.pyobject}")
+        return at
+
+    for key, keep_marker in (("start-at", True), ("start-after", False)):
+        if key in opts:
+            at = marker(key)
+            lines = lines[at if keep_marker else at + 1:]
+    for key, keep_marker in (("end-at", True), ("end-before", False)):
+        if key in opts:
+            at = marker(key)
+            lines = lines[:at + 1 if keep_marker else at]
+    if "lines" in opts:
+        lines = [lines[i] for i in _line_spec(opts["lines"], len(lines))]
+    if "dedent" in opts:
+        if opts["dedent"]:
+            k = int(opts["dedent"])
+            lines = [(n, s[k:]) for n, s in lines]
+        else:
+            body = textwrap.dedent("\n".join(s for _, s in lines)).split("\n")
+            lines = [(n, s) for (n, _), s in zip(lines, body, strict=True)]
+    if "prepend" in opts:
+        lines.insert(0, (None, opts["prepend"]))
+    if "append" in opts:
+        lines.append((None, opts["append"]))
+    return lines
+
+
+def too_wide(listing: Listing, width: int = MAX_WIDTH) -> list[str]:
+    """One message per shown line of *listing* longer than *width* characters."""
+    rel = listing.source.relative_to(ROOT) if listing.source.is_relative_to(ROOT) \
+        else listing.source
+    return [f"{listing.page.name}:{listing.page_line}: {rel}:{n} "
+            f"({listing.pyobject}) shows {len(s)} > {width} characters: {s.strip()[:60]}"
+            for n, s in shown_lines(listing) if len(s.expandtabs()) > width]
+
+
+def visible_code_cells(path: Path) -> list[tuple[int, str]]:
+    """The visible code cells of a page: (1-based cell number, source), solutions left out."""
+    import jupytext
+
+    nb = jupytext.read(path)
+    in_solution = False
+    out = []
+    for number, cell in enumerate(nb.cells, start=1):
+        if cell.cell_type == "markdown":
+            for part in re.findall(r"```\{solution-(start|end)\}", cell.source):
+                in_solution = part == "start"
+            continue
+        tags = set(cell.metadata.get("tags", []))
+        if cell.cell_type == "code" and not in_solution and not tags & HIDDEN_TAGS:
+            out.append((number, cell.source))
+    return out
+
+
+def listing_boxes(path: Path) -> list[tuple[str, str]]:
+    """The package code a page shows with ``{literalinclude}`` and ``:pyobject:``.
+
+    Each as (where, the shown text); a listing that names no object shows nothing here.
+    """
+    out = []
+    for listing in listings_of(path):
+        try:
+            shown = "\n".join(s for _, s in shown_lines(listing))
+        except LookupError:
+            continue
+        out.append((f"line {listing.page_line} ({listing.pyobject})", shown))
+    return out
+
+
+def _listing_private(src: str) -> set[str]:
+    """In package source, every private name is the package's."""
+    tree = parse_cell(textwrap.dedent(src))
+    if tree is None:
+        return set()
+    return {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and _private(n.id)} | {
+        n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute) and _private(n.attr)}
+
+
+def code_boxes(path: Path) -> list[str]:
+    """Every problem of every visible code box of a page (cells and listings), named."""
+    import jupytext
+
+    cells = [c.source for c in jupytext.read(path).cells if c.cell_type == "code"]
+    package, private = _package_names(cells)
+    boxes = [(f"cell {n}", src, box_shows_the_door(src, package, private))
+             for n, src in visible_code_cells(path)]
+    for where, src in listing_boxes(path):
+        door = box_shows_the_door(textwrap.dedent(src), set(), _listing_private(src))
+        boxes.append((f"listing at {where}", src, door))
+    found = []
+    for where, src, door in boxes:
+        long = box_too_long(src)
+        found += [f"{where}: {what}" for what in ([long] if long else []) + door]
+    return found
+
+
 def source_metrics(path: Path) -> PageMetrics:
     """The source half of a page's metrics."""
     import jupytext
@@ -87,6 +362,8 @@ def source_metrics(path: Path) -> PageMetrics:
     in_solution = False
     code = visible = checks = words = code_lines = dead = exercises = 0
     summary = learn = know = False
+    package, private = _package_names([c.source for c in nb.cells if c.cell_type == "code"])
+    long_boxes = door_boxes = 0
     for cell in nb.cells:
         src = cell.source
         if cell.cell_type == "markdown":
@@ -114,12 +391,19 @@ def source_metrics(path: Path) -> PageMetrics:
         code_lines += len([ln for ln in src.splitlines() if ln.strip()])
         checks += bool(CHECK_CALL.search(src))
         dead += "controls(" in src
+        long_boxes += box_too_long(src) is not None
+        door_boxes += bool(box_shows_the_door(src, package, private))
+    for _, src in listing_boxes(path):
+        long_boxes += box_too_long(src) is not None
+        door_boxes += bool(box_shows_the_door(textwrap.dedent(src), set(),
+                                              _listing_private(src)))
     minutes = words / WORDS_PER_MINUTE + code_lines / CODE_LINES_PER_MINUTE
     return PageMetrics(
         page=_docname(path), code_cells=code, visible_code=visible, visible_checks=checks,
         check_share=checks / visible if visible else 0.0, prose_words=words,
         visible_code_lines=code_lines, reading_minutes=round(minutes, 1), summary=summary,
         learn_know=learn and know, exercises=exercises, dead_controls=dead,
+        long_boxes=long_boxes, door_boxes=door_boxes,
     )
 
 
@@ -246,8 +530,6 @@ _TELLS_PROSE = {
 
 def _string_constants(tree):
     """The string literals of a cell that can reach the page (docstrings left out)."""
-    import ast
-
     docs = {id(n.body[0].value) for n in ast.walk(tree)
             if isinstance(n, (ast.Module, ast.FunctionDef, ast.ClassDef))
             and ast.get_docstring(n, clean=False) is not None}
@@ -263,8 +545,6 @@ def prose_tells(path: Path) -> list[str]:
     that strings two or more intervals (``.format(...)`` of a Monte-Carlo result) together.
     One rounded number goes in a sentence; intervals go in a table or a caption.
     """
-    import ast
-
     text = path.read_text(encoding="utf-8")
     found = []
     prose = CODE_CELL.sub("", text)

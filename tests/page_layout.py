@@ -18,6 +18,9 @@ them):
   overflowing equations whose container does not scroll (or that run under the number).
 * **code wide** — visible code boxes (``pre`` outside outputs: cell inputs, literal
   includes) that scroll sideways (``scrollWidth > clientWidth``); folded ones excluded.
+* **output wide** — visible output lines that run past their box: a ``pre`` in a cell's
+  output whose ``scrollWidth`` exceeds its ``clientWidth`` (the reader sees the line cut
+  off at the column's edge, or has to scroll to read it); folded ones excluded.
 * **verdicts** — visible outputs that read as a check's verdict (the strings
   ``radarfusion_ref.kit.checks`` and ``kit.symbolic`` return or print), a quoted string,
   a bare repr (``0``, ``True``, a dict, a list, ``array(...)``, a matplotlib object), or a
@@ -141,7 +144,7 @@ async (opts) => {
   };
   const short = (t, n) => t.replace(/\s+/g, " ").trim().slice(0, n || 90);
   const out = {code: [], outputs: [], labels: [], stderr: [], images: [], players: [],
-               wideOutputs: 0, closing: false};
+               wideOutputs: [], closing: false};
 
   if (!opts.equationsOnly) {
     // visible code boxes (not outputs) that scroll sideways
@@ -161,8 +164,12 @@ async (opts) => {
                  : /stream/.test(cls) ? "stream" : /text_html/.test(cls) ? "html"
                  : /text_markdown|text_latex/.test(cls) ? "rich" : "other";
       out.outputs.push({kind: kind, text: (o.innerText || "").slice(0, 2000)});
-      const pre = o.querySelector("pre");
-      if (pre && pre.scrollWidth > pre.clientWidth + 1) out.wideOutputs += 1;
+      for (const pre of o.querySelectorAll("pre")) {
+        if (pre.scrollWidth > pre.clientWidth + 1) {
+          const longest = pre.innerText.split("\n").reduce((a, b) => b.length > a.length ? b : a, "");
+          out.wideOutputs.push({over: pre.scrollWidth - pre.clientWidth, line: short(longest, 100)});
+        }
+      }
     }
     if (!out.closing) out.closing = /Verified on this page: \d+ checks?/.test(main.innerText);
     // every stderr output, folded or not, except in cells tagged as part of the lesson
@@ -257,6 +264,7 @@ class PageLayout:
     eq_px: int = 0
     eq_390: int = 0
     code_wide: int = 0
+    output_wide: int = 0
     verdicts: int = 0
     stderr: int = 0
     minutes: float | None = None
@@ -375,6 +383,7 @@ def measure_page(browser, base_url: str, docname: str, html_dir: Path,
     cut = [e for e in narrow["equations"] if not e["scrollable"]]
     row.eq_390 = len(cut)
     row.code_wide = len(wide["code"])
+    row.output_wide = len(wide["wideOutputs"])
     verdicts = verdict_texts(wide["outputs"])
     labels = sorted(set(wide["labels"]))
     row.verdicts = len(verdicts) + len(labels)
@@ -434,6 +443,11 @@ def problems(row: PageLayout) -> dict[str, str]:
     if row.code_wide:
         out["code"] = (f"{row.code_wide} visible code boxes scroll sideways at {WIDE} px, e.g. "
                        + "; ".join(repr(c["line"]) for c in d["code"][:3]))
+    if row.output_wide:
+        out["outputs"] = (f"{row.output_wide} visible output lines run past their box at "
+                          f"{WIDE} px, e.g. "
+                          + "; ".join(f"{c['line']!r} +{c['over']}px"
+                                      for c in d["wide_outputs"][:3]))
     if row.verdicts:
         out["verdicts"] = (f"{row.verdicts} check verdicts, quoted strings, bare values or "
                            f"label names in the reading flow: "
@@ -508,7 +522,8 @@ def table(rows: list[PageLayout]) -> str:
     out.append(f"pages: {len(rows)}; failing: {sum(bool(problems(r)) for r in rows)}; "
                f"clipped equations: {sum(r.eq_clipped for r in rows)} on "
                f"{sum(r.eq_clipped > 0 for r in rows)} pages; sideways code boxes: "
-               f"{sum(r.code_wide for r in rows)}; visible verdicts: "
+               f"{sum(r.code_wide for r in rows)}; output lines past their box: "
+               f"{sum(r.output_wide for r in rows)}; visible verdicts: "
                f"{sum(r.verdicts for r in rows)}; stderr outputs: "
                f"{sum(r.stderr for r in rows)}; notebook pages over {MAX_READING_MINUTES:g} "
                f"min: {sum((r.minutes or 0) > MAX_READING_MINUTES for r in main)}; short of "

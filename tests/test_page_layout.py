@@ -2,7 +2,8 @@
 
 The measures and limits are those of ``tests/page_layout.py`` (``python
 tests/page_layout.py`` prints them as a table): no display equation wider than its
-box, no visible code box that scrolls sideways, no check verdict, quoted string, bare
+box, no visible code box that scrolls sideways, no output line that runs past its
+box, no check verdict, quoted string, bare
 value or label name in the reading flow, no stderr output (except in a cell tagged
 ``lesson-stderr``), at most 35 reading minutes and one figure per 5 of them, players
 at least 800 px wide, exercises numbered from 1 on every page that starts a count, and
@@ -89,6 +90,13 @@ def test_visible_code_does_not_scroll_sideways(layout, docname):
 
 @pytest.mark.book
 @pytest.mark.parametrize("docname", PAGES)
+def test_output_lines_stay_in_their_box(layout, docname):
+    failure = _fails(layout(docname), "outputs")
+    assert failure is None, failure
+
+
+@pytest.mark.book
+@pytest.mark.parametrize("docname", PAGES)
 def test_no_verdict_in_the_reading_flow(layout, docname):
     failure = _fails(layout(docname), "verdicts")
     assert failure is None, failure
@@ -159,6 +167,7 @@ HEAD = """<!DOCTYPE html><html><head><meta charset="utf-8">
 
 LONG_TEX = " + ".join(f"a_{{{i}}} x_{{{i}}}^{{2}}" for i in range(40))
 LONG_CODE = "value = " + " + ".join(f"term_{i}" for i in range(30))
+LONG_OUTPUT = "SweepResult(" + ", ".join(f"field_{i}={i}.0" for i in range(20)) + ")"
 
 
 def _cell(inp: str = "", out: str = "", tags: str = "") -> str:
@@ -183,12 +192,14 @@ BAD_BODY = f"""
 <div class="math notranslate nohighlight"><span class="eqno">(1.2)</span>\\[a = b\\]</div>
 {_cell(LONG_CODE, _plain("'two routes: agree on 3 values (largest relative difference 1e-16)'"))}
 {_cell("x = 1", _plain("0"))}
+{_cell("print(result)", _plain(LONG_OUTPUT, "stream"))}
 {_cell("print(msg)", _plain("the weights sum to one: holds", "stream"))}
 {_cell("y = 2", '<div class="output stderr"><pre>UserWarning: Ignoring fixed y limits</pre></div>')}
 {_cell("z = 3", '<div class="output stderr"><pre>RuntimeWarning: shown on purpose</pre></div>',
        tags="tag_" + LESSON_STDERR_TAG)}
 <details class="hide"><summary>Show code</summary>
 {_cell(LONG_CODE, _plain("'hidden: agree on 9 values (largest relative difference 0)'"))}
+{_cell("print(result)", _plain(LONG_OUTPUT, "stream"))}
 </details>
 <img src="figure.png" alt="figure">
 <div class="animation"><img id="_anim_img1" src="figure.png" style="width: 460px"></div>
@@ -202,6 +213,7 @@ GOOD_BODY = f"""
 <p>Start. As eq. (1.2) shows, nothing leaked.</p>
 <div class="math notranslate nohighlight"><span class="eqno">(1.1)</span>\\[a + b = c\\]</div>
 {_cell("x = 1", _plain("a computed table of numbers, in words", "stream"))}
+{_cell("print(result)", _plain(LONG_OUTPUT[:60] + ")", "stream"))}
 <details class="hide"><summary>Show code</summary>{_cell(LONG_CODE, "")}</details>
 <img src="figure.png" alt="figure">
 <div class="animation"><img id="_anim_img2" src="figure.png" style="width: 820px"></div>
@@ -253,6 +265,8 @@ def test_the_layout_check_catches_each_defect(browser, synthetic):
     assert row.eq_clipped == 2 and row.eq_px > 100, row
     assert row.eq_390 == 1, row.details["equations_390"]  # the one that cannot scroll
     assert row.code_wide == 1, row.details["code"]  # the folded one is not counted
+    assert row.output_wide == 1, row.details["wide_outputs"]  # nor the folded output
+    assert row.details["wide_outputs"][0]["line"].startswith("SweepResult(field_0=0.0")
     assert sorted(row.details["verdicts"]) == [
         "'two routes: agree on 3 values (largest relative difference 1e-16)'", "0",
         "the weights sum to one: holds"], row.details["verdicts"]
@@ -262,8 +276,8 @@ def test_the_layout_check_catches_each_defect(browser, synthetic):
     assert row.player_px == 460 and row.figs == 3
     assert sorted(measured_players(row)) == [460, 700]
     assert row.first_ex == "2"
-    assert set(found) == {"equations", "equations_390", "code", "verdicts", "stderr", "player",
-                          "exercises"}, found
+    assert set(found) == {"equations", "equations_390", "code", "outputs", "verdicts", "stderr",
+                          "player", "exercises"}, found
     assert "(1.1)" in found["equations"]
 
 

@@ -13,6 +13,7 @@ import pytest
 from book_metrics import (
     BACKSLASH_COMMAND,
     book_labels,
+    code_boxes,
     contents_entries,
     contents_problems,
     html_metrics,
@@ -45,6 +46,85 @@ def test_checks_are_out_of_the_reading_flow(docname):
     assert m.check_share <= MAX_CHECK_SHARE, (
         f"{docname}: {m.visible_checks} of {m.visible_code} visible code cells are checks "
         f"(at most {MAX_CHECK_SHARE:.0%})")
+
+
+#: Pages whose visible code is still being folded or rewritten in the page's symbols.
+#: Emptied as each page is fixed; every page not listed is held to the rule.
+NOT_YET_CLEAN: set[str] = set()
+
+
+@pytest.mark.parametrize("docname", [
+    pytest.param(d, marks=pytest.mark.xfail(strict=False, reason="being rewritten"))
+    if d in NOT_YET_CLEAN else d for d in ALL_NOTEBOOKS])
+def test_visible_code_boxes_are_short_and_plain(docname):
+    """No visible code box over 15 lines, calling a validation door or a private name."""
+    problems = code_boxes(ROOT / f"{docname}.md")
+    assert not problems, f"{docname}: " + "; ".join(problems)
+
+
+def test_the_not_yet_clean_list_names_pages():
+    assert set(ALL_NOTEBOOKS) >= NOT_YET_CLEAN, sorted(NOT_YET_CLEAN - set(ALL_NOTEBOOKS))
+
+
+def test_the_code_box_rule_can_fail(tmp_path):
+    """A long box, a validation call and private names fail; folded and short code passes."""
+    front = (ROOT / "book" / "intro.md").read_text(encoding="utf-8").split("---", 2)[1]
+    (tmp_path / "pkg.py").write_text(textwrap.dedent("""\
+        def shown(x):
+            x = as_float(x)
+            return _kernel(x)
+        """), encoding="utf-8")
+    page = tmp_path / "page.md"
+    long_code = "\n".join(f"x{i} = {i}" for i in range(16))
+    page.write_text(f"---{front}---\n" + textwrap.dedent("""\
+        # A page
+
+        ```{code-cell} ipython3
+        :tags: [remove-cell]
+        import radarfusion_ref.gating as gating
+        from radarfusion_ref.engine import linalg
+        from radarfusion_ref.kit.checks import require
+        ```
+
+        ```{code-cell} ipython3
+        %s
+        ```
+
+        ```{code-cell} ipython3
+        :tags: [hide-input]
+        %s
+        p = gating.as_probability(0.5)
+        ```
+
+        ```{code-cell} ipython3
+        d = linalg._mahalanobis(x, S)
+        from radarfusion_ref.engine._validation import as_rng
+        ```
+
+        ```{code-cell} ipython3
+        require(p, 0.5, "coin")
+        x_hat = np.asarray([1.0])  # a numpy call is not the package's door
+        ```
+
+        ```{code-cell} ipython3
+        def fuse(x_hat, Sigma):
+            return x_hat.sum()
+        ```
+
+        ```{literalinclude} pkg.py
+        :pyobject: shown
+        ```
+        """) % (long_code.replace("\n", "\n        "), long_code.replace("\n", "\n        ")),
+        encoding="utf-8")
+    found = code_boxes(page)
+    assert len(found) == 5, found
+    assert "16 lines (at most 15)" in found[0] and found[0].startswith("cell 3:")
+    assert "linalg._mahalanobis" in found[1] and "engine._validation.as_rng" in found[1]
+    assert "['require']" in found[2] and found[2].startswith("cell 6:")
+    assert "['as_float']" in found[3] and "(shown)" in found[3]
+    assert "['_kernel']" in found[4]
+    m = source_metrics(page)
+    assert (m.long_boxes, m.door_boxes) == (1, 3)
 
 
 @pytest.mark.parametrize("docname", CHAPTER_PAGES)
