@@ -15,6 +15,7 @@ from radarfusion_ref.tracking import (
     track_then_fuse,
 )
 from radarfusion_ref.tracking import _architectures as arch
+from radarfusion_ref.tracking._motion import axis_q
 
 SEP = 300.0                                      # lateral separation of the two aircraft, m
 SPEED = 200.0
@@ -233,7 +234,7 @@ def test_bar_shalom_campo_is_consistent_where_the_model_holds():
     rng = np.random.default_rng(11)
     q = 50.0
     reports, grid, truth = _model_scene(40, 300.0, q, rng)
-    settings = TrackerSettings(q=q)
+    settings = TrackerSettings(q=q, q_vertical=None, speed_max_vertical=None)  # the scene's model
     out = {}
     for rule in arch.T2T_RULES:
         h = track_then_fuse(*reports, period=5.0, settings=settings, rule=rule)
@@ -272,8 +273,8 @@ def test_bar_shalom_campo_covariance_is_below_ci_on_the_same_groups(realistic_wi
     t, z, R, rad, sc = reports
     hist = {r: track_reports(t[rad == r], z[rad == r], R[rad == r], rad[rad == r],
                              sc[rad == r], settings=settings) for r in range(3)}
-    loc = arch._Local(hist, np.full(3, settings.q), gains=True)
-    cross = arch._Cross(loc, np.full(3, settings.q))
+    loc = arch._Local(hist, axis_q(settings), gains=True)     # as track_then_fuse does
+    cross = arch._Cross(loc, axis_q(settings))
     fused = 0
     for tg in np.arange(t.min() + 5.0, t.max(), 5.0):
         _, gP, _, rows = arch._fuse_at(loc, cross, tg, settings, "bar_shalom_campo", {})

@@ -8,7 +8,6 @@ and tolerances of 5 standard errors.
 
 from __future__ import annotations
 
-import re
 from fractions import Fraction
 from functools import reduce
 from pathlib import Path
@@ -483,34 +482,6 @@ def test_other_entry_points_reject_bad_input():
 
 
 # ----------------------------------------------------------------------------- the chapter
-
-
-def test_chapter_literalincludes_show_the_code_after_the_docstring():
-    """The chapter and its sub-pages show function bodies from a marker line; keep them in step."""
-    import inspect
-
-    from radarfusion_ref import fusion
-
-    text = "".join(p.read_text() for p in sorted((ROOT / "book").glob("01_fusion*.md")))
-    found = re.findall(r":pyobject: (\w+)\n:prepend: (.*)\n:start-at: (.*)\n", text)
-    assert {name for name, _, _ in found} == {"fuse", "fuse_gaussian"}
-    for name, signature, marker in found:
-        lines = inspect.getsource(getattr(fusion, name)).splitlines()
-        assert lines[0] == signature, name
-        start = [i for i, line in enumerate(lines) if line.strip() == marker]
-        assert len(start) == 1, name
-        assert lines[start[0] - 1].strip() == '"""', name    # right after the docstring
-
-
-def test_misweighted_literalinclude_marker_is_in_the_function():
-    import inspect
-
-    from radarfusion_ref import fusion
-
-    text = (ROOT / "book" / "01_fusion_misweight.md").read_text()
-    (marker,) = re.findall(r":pyobject: misweighted\n:start-at: (.*)\n", text)
-    lines = inspect.getsource(fusion.misweighted).splitlines()
-    assert sum(marker in line for line in lines) == 1       # Sphinx matches a substring
 
 
 # ============================================================================= issue 12: trust
