@@ -44,7 +44,7 @@ class AssignmentResult(Protocol):
 
 
 def relative_gap(total, lower):
-    """Kernel (trusted input): the relative gap (cost - lower bound) / max(|cost|, 1), >= 0."""
+    """Kernel (trusted input): the relative gap ``(cost - lower) / max(abs(cost), 1)``, >= 0."""
     return max(0.0, (float(total) - float(lower)) / max(abs(float(total)), 1.0))
 
 
