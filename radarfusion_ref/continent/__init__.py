@@ -8,3 +8,48 @@ sectors.
   overlap, one tracker per sector, hand-over of tracks that cross a border, run in one
   process or on a Dask cluster with the same answer.
 """
+
+from .scenario import (
+    AIRPORTS_FILE,
+    ORIGIN,
+    RADAR_DRAWS,
+    SWISS_AIRBORNE,
+    Airports,
+    ContinentReports,
+    ContinentScenario,
+    Flights,
+    airborne_count,
+    continent_scenario,
+    expected_reports,
+    from_map,
+    load_airports,
+    map_scale,
+    polar_to_map,
+    simulate_continent,
+    to_map,
+    truth_at,
+    truth_samples,
+)
+
+__all__ = [
+    # scenario
+    "AIRPORTS_FILE",
+    "ORIGIN",
+    "RADAR_DRAWS",
+    "SWISS_AIRBORNE",
+    "Airports",
+    "ContinentReports",
+    "ContinentScenario",
+    "Flights",
+    "airborne_count",
+    "continent_scenario",
+    "expected_reports",
+    "from_map",
+    "load_airports",
+    "map_scale",
+    "polar_to_map",
+    "simulate_continent",
+    "to_map",
+    "truth_at",
+    "truth_samples",
+]

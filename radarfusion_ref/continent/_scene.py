@@ -1,0 +1,139 @@
+"""Kernels of the continental scene: airports, radars, schedule, truth samples (trusted input).
+
+The doors are in :mod:`radarfusion_ref.continent.scenario`.
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import io
+import math
+from importlib import resources
+
+import numpy as np
+
+from ..capstone import Radar
+from . import _flights, _reports
+from ._frame import frame_of
+
+#: The committed airports (CSV with a ``#`` header line; see ``data/make_airports.py``).
+AIRPORTS_FILE = resources.files(__package__).joinpath("data", "airports.csv")
+#: Ranges (uniform) of the radars' drawn parameters: scan period (s), coverage (m), range
+#: noise (m), azimuth and elevation noise (deg), detection probability, false reports per
+#: scan; and the standard deviations of the biases: range offset (m), range scale, azimuth
+#: offset (deg).
+RADAR_DRAWS = {"period": (4.0, 12.0), "max_range": (250e3, 400e3), "sigma_r": (30.0, 80.0),
+               "sigma_beta": (0.05, 0.12), "sigma_epsilon": (0.08, 0.2),
+               "p_detect": (0.8, 0.95), "clutter_rate": (5.0, 20.0),
+               "bias_range": 80.0, "bias_scale": 1e-4, "bias_azimuth": 0.1}
+
+
+@functools.lru_cache(maxsize=1)
+def airports() -> dict:
+    """The committed airports' columns: icao, iata, name (str), lat, lon, elevation (float)."""
+    text = AIRPORTS_FILE.read_text(encoding="utf-8")
+    rows = list(csv.DictReader(io.StringIO(
+        "\n".join(line for line in text.splitlines() if not line.startswith("#")))))
+    col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+    return dict(icao=col["icao"], iata=col["iata"], name=col["name"],
+                lat=col["lat"].astype(float), lon=col["lon"].astype(float),
+                elevation=col["elevation_m"].astype(float))
+
+
+@functools.lru_cache(maxsize=8)
+def airport_map(lat0, lon0):
+    ap = airports()
+    return frame_of(lat0, lon0).forward(ap["lat"], ap["lon"], ap["elevation"])
+
+
+#: Flights of the fixed draw that gives the mean flight time (its standard error about
+#: 0.1 %).
+_CALIBRATION_FLIGHTS = 200_000
+
+
+@functools.lru_cache(maxsize=8)
+def mean_duration(lat0, lon0) -> float:
+    """Mean flight time E[T] (s) of the flight distribution, from a fixed seeded draw."""
+    xyz = airport_map(lat0, lon0)
+    f = _flights.draw(xyz[:, :2], xyz[:, 2], _CALIBRATION_FLIGHTS,
+                      np.random.default_rng(20260101))
+    return float(np.mean(f["duration"]))
+
+
+def draw_radars(xyz, n, gen):
+    """`n` radars: sites spread by farthest-point sampling over the airports, then jittered."""
+    ap = airports()
+    first = int(gen.integers(ap["lat"].size))
+    chosen = [first]
+    d = np.linalg.norm(xyz[:, :2] - xyz[first, :2], axis=-1)
+    for _ in range(n - 1):
+        nxt = int(np.argmax(d))
+        chosen.append(nxt)
+        d = np.minimum(d, np.linalg.norm(xyz[:, :2] - xyz[nxt, :2], axis=-1))
+    idx = np.array(chosen)
+    # jitter: up to 0.1 deg of latitude and longitude; mast or hill 10-300 m above the airport
+    lat = ap["lat"][idx] + gen.uniform(-0.1, 0.1, n)
+    lon = ap["lon"][idx] + gen.uniform(-0.1, 0.1, n)
+    height = ap["elevation"][idx] + gen.uniform(10.0, 300.0, n)
+    u = {k: gen.uniform(*v, n) for k, v in RADAR_DRAWS.items() if isinstance(v, tuple)}
+    bias = gen.standard_normal((n, 3)) * [RADAR_DRAWS["bias_range"], RADAR_DRAWS["bias_scale"],
+                                          RADAR_DRAWS["bias_azimuth"]]
+    phase = gen.random(n) * u["period"]
+    return tuple(Radar(
+        name=f"{ap['iata'][i]} radar", lat=float(lat[m]), lon=float(lon[m]),
+        height=float(height[m]), sigma_r=float(u["sigma_r"][m]),
+        sigma_beta=math.radians(u["sigma_beta"][m]),
+        sigma_epsilon=math.radians(u["sigma_epsilon"][m]), bias_range=float(bias[m, 0]),
+        bias_azimuth=math.radians(bias[m, 2]), p_detect=float(u["p_detect"][m]),
+        clutter_rate=float(u["clutter_rate"][m]), max_range=float(u["max_range"][m]),
+        min_elevation=0.0, period=float(u["period"][m]), phase=float(phase[m]),
+        bias_scale=float(bias[m, 1])) for m, i in enumerate(idx))
+
+
+
+def airborne_pairs(flights, times):
+    """(flight, time-index) of every flight airborne at every instant (sparse, no F x T)."""
+    order = np.argsort(times, kind="stable")
+    ts = times[order]
+    lo = np.searchsorted(ts, flights.departure, side="left")
+    hi = np.searchsorted(ts, flights.arrival, side="right")
+    n = hi - lo
+    j = np.repeat(np.arange(len(flights)), n)
+    pos = np.repeat(lo - (np.cumsum(n) - n), n) + np.arange(j.size)
+    return j, order[pos]
+
+
+
+def covered(sc, pos):
+    """Boolean (n,): map positions inside at least one radar's coverage."""
+    frame = frame_of(*sc.origin)
+    out = np.zeros(pos.shape[0], dtype=bool)
+    for rad in sc.radars:
+        site = frame.forward(rad.lat, rad.lon, rad.height)
+        near = np.flatnonzero(np.hypot(pos[:, 0] - site[0], pos[:, 1] - site[1])
+                              <= _reports.REACH[0] * rad.max_range + _reports.REACH[1])
+        if near.size:
+            p = _reports.polar(_reports.to_local(frame, rad, pos[near]))
+            out[near[(p[:, 0] <= rad.max_range) & (p[:, 2] >= rad.min_elevation)]] = True
+    return out
+
+
+
+def expected(sc, start, duration):
+    frame = frame_of(*sc.origin)
+    probe = start + duration * (np.arange(5) + 0.5) / 5                # five instants
+    j, ti = airborne_pairs(sc.flights, probe)
+    pos = _flights.state(sc.flights, _flights.geometry(sc.flights), j, probe[ti])
+    total = 0.0
+    for rad in sc.radars:
+        n_scans = _reports.scan_times(rad, start, duration)[0].size
+        site = frame.forward(rad.lat, rad.lon, rad.height)
+        near = np.flatnonzero(np.hypot(pos[:, 0] - site[0], pos[:, 1] - site[1])
+                              <= _reports.REACH[0] * rad.max_range + _reports.REACH[1])
+        p = _reports.polar(_reports.to_local(frame, rad, pos[near]))
+        seen = np.sum((p[:, 0] <= rad.max_range) & (p[:, 2] >= rad.min_elevation)) / 5
+        total += n_scans * (rad.clutter_rate + rad.p_detect * seen)
+    return math.ceil(total)
+
+
