@@ -36,7 +36,8 @@ def polar(local):
 
 def to_local(frame, rad, xyz):
     """Map points (n, 3) -> the radar's own east-north-up frame (n, 3)."""
-    return (ecef(frame.inverse(xyz)) - site_ecef(rad)) @ enu_rotation(rad.lat, rad.lon).T
+    d = ecef(frame.inverse(xyz)) - site_ecef(rad)
+    return np.einsum("ni,ji->nj", d, enu_rotation(rad.lat, rad.lon))          # R d, row-wise
 
 
 def scan_times(rad, start, duration):
@@ -46,34 +47,66 @@ def scan_times(rad, start, duration):
     return k, rad.phase + rad.period * k
 
 
-def pairs(flights, rad, site_xy, k, times):
-    """(flight, scan-row) pairs of the flights within the radar's reach, airborne at a scan."""
+def intervals(flights, geom, rad, site_xy, start, duration):
+    """Time intervals (flight, t_lo, t_hi) in which a flight may be within the radar's reach.
+
+    Each leg of the polyline A-W-B is cut by the reach circle about the site (closed form);
+    the arc stays within 2 km of the corner and its length within 1 km of the two tangent
+    lengths, both inside the reach's margin. Leg 1 covers the path up to the arc's middle,
+    leg 2 the rest, so no instant is counted twice.
+    """
     reach = REACH[0] * rad.max_range + REACH[1]
     near = np.flatnonzero(_flights.distance_to_path(flights, site_xy) <= reach)
-    if k.size == 0 or near.size == 0:
-        return np.empty(0, np.int64), np.empty(0, np.int64)
-    t0, p = times[0], rad.period
-    lo = np.maximum(np.ceil((flights.departure[near] - t0) / p - 1e-9), 0).astype(np.int64)
-    hi = np.minimum(np.floor((flights.arrival[near] - t0) / p + 1e-9), k.size - 1) \
-        .astype(np.int64)
-    n = np.maximum(hi - lo + 1, 0)
-    j = np.repeat(near, n)
-    first = np.repeat(lo - (np.cumsum(n) - n), n)
-    s = first + np.arange(j.size)
-    return j, s
+    g = {k: v[near] for k, v in geom.items()}
+    tau = np.linalg.norm(flights.waypoint[near] - flights.start[near], axis=-1) - g["d1"]
+    middle = g["d1"] + g["arc"] / 2
+    total = g["d1"] + g["arc"] + g["d2"]
+    v, dep = flights.speed[near], flights.departure[near]
+    out = []
+    for origin, u, offset, lo_d, hi_d in (
+            (flights.start[near], g["u1"], 0.0, 0.0, middle),
+            (flights.waypoint[near], g["u2"], g["d1"] + g["arc"] - tau, middle, total)):
+        rel = site_xy - origin
+        b = np.sum(rel * u, axis=-1)
+        c2 = np.sum(rel * rel, axis=-1) - b * b
+        half = np.sqrt(np.maximum(reach**2 - c2, 0.0))
+        d_lo = np.maximum(offset + b - half, lo_d)
+        d_hi = np.minimum(offset + b + half, hi_d)
+        t_lo = np.maximum(dep + d_lo / v - 1.0, start)
+        t_hi = np.minimum(dep + d_hi / v + 1.0, start + duration)
+        ok = (c2 <= reach**2) & (d_lo <= d_hi) & (t_lo <= t_hi)
+        out.append((near[ok], t_lo[ok], t_hi[ok]))
+    return tuple(np.concatenate(x) for x in zip(*out, strict=True))
 
 
-def count_pairs(flights, rad, site_xy, start, duration):
-    """How many (flight, scan) pairs :func:`pairs` would make (no allocation of them)."""
+def _scan_range(rad, k, t_lo, t_hi):
+    """First scan row (into `k`) inside each [t_lo, t_hi] and how many, within the window."""
+    t0 = rad.phase + rad.period * k[0]
+    lo = np.maximum(np.ceil((t_lo - t0) / rad.period - 1e-9), 0).astype(np.int64)
+    hi = np.minimum(np.floor((t_hi - t0) / rad.period + 1e-9), k.size - 1).astype(np.int64)
+    return lo, np.maximum(hi - lo + 1, 0)
+
+
+def pairs(flights, geom, rad, site_xy, start, duration):
+    """(flight, scan-row) pairs that may lie within the radar's reach, and the scans."""
     k, times = scan_times(rad, start, duration)
-    reach = REACH[0] * rad.max_range + REACH[1]
-    near = np.flatnonzero(_flights.distance_to_path(flights, site_xy) <= reach)
+    if k.size == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64), k, times
+    j, t_lo, t_hi = intervals(flights, geom, rad, site_xy, start, duration)
+    lo, n = _scan_range(rad, k, t_lo, t_hi)
+    jj = np.repeat(j, n)
+    s = np.repeat(lo - (np.cumsum(n) - n), n) + np.arange(jj.size)
+    keep = (times[s] >= flights.departure[jj]) & (times[s] <= flights.arrival[jj])
+    return jj[keep], s[keep], k, times
+
+
+def count_pairs(flights, geom, rad, site_xy, start, duration):
+    """How many pairs :func:`pairs` would examine (no allocation of them)."""
+    k, _ = scan_times(rad, start, duration)
     if k.size == 0:
         return 0
-    t0, p = times[0], rad.period
-    lo = np.maximum(np.ceil((flights.departure[near] - t0) / p - 1e-9), 0)
-    hi = np.minimum(np.floor((flights.arrival[near] - t0) / p + 1e-9), k.size - 1)
-    return int(np.maximum(hi - lo + 1, 0).sum())
+    _, t_lo, t_hi = intervals(flights, geom, rad, site_xy, start, duration)
+    return int(_scan_range(rad, k, t_lo, t_hi)[1].sum())
 
 
 def draw_radar(frame, flights, geom, rad, site_xy, start, duration, gen):
@@ -82,8 +115,7 @@ def draw_radar(frame, flights, geom, rad, site_xy, start, duration, gen):
     Draw order: detection of every covered (aircraft, scan), clutter counts per scan,
     clutter positions, then the noise of every report (detections first).
     """
-    k, times = scan_times(rad, start, duration)
-    j, s = pairs(flights, rad, site_xy, k, times)
+    j, s, k, times = pairs(flights, geom, rad, site_xy, start, duration)
     pos = _flights.state(flights, geom, j, times[s])
     reach = REACH[0] * rad.max_range + REACH[1]
     close = np.hypot(pos[:, 0] - site_xy[0], pos[:, 1] - site_xy[1]) <= reach
@@ -130,8 +162,8 @@ def convert(frame, rad, meas, bias, debias):
         r, beta, meas[:, 2], rad.sigma_r, rad.sigma_beta, rad.sigma_epsilon,
         method="measurement_conditioned" if debias else "linearized")
     rot = enu_rotation(rad.lat, rad.lon)
-    geo = geodetic(site_ecef(rad) + out.xyz @ rot)                    # s + R^T l, row-wise
-    jac = frame.jacobian(geo) @ rot.T                                 # d map / d l
-    cov = jac @ out.cov @ np.swapaxes(jac, -1, -2)
+    geo = geodetic(site_ecef(rad) + np.einsum("nj,ji->ni", out.xyz, rot))  # s + R^T l
+    jac = np.einsum("nik,jk->nij", frame.jacobian(geo), rot)          # d map / d l
+    cov = np.einsum("nij,njk,nlk->nil", jac, out.cov, jac, optimize=True)
     cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
     return frame.forward(geo[:, 0], geo[:, 1], geo[:, 2]), cov

@@ -846,13 +846,13 @@ def simulate_continent(scenario, *, start=0.0, duration=None, bias_estimate=None
     frame = frame_of(*sc.origin)
     f = sc.flights
     sites = [frame.forward(r.lat, r.lon, r.height)[:2] for r in sc.radars]
+    geom = _flights.geometry(f)
     for i, rad in enumerate(sc.radars):
-        n = _reports.count_pairs(f, rad, sites[i], start, duration)
+        n = _reports.count_pairs(f, geom, rad, sites[i], start, duration)
         check_size(n * _PAIR_BYTES, MEMORY_LIMIT,
                    what=f"bytes of radar {i}'s (aircraft, scan) pairs ({n})",
                    alternative="a shorter window (`duration`) or a smaller `scale`",
                    name="duration")
-    geom = _flights.geometry(f)
     cols = {k: [] for k in ("time", "position", "cov", "radar", "scan", "aircraft")}
     for i, (rad, child) in enumerate(zip(sc.radars, seeds.spawn(len(sc.radars)),
                                          strict=True)):
