@@ -121,19 +121,23 @@ def covered(sc, pos):
 
 
 def expected(sc, start, duration):
+    """Expected reports over the window: per radar, scans x (clutter + P_D x the mean number
+    of aircraft in its coverage at five instants), one instant at a time (little memory)."""
     frame = frame_of(*sc.origin)
-    probe = start + duration * (np.arange(5) + 0.5) / 5                # five instants
-    j, ti = airborne_pairs(sc.flights, probe)
-    pos = _flights.state(sc.flights, _flights.geometry(sc.flights), j, probe[ti])
+    seen = np.zeros(len(sc.radars))
+    sites = [frame.forward(r.lat, r.lon, r.height) for r in sc.radars]
+    for t in start + duration * (np.arange(5) + 0.5) / 5:             # five instants
+        j, _ = airborne_pairs(sc.flights, np.array([t]))
+        pos = _flights.state(sc.flights, _flights.geometry(sc.flights), j, np.full(j.size, t))
+        for i, rad in enumerate(sc.radars):
+            near = np.flatnonzero(np.hypot(pos[:, 0] - sites[i][0], pos[:, 1] - sites[i][1])
+                                  <= _reports.REACH[0] * rad.max_range + _reports.REACH[1])
+            p = _reports.polar(_reports.to_local(frame, rad, pos[near]))
+            seen[i] += np.sum((p[:, 0] <= rad.max_range) & (p[:, 2] >= rad.min_elevation)) / 5
     total = 0.0
-    for rad in sc.radars:
+    for i, rad in enumerate(sc.radars):
         n_scans = _reports.scan_times(rad, start, duration)[0].size
-        site = frame.forward(rad.lat, rad.lon, rad.height)
-        near = np.flatnonzero(np.hypot(pos[:, 0] - site[0], pos[:, 1] - site[1])
-                              <= _reports.REACH[0] * rad.max_range + _reports.REACH[1])
-        p = _reports.polar(_reports.to_local(frame, rad, pos[near]))
-        seen = np.sum((p[:, 0] <= rad.max_range) & (p[:, 2] >= rad.min_elevation)) / 5
-        total += n_scans * (rad.clutter_rate + rad.p_detect * seen)
+        total += n_scans * (rad.clutter_rate + rad.p_detect * seen[i])
     return math.ceil(total)
 
 

@@ -1,0 +1,437 @@
+"""Tests of radarfusion_ref.continent.scenario: airports, map frame, flights, schedule, radars,
+reports, truth, bad input.
+
+Reference values come from independent routes: the engine's geodesy
+(:func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`) for ground distances and the radars'
+frames, haversine distances, finite differences, Monte Carlo of the conversion, chi-square
+quantiles (scipy). Statistical tolerances are stated beside each check.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tracemalloc
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from radarfusion_ref import continent as ct
+from radarfusion_ref.capstone import Radar
+from radarfusion_ref.engine.geodesy import WGS84_A, WGS84_F, geodetic_to_enu
+from radarfusion_ref.engine.validation import MEMORY_LIMIT
+
+E2 = WGS84_F * (2 - WGS84_F)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """Scale 2 (80 aircraft airborne), the default 36 radars."""
+    return ct.continent_scenario(2.0, rng=11)
+
+
+@pytest.fixture(scope="module")
+def reports(scene):
+    """Five minutes of reports, the true biases removed, the linearized conversion."""
+    return ct.simulate_continent(scene, start=600.0, duration=300.0, bias_estimate="true",
+                                 debias=False, rng=12)
+
+
+def truth_of(scene, rep, rows):
+    """True map positions of the reports `rows` (aircraft reports), via truth_at."""
+    times, inv = np.unique(rep.time[rows], return_inverse=True)
+    pos, valid = ct.truth_at(scene, times)
+    assert valid[rep.aircraft[rows], inv].all()
+    return pos[rep.aircraft[rows], inv]
+
+
+# ------------------------------------------------------------------------------- airports
+def test_airports_are_a_small_sourced_extract_inside_the_box():
+    text = ct.AIRPORTS_FILE.read_text(encoding="utf-8")
+    assert len(text.encode()) < 100_000
+    assert text.startswith("#") and "airportsdata" in text.splitlines()[0]
+    licence = ct.AIRPORTS_FILE.parent.joinpath("airports_LICENSE.txt").read_text()
+    assert "MIT" in licence and "Borsetti" in licence
+    ap = ct.load_airports()
+    assert 500 < len(ap) < 1500
+    assert np.all((ap.lat >= 36) & (ap.lat <= 62) & (ap.lon >= -10) & (ap.lon <= 30))
+    assert len(set(ap.icao)) == len(ap) and all(len(c) == 3 for c in ap.iata)
+    zrh = ap.iata == "ZRH"                  # Zurich: 47.4647 N, 8.5492 E, 432 m (AIP)
+    assert abs(ap.lat[zrh][0] - 47.4647) < 0.01 and abs(ap.lon[zrh][0] - 8.5492) < 0.01
+    assert abs(ap.elevation[zrh][0] - 432) < 5
+
+
+# ------------------------------------------------------------------------------ map frame
+def test_map_round_trip_and_origin():
+    rng = np.random.default_rng(0)
+    lat, lon = rng.uniform(30, 68, 2000), rng.uniform(-20, 40, 2000)
+    h = rng.uniform(-100, 15000, 2000)
+    xyz = ct.to_map(lat, lon, h)
+    back = ct.from_map(xyz)
+    np.testing.assert_allclose(back[:, 0], lat, atol=1e-10)
+    np.testing.assert_allclose(back[:, 1], lon, atol=1e-10)
+    np.testing.assert_allclose(back[:, 2], h, atol=1e-9)
+    np.testing.assert_allclose(ct.from_map(ct.to_map(0.0, 0.0, 0.0)), [0, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(ct.to_map(*ct.ORIGIN, 123.0), [0, 0, 123.0], atol=1e-9)
+    assert np.all(xyz[:, 2] == h)            # z is the height
+
+
+def test_map_is_conformal_with_the_closed_form_scale():
+    """Ground steps of 20 m in 8 directions (engine ENU about the point, an independent
+    route): every map step is k times as long and turned by one angle (conformal)."""
+    rng = np.random.default_rng(1)
+    for lat, lon in zip(rng.uniform(36, 62, 12), rng.uniform(-10, 30, 12), strict=True):
+        p0 = ct.to_map(lat, lon, 0.0)
+        m = WGS84_A * (1 - E2) / (1 - E2 * math.sin(math.radians(lat)) ** 2) ** 1.5
+        n = WGS84_A / math.sqrt(1 - E2 * math.sin(math.radians(lat)) ** 2)
+        ratios, turns = [], []
+        for a in np.radians(np.arange(0, 360, 45)):
+            de, dn = 20 * math.cos(a), 20 * math.sin(a)
+            q = (lat + math.degrees(dn / m), lon + math.degrees(de / (n * math.cos(
+                math.radians(lat)))))
+            ground = geodetic_to_enu(q[0], q[1], 0.0, origin=(lat, lon, 0.0))[:2]
+            step = ct.to_map(*q, 0.0)[:2] - p0[:2]
+            ratios.append(np.linalg.norm(step) / np.linalg.norm(ground))
+            turns.append(math.remainder(math.atan2(step[1], step[0])
+                                        - math.atan2(ground[1], ground[0]), 2 * math.pi))
+        k = float(ct.map_scale(lat, lon))
+        np.testing.assert_allclose(ratios, k, rtol=2e-6)
+        np.testing.assert_allclose(turns, turns[0], atol=2e-6)
+    assert float(ct.map_scale(*ct.ORIGIN)) == pytest.approx(1.0, abs=1e-12)
+    # the scale grows like 1 + (d / 2R)^2 (stereographic): about 1.025 at 2000 km
+    far = ct.to_map(49.0, 37.0, 0.0)
+    d = np.hypot(*far[:2])
+    assert float(ct.map_scale(49.0, 37.0)) == pytest.approx(1 + (d / (2 * 6.38e6)) ** 2,
+                                                            rel=2e-3)
+
+
+def test_level_flight_far_from_the_origin_has_no_vertical_velocity():
+    """The reason for the map frame: a level path 2000 km out keeps z, unlike flat ENU."""
+    lat = np.full(50, 60.0)
+    lon = np.linspace(24.0, 26.0, 50)
+    xyz = ct.to_map(lat, lon, 11000.0)
+    assert np.ptp(xyz[:, 2]) == 0.0
+    enu = geodetic_to_enu(lat, lon, 11000.0, origin=(*ct.ORIGIN, 0.0))
+    assert np.ptp(enu[:, 2]) > 5000.0        # the flat frame's "climb" over 110 km
+
+
+def _truth_polar(radar, lat, lon, h):
+    """Range, azimuth, elevation of a geodetic point in the radar's frame (engine route)."""
+    e = geodetic_to_enu(lat, lon, h, origin=(radar.lat, radar.lon, radar.height))
+    return np.array([np.linalg.norm(e), math.atan2(e[1], e[0]),
+                     math.atan2(e[2], math.hypot(e[0], e[1]))])
+
+
+@pytest.mark.parametrize(("site", "target"), [((49.5, 10.5), (50.8, 12.0)),
+                                              ((60.0, 25.0), (58.5, 22.5)),
+                                              ((37.5, -8.0), (39.0, -6.0))])
+def test_report_conversion_against_monte_carlo(site, target):
+    """Noise-free: back to the true map point. With noise: the sample mean and covariance
+    of 40 000 converted reports match the returned covariance (whitened sample covariance
+    within 0.05 of I: its entries have standard error about 0.007). The mean stays within
+    0.1 standard deviations: the plain conversion's known bias, r (sigma_b^2 + sigma_e^2) / 2
+    = 3.4 m towards the radar here, is 0.06 of the 60 m range deviation."""
+    rad = Radar("R", *site, 300.0, sigma_r=60.0, sigma_beta=math.radians(0.2),
+                sigma_epsilon=math.radians(0.3))
+    true = _truth_polar(rad, *target, 10500.0)
+    x0, P0 = ct.polar_to_map(true[None], rad, debias=False)
+    np.testing.assert_allclose(x0[0], ct.to_map(*target, 10500.0), atol=1e-4)
+    rng = np.random.default_rng(2)
+    n = 40_000
+    noisy = true + rng.standard_normal((n, 3)) * [rad.sigma_r, rad.sigma_beta,
+                                                  rad.sigma_epsilon]
+    x, _ = ct.polar_to_map(noisy, rad, debias=False)
+    L = np.linalg.cholesky(P0[0])
+    w = np.linalg.solve(L, (x - x0[0]).T).T
+    np.testing.assert_allclose(np.cov(w.T), np.eye(3), atol=0.05)
+    assert np.all(np.abs(w.mean(axis=0)) < 0.1)
+
+
+def test_report_covariance_is_the_jacobian_of_the_whole_map():
+    """The linearized covariance equals J diag(sigma^2) J^T with J the central finite
+    differences of the converted position in (r, beta, epsilon): the factors of the chain
+    (rotation, ECEF, conformal latitude, height) each matter at this tolerance."""
+    rad = Radar("R", 58.0, 24.0, 100.0, sigma_r=40.0, sigma_beta=math.radians(0.1),
+                sigma_epsilon=math.radians(0.15))
+    true = _truth_polar(rad, 59.5, 21.0, 12000.0)
+    _, P = ct.polar_to_map(true[None], rad, debias=False)
+    steps = np.array([1.0, 1e-6, 1e-6])
+    J = np.stack([(ct.polar_to_map((true + np.eye(3)[i] * steps[i])[None], rad,
+                                   debias=False)[0][0]
+                   - ct.polar_to_map((true - np.eye(3)[i] * steps[i])[None], rad,
+                                     debias=False)[0][0]) / (2 * steps[i])
+                  for i in range(3)], axis=-1)
+    want = J @ np.diag([rad.sigma_r, rad.sigma_beta, rad.sigma_epsilon]) ** 2 @ J.T
+    np.testing.assert_allclose(P[0], want, rtol=1e-5, atol=1e-6 * np.abs(want).max())
+
+
+def test_conversion_removes_a_given_bias():
+    rad = Radar("R", 47.0, 8.0, 500.0, bias_range=150.0, bias_azimuth=math.radians(0.2),
+                bias_scale=2e-4)
+    true = _truth_polar(rad, 48.0, 9.5, 9000.0)
+    biased = np.array([(1 + 2e-4) * true[0] + 150.0, true[1] + math.radians(0.2), true[2]])
+    x, _ = ct.polar_to_map(biased[None], rad, bias_estimate=rad.biases, debias=False)
+    np.testing.assert_allclose(x[0], ct.to_map(48.0, 9.5, 9000.0), atol=1e-3)
+    x_raw, _ = ct.polar_to_map(biased[None], rad, debias=False)
+    assert np.linalg.norm(x_raw[0] - x[0]) > 150.0
+
+
+# -------------------------------------------------------------------------------- flights
+def _haversine(lat1, lon1, lat2, lon2, r=6371e3):
+    p1, p2, dl = np.radians(lat1), np.radians(lat2), np.radians(lon2 - lon1)
+    a = np.sin((p2 - p1) / 2) ** 2 + np.cos(p1) * np.cos(p2) * np.sin(dl / 2) ** 2
+    return 2 * r * np.arcsin(np.sqrt(a))
+
+
+def test_flight_kinematics(scene):
+    """Speeds, vertical rates, turn rates and the height profile, by finite differences of
+    truth_at every second over 10 minutes, and the airports' great-circle distances."""
+    f = scene.flights
+    ap = ct.load_airports()
+    a, b = f.airports[:, 0], f.airports[:, 1]
+    dist = _haversine(ap.lat[a], ap.lon[a], ap.lat[b], ap.lon[b])
+    assert dist.min() > 300e3 / 1.04 and dist.max() < 2500e3  # map scale <= 1.04
+    t = np.arange(1200.0, 1800.0, 1.0)
+    pos, valid = ct.truth_at(scene, t)
+    both = valid[:, 1:] & valid[:, :-1]
+    v = np.diff(pos, axis=1)                                   # m per 1 s
+    speed = np.hypot(v[..., 0], v[..., 1])[both]
+    assert speed.min() > 209.9 and speed.max() < 250.1
+    vz = v[..., 2][both]
+    level = np.abs(vz) < 1e-6
+    climb = (vz >= 8 - 1e-6) & (vz <= 15 + 1e-6)
+    descent = (vz <= -7 + 1e-6) & (vz >= -9 - 1e-6)
+    kinks = ~(level | climb | descent)                          # a phase change inside 1 s
+    assert kinks.sum() <= 3 * len(f) and climb.any() and descent.any() and level.mean() > 0.5
+    heading = np.unwrap(np.arctan2(v[..., 1], v[..., 0]), axis=1)
+    rate = np.degrees(np.abs(np.diff(heading, axis=1)))
+    rate[~(both[:, 1:] & both[:, :-1])] = 0.0
+    assert rate.max() < 3.0 + 1e-6                               # arcs, never a jump
+    full = (rate > 1.5 - 1e-6).sum(axis=1)                       # seconds wholly on an arc
+    partial = ((rate > 1e-6) & (rate < 1.5 - 1e-6)).sum(axis=1)  # entering or leaving one
+    assert full.sum() > 100 and partial.max() <= 4
+    z = pos[..., 2][valid]
+    assert z.max() <= 12192 + 1e-6
+    long = f.duration > 5000.0
+    assert np.all(f.cruise[long] >= 9144) and np.all(f.cruise <= 12192)
+    # every flight starts at its airport and ends at the other (independent: to_map)
+    some = np.flatnonzero((f.departure > 0) & (f.arrival < scene.duration))[:20]
+    for i in some:
+        p, _ = ct.truth_at(scene, [f.departure[i], f.arrival[i]])
+        np.testing.assert_allclose(p[i, 0], ct.to_map(ap.lat[a[i]], ap.lon[a[i]],
+                                                      ap.elevation[a[i]]), atol=1e-3)
+        np.testing.assert_allclose(p[i, 1], ct.to_map(ap.lat[b[i]], ap.lon[b[i]],
+                                                      ap.elevation[b[i]]), atol=1e-3)
+
+
+def test_every_flight_turns_once_off_the_direct_line(scene):
+    """The waypoint lies 5-15 % of the line's length off it, so the heading turns by
+    2 atan(off / at) .. : more than 5 degrees for every flight."""
+    f = scene.flights
+    u1 = f.waypoint - f.start
+    u2 = f.end - f.waypoint
+    ang = np.degrees(np.abs(np.arctan2(u1[:, 0] * u2[:, 1] - u1[:, 1] * u2[:, 0],
+                                       np.sum(u1 * u2, axis=1))))
+    assert ang.min() > 5.0 and ang.max() < 60.0
+    assert np.all((np.degrees(f.turn_rate) >= 1.5) & (np.degrees(f.turn_rate) <= 3.0))
+
+
+# ------------------------------------------------------------------------------- schedule
+def test_airborne_count_is_40_times_scale_and_steady():
+    """Poisson with mean 40 scale at every instant of the window: scale 10 over 4 seeds at
+    3 instants, each count within 4.5 sd (sqrt 400 = 20) of 400, their mean (12 counts,
+    sd below 20 / sqrt(4)) within 30."""
+    counts = np.array([ct.airborne_count(ct.continent_scenario(10.0, n_radars=1, rng=s),
+                                         [0.0, 1800.0, 3599.0]) for s in range(4)])
+    assert np.all(np.abs(counts - 400) < 4.5 * 20), counts
+    assert abs(counts.mean() - 400) < 30, counts
+
+
+def test_scale_100_reaches_thousands_of_aircraft():
+    sc = ct.continent_scenario(100.0, rng=3)
+    n = ct.airborne_count(sc, [1800.0])[0]
+    assert abs(n - 4000) < 5 * math.sqrt(4000) and n >= 3000
+    assert len(sc.radars) >= 30
+
+
+def test_seed_determinism():
+    a = ct.continent_scenario(1.0, rng=5)
+    b = ct.continent_scenario(1.0, rng=5)
+    c = ct.continent_scenario(1.0, rng=6)
+    assert a.radars == b.radars and a.radars != c.radars
+    for k in ("departure", "start", "waypoint", "cruise"):
+        np.testing.assert_array_equal(getattr(a.flights, k), getattr(b.flights, k))
+    r1 = ct.simulate_continent(a, duration=20.0, rng=7)
+    r2 = ct.simulate_continent(b, duration=20.0, rng=7)
+    r3 = ct.simulate_continent(b, duration=20.0, rng=8)
+    for k in ("time", "position", "cov", "radar", "scan", "aircraft"):
+        np.testing.assert_array_equal(getattr(r1, k), getattr(r2, k))
+    assert not np.array_equal(r1.position, r3.position) if len(r1) == len(r3) else True
+
+
+# --------------------------------------------------------------------------------- radars
+def test_radars_are_drawn_within_their_stated_ranges(scene):
+    rads = scene.radars
+    assert len(rads) == 36 and all(isinstance(r, Radar) for r in rads)
+    per = np.array([r.period for r in rads])
+    rng_ = np.array([r.max_range for r in rads])
+    assert per.min() >= 4 and per.max() <= 12 and len(set(per)) == 36
+    assert rng_.min() >= 250e3 and rng_.max() <= 400e3
+    assert all(0 <= r.phase < r.period for r in rads)
+    assert all(0.8 <= r.p_detect <= 0.95 and r.bias_range != 0 for r in rads)
+    lat = np.array([r.lat for r in rads])
+    lon = np.array([r.lon for r in rads])
+    assert lat.min() < 40 and lat.max() > 58 and lon.min() < -5 and lon.max() > 25   # spread
+    # nearest-neighbour spacing: no two radars within 150 km
+    d = _haversine(lat[:, None], lon[:, None], lat[None], lon[None]) + np.eye(36) * 1e9
+    assert d.min() > 150e3
+
+
+# -------------------------------------------------------------------------------- reports
+def test_reports_are_sorted_and_tracker_ready(scene, reports):
+    rep = reports
+    assert len(rep) > 10_000
+    same = np.diff(rep.time) == 0
+    assert np.all(np.diff(rep.time) >= 0) and np.all(np.diff(rep.radar)[same] >= 0)
+    assert rep.time.min() >= 600.0 and rep.time.max() < 900.0
+    per = np.array([r.period for r in scene.radars])[rep.radar]
+    ph = np.array([r.phase for r in scene.radars])[rep.radar]
+    np.testing.assert_allclose(rep.time, ph + rep.scan * per, atol=1e-6)
+    assert np.all(np.isfinite(rep.position)) and np.all(np.linalg.eigvalsh(rep.cov) > 0)
+    assert (rep.aircraft >= 0).any() and (rep.aircraft == -1).any()
+
+
+def test_reports_noise_matches_their_covariance(scene, reports):
+    """NEES of report minus truth (true biases removed, linearized conversion): its mean over
+    N reports lies in the 99.9 % interval of chi2(3N) / N."""
+    rep = reports
+    rows = np.flatnonzero(rep.aircraft >= 0)
+    err = rep.position[rows] - truth_of(scene, rep, rows)
+    nees = np.einsum("ni,ni->n", err, np.linalg.solve(rep.cov[rows], err[..., None])[..., 0])
+    n = rows.size
+    lo, hi = stats.chi2.ppf([0.0005, 0.9995], 3 * n) / n
+    assert lo < nees.mean() < hi, (nees.mean(), lo, hi)
+
+
+def test_reports_carry_the_biases_unless_removed(scene):
+    rep = ct.simulate_continent(scene, start=600.0, duration=120.0, debias=False, rng=12)
+    rows = np.flatnonzero(rep.aircraft >= 0)
+    err = rep.position[rows] - truth_of(scene, rep, rows)
+    nees = np.einsum("ni,ni->n", err, np.linalg.solve(rep.cov[rows], err[..., None])[..., 0])
+    hi = stats.chi2.ppf(0.9995, 3 * rows.size) / rows.size
+    assert nees.mean() > 1.5 * hi
+
+
+def test_detections_are_every_covered_aircraft_when_pd_is_1(scene):
+    """With P_D = 1 and no clutter, the reports of each radar are exactly the (aircraft,
+    scan) pairs inside its coverage, found by brute force over all airborne aircraft at every
+    scan (engine geodesy: from_map, then geodetic_to_enu about the site)."""
+    rads = tuple(dataclasses.replace(r, p_detect=1.0, clutter_rate=0.0)
+                 for r in scene.radars[:6])
+    sc = dataclasses.replace(scene, radars=rads)
+    rep = ct.simulate_continent(sc, start=1000.0, duration=60.0, rng=1)
+    for i, r in enumerate(rads):
+        k = np.arange(math.ceil((1000.0 - r.phase) / r.period),
+                      math.ceil((1060.0 - r.phase) / r.period))
+        times = r.phase + k * r.period
+        pos, valid = ct.truth_at(sc, times)
+        fi, ti = np.nonzero(valid)
+        g = ct.from_map(pos[fi, ti])
+        e = geodetic_to_enu(g[:, 0], g[:, 1], g[:, 2], origin=(r.lat, r.lon, r.height))
+        cover = (np.linalg.norm(e, axis=1) <= r.max_range) & (
+            np.arctan2(e[:, 2], np.hypot(e[:, 0], e[:, 1])) >= r.min_elevation)
+        want = set(zip(fi[cover].tolist(), np.round(times[ti[cover]], 6).tolist(),
+                       strict=True))
+        mine = rep.radar == i
+        got = set(zip(rep.aircraft[mine].tolist(), np.round(rep.time[mine], 6).tolist(),
+                      strict=True))
+        assert got == want
+
+
+def test_expected_reports_matches_the_simulation(scene, reports):
+    """Within 10 % (the aircraft count is sampled at five instants; counts are Poisson)."""
+    est = ct.expected_reports(scene, start=600.0, duration=300.0)
+    assert abs(len(reports) - est) < 0.1 * est
+
+
+def test_truth_samples(scene):
+    t = np.array([100.0, 700.0, 1300.0])
+    tt, _, ids = ct.truth_samples(scene, t)
+    ta, xa, ia = ct.truth_samples(scene, t, coverage=False)
+    assert np.all(np.diff(tt) >= 0) and 0 < tt.size < ta.size
+    assert ta.size == ct.airborne_count(scene, t).sum()
+    pos, valid = ct.truth_at(scene, t)
+    ti = np.searchsorted(t, ta)
+    assert valid[ia, ti].all()
+    np.testing.assert_array_equal(xa, pos[ia, ti])
+    # coverage, brute force with the engine's geodesy
+    g = ct.from_map(xa)
+    inside = np.zeros(ta.size, bool)
+    for r in scene.radars:
+        e = geodetic_to_enu(g[:, 0], g[:, 1], g[:, 2], origin=(r.lat, r.lon, r.height))
+        inside |= (np.linalg.norm(e, axis=1) <= r.max_range) & (e[:, 2] >= 0)
+    assert set(zip(ta[inside], ia[inside], strict=True)) == set(zip(tt, ids, strict=True))
+
+
+# ------------------------------------------------------------------------------ bad input
+@pytest.mark.parametrize(("kwargs", "name"), [
+    (dict(scale=0.0), "scale"), (dict(scale=-1.0), "scale"), (dict(scale=np.nan), "scale"),
+    (dict(scale=np.inf), "scale"), (dict(scale="10"), "scale"),
+    (dict(n_radars=0), "n_radars"), (dict(n_radars=2.5), "n_radars"),
+    (dict(n_radars=10_000), "n_radars"),
+    (dict(duration=-1.0), "duration"), (dict(duration=0.0), "duration"),
+    (dict(duration=np.nan), "duration"), (dict(rng="seed"), "rng"),
+])
+def test_scenario_bad_input_is_refused_by_name(kwargs, name):
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        ct.continent_scenario(**kwargs)
+
+
+def test_memory_refusals_come_before_allocation(scene):
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match=r"`scale`.*1073741824.*smaller `scale`"):
+            ct.continent_scenario(1e9)
+        big = ct.continent_scenario(2000.0, n_radars=36, rng=1)     # 80 000 airborne
+        tracemalloc.reset_peak()
+        with pytest.raises(ValueError, match=r"`duration`.*reports.*1073741824.*shorter"):
+            ct.simulate_continent(big, rng=1)
+        assert tracemalloc.get_traced_memory()[1] < MEMORY_LIMIT // 8
+        with pytest.raises(ValueError, match=r"`times`.*1073741824"):
+            ct.truth_at(scene, np.arange(3e6))
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.parametrize(("kwargs", "name"), [
+    (dict(start=-1.0), "start"), (dict(duration=0.0), "duration"),
+    (dict(start=3000.0, duration=1200.0), "duration"),
+    (dict(bias_estimate="estimated"), "bias_estimate"),
+    (dict(bias_estimate=np.zeros((3, 3))), "bias_estimate"),
+    (dict(debias="yes"), "debias"), (dict(rng=1.5), "rng"),
+])
+def test_simulate_bad_input_is_refused_by_name(scene, kwargs, name):
+    with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+        ct.simulate_continent(scene, **kwargs)
+
+
+def test_other_bad_input_is_refused_by_name(scene):
+    rad = scene.radars[0]
+    cases = [
+        (lambda: ct.simulate_continent("scene"), "scenario"),
+        (lambda: ct.truth_at(scene, [[0.0]]), "times"),
+        (lambda: ct.truth_at(scene, [np.nan]), "times"),
+        (lambda: ct.to_map(95.0, 0.0, 0.0), "lat"),
+        (lambda: ct.to_map(45.0, 0.0, 0.0, origin=(1.0,)), "origin"),
+        (lambda: ct.from_map([1.0, 2.0]), "xyz"),
+        (lambda: ct.from_map([1e8, 0.0, 0.0]), "xyz"),
+        (lambda: ct.polar_to_map([[-1.0, 0.0, 0.0]], rad), "polar"),
+        (lambda: ct.polar_to_map([[1.0, 0.0, 0.0]], "radar"), "radar"),
+        (lambda: ct.polar_to_map([[1e5, 0.0, 0.0]], rad, bias_estimate=[1.0]),
+         "bias_estimate"),
+        (lambda: ct.truth_samples(scene, [0.0], coverage="no"), "coverage"),
+    ]
+    for call, name in cases:
+        with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
+            call()
