@@ -358,7 +358,7 @@ def test_expected_reports_matches_the_simulation(scene, reports):
 def test_truth_samples(scene):
     t = np.array([100.0, 700.0, 1300.0])
     tt, _, ids = ct.truth_samples(scene, t)
-    ta, xa, ia = ct.truth_samples(scene, t, coverage=False)
+    ta, xa, ia = ct.truth_samples(scene, t, visible=False)
     assert np.all(np.diff(tt) >= 0) and 0 < tt.size < ta.size
     assert ta.size == ct.airborne_count(scene, t).sum()
     pos, valid = ct.truth_at(scene, t)
@@ -430,7 +430,7 @@ def test_other_bad_input_is_refused_by_name(scene):
         (lambda: ct.polar_to_map([[1.0, 0.0, 0.0]], "radar"), "radar"),
         (lambda: ct.polar_to_map([[1e5, 0.0, 0.0]], rad, bias_estimate=[1.0]),
          "bias_estimate"),
-        (lambda: ct.truth_samples(scene, [0.0], coverage="no"), "coverage"),
+        (lambda: ct.truth_samples(scene, [0.0], visible="no"), "visible"),
     ]
     for call, name in cases:
         with pytest.raises((ValueError, TypeError), match=f"`{name}`"):

@@ -562,7 +562,7 @@ def airborne_count(scenario, times) -> np.ndarray:
     return np.bincount(ti, minlength=t.size)
 
 
-def truth_samples(scenario, times, *, coverage=True):
+def truth_samples(scenario, times, *, visible=True):
     """The truth at the given instants, as :func:`radarfusion_ref.tracking.evaluate_tracks`
     takes it.
 
@@ -571,7 +571,7 @@ def truth_samples(scenario, times, *, coverage=True):
     scenario : ContinentScenario
     times : array_like, shape (T,)
         Instants (s).
-    coverage : bool, optional
+    visible : bool, optional
         Keep only the aircraft inside at least one radar's coverage (slant range at most
         `max_range` and elevation at least `min_elevation` in the radar's own frame;
         default True), or every airborne one.
@@ -587,7 +587,7 @@ def truth_samples(scenario, times, *, coverage=True):
     Raises
     ------
     TypeError, ValueError
-        As :func:`truth_at`; `coverage` not a bool.
+        As :func:`truth_at`; `visible` not a bool.
 
     Examples
     --------
@@ -598,14 +598,14 @@ def truth_samples(scenario, times, *, coverage=True):
     """
     sc = _scenario_iv(scenario)
     t = _times_iv(times)
-    coverage = as_bool(coverage, "coverage")
+    visible = as_bool(visible, "visible")
     _check_truth(sc, t, "airborne samples")
     f = sc.flights
     j, ti = _scene.airborne_pairs(f, t)
     order = np.lexsort((j, t[ti]))
     j, ti = j[order], ti[order]
     pos = _flights.state(f, _flights.geometry(f), j, t[ti])
-    if coverage:
+    if visible:
         keep = _scene.covered(sc, pos)
         j, ti, pos = j[keep], ti[keep], pos[keep]
     return t[ti], pos, j
