@@ -270,6 +270,17 @@ def test_seed_determinism():
     assert not np.array_equal(r1.position, r3.position) if len(r1) == len(r3) else True
 
 
+def test_a_window_simulated_in_pieces_gives_the_same_reports(scene, reports):
+    """Each scan draws from its own stream: [600, 900) whole = [600, 710) + [710, 900)."""
+    a = ct.simulate_continent(scene, start=600.0, duration=110.0, bias_estimate="true",
+                              debias=False, rng=12)
+    b = ct.simulate_continent(scene, start=710.0, duration=190.0, bias_estimate="true",
+                              debias=False, rng=12)
+    for k in ("time", "position", "cov", "radar", "scan", "aircraft"):
+        np.testing.assert_array_equal(np.concatenate([getattr(a, k), getattr(b, k)]),
+                                      getattr(reports, k))
+
+
 # --------------------------------------------------------------------------------- radars
 def test_radars_are_drawn_within_their_stated_ranges(scene):
     rads = scene.radars

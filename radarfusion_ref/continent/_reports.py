@@ -109,11 +109,24 @@ def count_pairs(flights, geom, rad, site_xy, start, duration):
     return int(_scan_range(rad, k, t_lo, t_hi)[1].sum())
 
 
-def draw_radar(frame, flights, geom, rad, site_xy, start, duration, gen):
+def _join(parts):
+    """Concatenate (n_i, 3) pieces; (0, 3) if there are none."""
+    return np.concatenate(parts) if parts else np.empty((0, 3))
+
+
+def scan_stream(seeds, i, k):
+    """The generator of radar `i`'s scan `k`: spawn key (radar, scan) under `seeds`."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+        seeds.entropy, spawn_key=(*seeds.spawn_key, i, int(k)))))
+
+
+def draw_radar(frame, flights, geom, rad, i, site_xy, start, duration, seeds):
     """One radar's reports over the window: dict of time, scan, polar (n, 3), aircraft.
 
-    Draw order: detection of every covered (aircraft, scan), clutter counts per scan,
-    clutter positions, then the noise of every report (detections first).
+    Every scan draws from its own stream (:func:`scan_stream`), in this order: detection of
+    its covered aircraft (by increasing flight), its number of false reports, their
+    positions, then the noise of its reports (detections first). A scan's reports so depend
+    on the seed, the radar and the scan only, not on the window they are simulated in.
     """
     j, s, k, times = pairs(flights, geom, rad, site_xy, start, duration)
     pos = _flights.state(flights, geom, j, times[s])
@@ -122,24 +135,37 @@ def draw_radar(frame, flights, geom, rad, site_xy, start, duration, gen):
     j, s, pos = j[close], s[close], pos[close]
     true = polar(to_local(frame, rad, pos))
     cover = (true[:, 0] <= rad.max_range) & (true[:, 2] >= rad.min_elevation)
-    det = cover & (gen.random(j.size) < rad.p_detect)
-    true, j, s = true[det], j[det], s[det]
+    order = np.lexsort((j[cover], s[cover]))                         # by scan, then flight
+    j, s, true = j[cover][order], s[cover][order], true[cover][order]
+    bounds = np.searchsorted(s, np.arange(k.size + 1))
+    sig = np.array([rad.sigma_r, rad.sigma_beta, rad.sigma_epsilon])
+    rows, det_noise, false, false_noise, n_false = [], [], [], [], np.zeros(k.size, np.int64)
+    for row in range(k.size):
+        gen = scan_stream(seeds, i, k[row])
+        a, b = bounds[row], bounds[row + 1]
+        det = np.flatnonzero(gen.random(b - a) < rad.p_detect) + a
+        nf = n_false[row] = gen.poisson(rad.clutter_rate)
+        rho = rad.max_range * np.sqrt(gen.random(nf))
+        phi = gen.uniform(-np.pi, np.pi, nf)
+        up = gen.uniform(*CLUTTER_UP, nf)
+        noise = gen.standard_normal((det.size + nf, 3)) * sig
+        rows.append(det)
+        det_noise.append(noise[:det.size])
+        false.append(np.stack([rho * np.cos(phi), rho * np.sin(phi), up], -1))
+        false_noise.append(noise[det.size:])
+    rows = np.concatenate(rows) if rows else np.empty(0, np.int64)
+    true, j, s = true[rows], j[rows], s[rows]
     rb, bb = registration.apply_biases(true[:, 0], true[:, 1], rad.biases) if j.size else \
         (true[:, 0], true[:, 1])
-    n_false = gen.poisson(rad.clutter_rate, size=k.size)
-    nf = int(n_false.sum())
-    rho = rad.max_range * np.sqrt(gen.random(nf))
-    phi = gen.uniform(-np.pi, np.pi, nf)
-    up = gen.uniform(*CLUTTER_UP, nf)
-    false = polar(np.stack([rho * np.cos(phi), rho * np.sin(phi), up], -1))
-    noise = gen.standard_normal((j.size + nf, 3)) * [rad.sigma_r, rad.sigma_beta,
-                                                      rad.sigma_epsilon]
-    meas = np.concatenate([np.stack([rb, bb, true[:, 2]], -1), false]) + noise
+    meas = np.concatenate([np.stack([rb, bb, true[:, 2]], -1) + _join(det_noise),
+                           polar(_join(false)) + _join(false_noise)])
     meas[:, 0] = np.abs(meas[:, 0])
     meas[:, 1] = (meas[:, 1] + np.pi) % (2 * np.pi) - np.pi
     s_all = np.concatenate([s, np.repeat(np.arange(k.size), n_false)])
-    return dict(time=times[s_all], scan=k[s_all], polar=meas,
-                aircraft=np.concatenate([j, np.full(nf, -1, np.int64)]))
+    aircraft = np.concatenate([j, np.full(int(n_false.sum()), -1, np.int64)])
+    order = np.argsort(s_all, kind="stable")                         # by scan: detections first
+    return dict(time=times[s_all][order], scan=k[s_all][order], polar=meas[order],
+                aircraft=aircraft[order])
 
 
 def convert(frame, rad, meas, bias, debias):

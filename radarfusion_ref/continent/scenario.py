@@ -804,8 +804,9 @@ def simulate_continent(scenario, *, start=0.0, duration=None, bias_estimate=None
     debias : bool, optional
         Measurement-conditioned 3-D conversion (default) or the linearized one.
     rng : None, int or numpy.random.Generator, optional
-        Randomness (SPEC 7): one independent stream per radar
-        (``SeedSequence.spawn``), so a radar's reports do not depend on the others.
+        Randomness (SPEC 7): every scan of every radar draws from its own stream (spawn
+        key (radar, scan number) of the seed), so the reports are the same whether the
+        window is simulated whole or in pieces, and one radar's do not depend on the others.
 
     Returns
     -------
@@ -864,10 +865,8 @@ def simulate_continent(scenario, *, start=0.0, duration=None, bias_estimate=None
                    alternative="a shorter window (`duration`) or a smaller `scale`",
                    name="duration")
     cols = {k: [] for k in ("time", "position", "cov", "radar", "scan", "aircraft")}
-    for i, (rad, child) in enumerate(zip(sc.radars, seeds.spawn(len(sc.radars)),
-                                         strict=True)):
-        d = _reports.draw_radar(frame, f, geom, rad, sites[i], start, duration,
-                                np.random.default_rng(child))
+    for i, rad in enumerate(sc.radars):
+        d = _reports.draw_radar(frame, f, geom, rad, i, sites[i], start, duration, seeds)
         pos, cov = _reports.convert(frame, rad, d["polar"], None if biases is None
                                     else biases[i], debias)
         for k in ("time", "scan", "aircraft"):
