@@ -53,7 +53,8 @@ def intervals(flights, geom, rad, site_xy, start, duration):
     Each leg of the polyline A-W-B is cut by the reach circle about the site (closed form);
     the arc stays within 2 km of the corner and its length within 1 km of the two tangent
     lengths, both inside the reach's margin. Leg 1 covers the path up to the arc's middle,
-    leg 2 the rest, so no instant is counted twice.
+    leg 2 the rest (widened by 1 s, so the two may share a scan: :func:`pairs` keeps it
+    once).
     """
     reach = REACH[0] * rad.max_range + REACH[1]
     near = np.flatnonzero(_flights.distance_to_path(flights, site_xy) <= reach)
@@ -96,6 +97,9 @@ def pairs(flights, geom, rad, site_xy, start, duration):
     lo, n = _scan_range(rad, k, t_lo, t_hi)
     jj = np.repeat(j, n)
     s = np.repeat(lo - (np.cumsum(n) - n), n) + np.arange(jj.size)
+    # the two legs' intervals may share the scans about the arc's middle: each pair once
+    key = np.unique(jj * k.size + s)
+    jj, s = key // k.size, key % k.size
     keep = (times[s] >= flights.departure[jj]) & (times[s] <= flights.arrival[jj])
     return jj[keep], s[keep], k, times
 

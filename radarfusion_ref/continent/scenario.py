@@ -26,6 +26,11 @@ its covariance through the Jacobian of the whole chain (:func:`polar_to_map`).
 :func:`simulate_continent` gives reports ready for
 :func:`radarfusion_ref.tracking.track_reports` and :func:`truth_samples` the truth for
 :func:`radarfusion_ref.tracking.evaluate_tracks`, both in map metres.
+
+**Scale.** With the default 36 radars, one hour (seed 2026): scale 1 — 64 flights, 40
+airborne, 0.25 million reports (93 % of them false); scale 10 — 661 flights, 400 airborne,
+0.44 million; scale 100 — 6589 flights, 4000 airborne, 2.19 million reports (11 % false),
+generated in 15–20 s on two shared cores, 0.8 GB at the peak.
 """
 
 from __future__ import annotations
@@ -49,7 +54,7 @@ from ..engine.validation import (
     describe,
 )
 from . import _flights, _reports, _scene
-from ._frame import frame_of
+from ._frame import conformal_latitude, frame_of, radii
 
 __all__ = [
     "AIRPORTS_FILE",
@@ -289,7 +294,6 @@ def map_scale(lat, lon, *, origin=ORIGIN) -> np.ndarray:
     """
     frame = _origin_iv(origin)
     lat, lon = _latlon_iv(lat, lon)
-    from ._frame import conformal_latitude, radii
     phi = np.radians(lat)
     chi = conformal_latitude(phi)
     cos_c = frame.s0 * np.sin(chi) + frame.c0 * np.cos(chi) * np.cos(
