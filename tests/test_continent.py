@@ -312,6 +312,12 @@ def test_reports_are_sorted_and_tracker_ready(scene, reports):
     np.testing.assert_allclose(rep.time, ph + rep.scan * per, atol=1e-6)
     assert np.all(np.isfinite(rep.position)) and np.all(np.linalg.eigvalsh(rep.cov) > 0)
     assert (rep.aircraft >= 0).any() and (rep.aircraft == -1).any()
+    for i in (0, 7, 20):                             # the measurement gives the position
+        rows = rep.radar == i
+        x, P = ct.polar_to_map(rep.polar[rows], scene.radars[i],
+                               bias_estimate=scene.radars[i].biases, debias=False)
+        np.testing.assert_allclose(x, rep.position[rows], atol=1e-6)
+        np.testing.assert_allclose(P, rep.cov[rows], rtol=1e-9, atol=1e-9)
     det = rep.aircraft >= 0                          # an aircraft once per scan of a radar
     keys = np.stack([rep.radar[det], rep.scan[det], rep.aircraft[det]], axis=1)
     assert np.unique(keys, axis=0).shape[0] == det.sum()

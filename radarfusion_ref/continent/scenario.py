@@ -92,11 +92,11 @@ RADAR_DRAWS = _scene.RADAR_DRAWS
 #: Aircraft airborne at once in the Swiss hour of the capstone: ``scale = 1``.
 SWISS_AIRBORNE = 40
 #: Bytes of :func:`simulate_continent` per report at its peak, counted against the memory
-#: limit: the per-radar pieces (128: time, position, covariance, radar, scan, aircraft),
-#: the sorted output being filled (up to 128), the covariance's joined copy while it is
-#: sorted (72) and the order (8). Measured: 2.19 million reports (scale 100, one hour)
-#: peak at 321 bytes each above the interpreter's baseline; 352 leaves a margin.
-_REPORT_BYTES = 8 * 44
+#: limit: the per-radar pieces (152: time, position, covariance, radar, scan, aircraft,
+#: polar), the sorted output being filled (up to 152), the covariance's joined copy while it
+#: is sorted (72) and the order (8). Measured: 2.19 million reports (scale 100, one hour)
+#: peak at 344 bytes each above the interpreter's baseline; 384 leaves a margin.
+_REPORT_BYTES = 8 * 48
 #: Bytes of work per (aircraft, scan) pair a radar examines, and per (flight, instant) of
 #: :func:`truth_at`.
 _PAIR_BYTES = 8 * 40
@@ -730,6 +730,10 @@ class ContinentReports:
         The radar's own scan number (its scan at ``phase + scan * period``).
     aircraft : numpy.ndarray of int, shape (N,)
         The flight (row of ``scenario.flights``), -1 for a false report.
+    polar : numpy.ndarray, shape (N, 3)
+        The measurement itself: range (m), azimuth (rad, counter-clockwise from east) and
+        elevation (rad) in the radar's own east-north-up frame, biases included (for a
+        registration: :func:`polar_to_map` converts it with any bias estimate).
     start, duration : float
         The window.
     """
@@ -740,6 +744,7 @@ class ContinentReports:
     radar: np.ndarray
     scan: np.ndarray
     aircraft: np.ndarray
+    polar: np.ndarray
     start: float
     duration: float
 
@@ -868,12 +873,12 @@ def simulate_continent(scenario, *, start=0.0, duration=None, bias_estimate=None
                    what=f"bytes of radar {i}'s (aircraft, scan) pairs ({n})",
                    alternative="a shorter window (`duration`) or a smaller `scale`",
                    name="duration")
-    cols = {k: [] for k in ("time", "position", "cov", "radar", "scan", "aircraft")}
+    cols = {k: [] for k in ("time", "position", "cov", "radar", "scan", "aircraft", "polar")}
     for i, rad in enumerate(sc.radars):
         d = _reports.draw_radar(frame, f, geom, rad, i, sites[i], start, duration, seeds)
         pos, cov = _reports.convert(frame, rad, d["polar"], None if biases is None
                                     else biases[i], debias)
-        for k in ("time", "scan", "aircraft"):
+        for k in ("time", "scan", "aircraft", "polar"):
             cols[k].append(d[k])
         cols["position"].append(pos)
         cols["cov"].append(cov)
@@ -883,7 +888,7 @@ def simulate_continent(scenario, *, start=0.0, duration=None, bias_estimate=None
     order = np.lexsort((radar, time))
     out = {"time": time[order], "radar": radar[order]}
     del time, radar
-    for k in ("cov", "position", "scan", "aircraft"):                 # largest first
+    for k in ("cov", "position", "polar", "scan", "aircraft"):        # largest first
         whole = np.concatenate(cols.pop(k))                           # its pieces freed
         out[k] = whole[order]
         del whole
