@@ -399,6 +399,25 @@ def test_truth_samples(scene):
     assert set(zip(ta[inside], ia[inside], strict=True)) == set(zip(tt, ids, strict=True))
 
 
+def test_registration_recovers_the_biases():
+    """Scale 10, ten minutes: every radar informed by 300 pairs or more has its biases within
+    5 stated standard deviations (the azimuth's within 0.02 deg) and the azimuth offsets are
+    recovered to a quarter of their size in the median; a radar with no pair stays at the
+    prior's zero."""
+    sc = ct.continent_scenario(10.0, rng=11)
+    rep = ct.simulate_continent(sc, start=600.0, duration=600.0, rng=12)
+    est = ct.register_continent(sc, rep)
+    true = np.array([r.biases for r in sc.radars])
+    sd = np.sqrt(np.diag(est.covariance)).reshape(-1, 3)
+    well = est.pairs >= 300
+    assert well.sum() >= 10
+    assert np.all(np.abs(est.biases - true)[well] < 5 * sd[well])
+    assert np.all(np.abs(est.biases - true)[well, 2] < np.radians(0.02))
+    assert np.median(np.abs(est.biases - true)[well, 2] / np.abs(true[well, 2])) < 0.25
+    lone = est.pairs == 0                            # radar 2 of this scene overlaps no other
+    assert lone.sum() == 1 and np.all(est.biases[lone] == 0.0)
+
+
 # ------------------------------------------------------------------------------ bad input
 @pytest.mark.parametrize(("kwargs", "name"), [
     (dict(scale=0.0), "scale"), (dict(scale=-1.0), "scale"), (dict(scale=np.nan), "scale"),
@@ -456,6 +475,7 @@ def test_other_bad_input_is_refused_by_name(scene):
         (lambda: ct.polar_to_map([[1e5, 0.0, 0.0]], rad, bias_estimate=[1.0]),
          "bias_estimate"),
         (lambda: ct.truth_samples(scene, [0.0], visible="no"), "visible"),
+        (lambda: ct.register_continent(scene, "reports"), "reports"),
     ]
     for call, name in cases:
         with pytest.raises((ValueError, TypeError), match=f"`{name}`"):

@@ -53,7 +53,7 @@ from ..engine.validation import (
     check_size,
     describe,
 )
-from . import _flights, _reports, _scene
+from . import _flights, _registration, _reports, _scene
 from ._frame import conformal_latitude, frame_of, radii
 
 __all__ = [
@@ -62,6 +62,7 @@ __all__ = [
     "SWISS_AIRBORNE",
     "RADAR_DRAWS",
     "Airports",
+    "ContinentBiases",
     "ContinentReports",
     "ContinentScenario",
     "Flights",
@@ -72,6 +73,7 @@ __all__ = [
     "load_airports",
     "map_scale",
     "polar_to_map",
+    "register_continent",
     "simulate_continent",
     "to_map",
     "truth_at",
@@ -893,3 +895,86 @@ def simulate_continent(scenario, *, start=0.0, duration=None, bias_estimate=None
         out[k] = whole[order]
         del whole
     return ContinentReports(**out, start=start, duration=duration)
+
+
+# ----------------------------------------------------------------------------- registration
+@dataclass(frozen=True)
+class ContinentBiases:
+    """Every radar's biases estimated from the overlaps (:func:`register_continent`).
+
+    Attributes
+    ----------
+    biases : numpy.ndarray, shape (m, 3)
+        Range offset (m), range scale, azimuth offset (rad) per radar: the layout of
+        ``bias_estimate`` in :func:`simulate_continent` and :func:`polar_to_map`.
+    covariance : numpy.ndarray, shape (3m, 3m)
+        Their covariance (radar-major), the weak prior included.
+    pairs : numpy.ndarray of int, shape (m,)
+        Report pairs that informed each radar (0: its estimate is the prior's zero).
+    """
+
+    biases: np.ndarray
+    covariance: np.ndarray
+    pairs: np.ndarray
+
+
+def register_continent(scenario, reports) -> ContinentBiases:
+    r"""Every radar's biases from the reports of aircraft seen by two radars.
+
+    Parameters
+    ----------
+    scenario : ContinentScenario
+        The radars (sites, noise levels, periods).
+    reports : ContinentReports
+        From :func:`simulate_continent` (its `polar` measurements are used; any
+        `bias_estimate` it was converted with is ignored).
+
+    Returns
+    -------
+    ContinentBiases
+
+    Raises
+    ------
+    TypeError
+        `scenario` or `reports` of another type.
+    ValueError
+        `reports` naming a radar the scenario does not have, or no aircraft seen by two
+        radars.
+
+    Notes
+    -----
+    Association by address, as a Mode S radar reports it (``reports.aircraft``; false
+    reports have none). Every report of radar :math:`j` of an aircraft that radar
+    :math:`i < j` saw just before and after (at most 1.5 of its periods apart) gives a
+    pair: :math:`x_j - \bar x_i = B_j b_j - B_i b_i + e` with :math:`\bar x_i` the
+    linear interpolation of radar :math:`i`'s two converted reports,
+    :math:`B = \partial x / \partial b` (finite differences of :func:`polar_to_map` in range
+    and azimuth; :math:`\partial x/\partial g = r\,\partial x/\partial r`) and
+    :math:`\operatorname{Cov} e` the reports' covariances. Weighted least squares over
+    all pairs with a weak prior (2 km, 0.01, 2° standard deviations, so a radar overlapping
+    no other stays at zero), three passes dropping pairs beyond the 0.999 quantile of
+    :math:`\chi^2_3` (an aircraft turning between the bracketing reports). Range offset
+    and scale are nearly confounded over one radar's ranges; the azimuth offset is the
+    best determined.
+
+    Examples
+    --------
+    >>> sc = continent_scenario(5.0, rng=1)
+    >>> rep = simulate_continent(sc, start=0.0, duration=120.0, rng=2)
+    >>> register_continent(sc, rep).biases.shape
+    (36, 3)
+    """
+    sc = _scenario_iv(scenario)
+    if not isinstance(reports, ContinentReports):
+        raise TypeError(f"`reports` must be ContinentReports (from simulate_continent); "
+                        f"received {describe(reports)}")
+    m = len(sc.radars)
+    if reports.radar.size and int(reports.radar.max()) >= m:
+        raise ValueError(f"`reports` name radar {int(reports.radar.max())} but `scenario` "
+                         f"has {m} radars")
+    out = _registration.register(frame_of(*sc.origin), sc.radars, reports)
+    if out is None:
+        raise ValueError("`reports`: no aircraft is seen by two radars in them (a longer "
+                         "window or a larger `scale`)")
+    biases, covariance, _, pairs = out
+    return ContinentBiases(biases, covariance, pairs)
