@@ -444,6 +444,15 @@ def test_memory_refusals_come_before_allocation(scene):
         assert tracemalloc.get_traced_memory()[1] < MEMORY_LIMIT // 8
         with pytest.raises(ValueError, match=r"`times`.*1073741824"):
             ct.truth_at(scene, np.arange(3e6))
+        with pytest.raises(ValueError, match=r"`times`.*1073741824"):
+            ct.airborne_count(scene, np.arange(3e6))
+        long = ct.continent_scenario(1e-9, duration=1e15, n_radars=2, rng=1)
+        tracemalloc.reset_peak()
+        with pytest.raises(ValueError, match=r"`duration`.*scan instants.*1073741824"):
+            ct.simulate_continent(long, rng=1)
+        with pytest.raises(ValueError, match=r"`scale`.*1073741824"):
+            ct.continent_scenario(1e308)
+        assert tracemalloc.get_traced_memory()[1] < MEMORY_LIMIT // 8
     finally:
         tracemalloc.stop()
 

@@ -467,7 +467,8 @@ def continent_scenario(scale=1.0, *, n_radars=36, duration=3600.0, rng=None):
     span = duration + _flights.T_MAX
     mean_n = rate * span
     # the Poisson count exceeds mean + 10 sqrt(mean) + 10 with probability below 1e-20
-    check_size((mean_n + 10 * math.sqrt(mean_n) + 10) * _FLIGHT_BYTES, MEMORY_LIMIT,
+    need = (mean_n + 10 * math.sqrt(mean_n) + 10) * _FLIGHT_BYTES
+    check_size(need if need < 2.0**62 else 2**62, MEMORY_LIMIT,
                what=f"bytes of flights (about {mean_n:.0f} departures over {span:.0f} s)",
                alternative="a smaller `scale` or a shorter `duration`", name="scale")
     xyz = _scene.airport_map(lat0, lon0)
@@ -574,6 +575,7 @@ def airborne_count(scenario, times) -> np.ndarray:
     """
     sc = _scenario_iv(scenario)
     t = _times_iv(times)
+    _check_truth(sc, t, "airborne pairs")
     _, ti = _scene.airborne_pairs(sc.flights, t)
     return np.bincount(ti, minlength=t.size)
 
@@ -761,6 +763,11 @@ def _window_iv(sc, start, duration):
     if start + duration > sc.duration * (1 + 1e-12):
         raise ValueError(f"`start` + `duration` must lie within the scenario's window "
                          f"[0, {sc.duration:g}] s; received {start:g} + {duration:g}")
+    scans = sum(duration / r.period + 2 for r in sc.radars)
+    check_size(min(scans * _PAIR_BYTES, 2.0**62), MEMORY_LIMIT,
+               what=f"bytes of scan instants ({scans:.3g} scans of {len(sc.radars)} radars)",
+               alternative="a shorter window (`duration`, the window in pieces)",
+               name="duration")
     return start, duration
 
 
