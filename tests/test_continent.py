@@ -10,6 +10,7 @@ quantiles (scipy). Statistical tolerances are stated beside each check.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 import tracemalloc
 
@@ -23,6 +24,7 @@ from radarfusion_ref.engine.geodesy import WGS84_A, WGS84_F, geodetic_to_enu
 from radarfusion_ref.engine.validation import MEMORY_LIMIT
 
 E2 = WGS84_F * (2 - WGS84_F)
+AIRPORTS_SHA256 = "30d6c138136cc852b268bd1868db48774bc55c46d377229dd0df7a817e9cae6c"
 
 
 @pytest.fixture(scope="module")
@@ -48,8 +50,10 @@ def truth_of(scene, rep, rows):
 
 # ------------------------------------------------------------------------------- airports
 def test_airports_are_a_small_sourced_extract_inside_the_box():
-    text = ct.AIRPORTS_FILE.read_text(encoding="utf-8")
-    assert len(text.encode()) < 100_000
+    raw = ct.AIRPORTS_FILE.read_bytes()
+    assert len(raw) < 100_000
+    assert hashlib.sha256(raw).hexdigest() == AIRPORTS_SHA256        # as data/README.md
+    text = raw.decode("utf-8")
     assert text.startswith("#") and "airportsdata" in text.splitlines()[0]
     licence = ct.AIRPORTS_FILE.parent.joinpath("airports_LICENSE.txt").read_text()
     assert "MIT" in licence and "Borsetti" in licence
