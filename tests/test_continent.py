@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import inspect
 import math
 import tracemalloc
 
@@ -493,3 +494,37 @@ def test_other_bad_input_is_refused_by_name(scene):
     for call, name in cases:
         with pytest.raises((ValueError, TypeError), match=f"`{name}`"):
             call()
+
+
+def test_bad_input_to_each_argument_is_refused_under_its_own_name():
+    """Every argument of every public function, given garbage, is refused naming it."""
+    sc = ct.continent_scenario(0.5, n_radars=2, duration=60.0, rng=1)
+    rep = ct.simulate_continent(sc, duration=30.0, rng=2)
+    rad = sc.radars[0]
+    valid = {
+        ct.to_map: dict(lat=47.0, lon=8.0, h=400.0, origin=(49.0, 10.0)),
+        ct.from_map: dict(xyz=[1e5, 2e5, 9e3], origin=(49.0, 10.0)),
+        ct.map_scale: dict(lat=47.0, lon=8.0, origin=(49.0, 10.0)),
+        ct.continent_scenario: dict(scale=0.5, n_radars=2, duration=60.0, rng=1),
+        ct.truth_at: dict(scenario=sc, times=[0.0, 10.0]),
+        ct.airborne_count: dict(scenario=sc, times=[0.0, 10.0]),
+        ct.truth_samples: dict(scenario=sc, times=[0.0, 10.0], visible=False),
+        ct.polar_to_map: dict(polar=[[1e5, 0.1, 0.05]], radar=rad, bias_estimate=rad.biases,
+                              debias=True, origin=(49.0, 10.0)),
+        ct.expected_reports: dict(scenario=sc, start=0.0, duration=30.0),
+        ct.simulate_continent: dict(scenario=sc, start=0.0, duration=30.0,
+                                    bias_estimate="true", debias=False, rng=3),
+        ct.register_continent: dict(scenario=sc, reports=rep),
+    }
+    public = {getattr(ct, n) for n in ct.__all__ if inspect.isfunction(getattr(ct, n))}
+    assert public - {ct.load_airports} == set(valid)
+    for fn, kw in valid.items():
+        assert set(kw) == set(inspect.signature(fn).parameters), fn.__name__
+        if fn is not ct.register_continent:            # too few overlaps in this tiny scene
+            fn(**kw)
+        for arg in kw:
+            for bad in ("abc", np.nan, [[1.0, 2.0], [3.0]]):
+                with pytest.raises((ValueError, TypeError)) as err:
+                    fn(**dict(kw, **{arg: bad}))
+                assert f"`{arg}`" in str(err.value), (fn.__name__, arg, repr(bad),
+                                                      str(err.value))
