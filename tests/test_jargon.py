@@ -46,8 +46,9 @@ TERMS: dict[str, str] = {
     "registration": r"(?i:\bregistration\b)",
     "covariance intersection": r"(?i:\bcovariance[- ]intersection\b)",
     "track-to-track fusion": r"(?i:\btrack-to-track\b|\btrack fusion\b)",
-    "Monte Carlo interval": r"(?i:\b95 ?% (?:confidence )?intervals?\b|\bMonte[- ]Carlo "
-                            r"intervals?\b|\bconfidence intervals?\b)",
+    "Monte Carlo interval": r"(?i:\b95 ?% (?:confidence |Wilson )?intervals?\b|\bMonte[- ]Carlo "
+                            r"intervals?\b|\bconfidence intervals?\b|\bWilson(?:'s)?(?: score)? "
+                            r"intervals?\b)",
     "confirmation latency": r"(?i:\blatenc(?:y|ies)\b)",
     "false track": r"(?i:\bfalse tracks?\b)",
     "track switch": r"(?i:\btrack switch(?:es)?\b|\bidentity switch(?:es)?\b)",
@@ -68,6 +69,18 @@ TERMS: dict[str, str] = {
     "M-of-N": r"\bM-of-N\b",
     "NCI": r"\bNCI\b|(?i:\bnoncredibility\b)",
     "Bar-Shalom–Campo fusion": r"\bBar-Shalom[–-]Campo\b",
+    "Kalman filter": r"(?i:\bKalman(?: filters?| gains?| update| prediction)?\b)",
+    "constant-velocity model": r"(?i:\bconstant[- ]velocity(?: models?| motion)?\b)|\bCV\b",
+    "Joseph form": r"\bJoseph(?: form)?\b",
+    "tracking index": r"(?i:\btracking index\b)",
+    "LP relaxation": r"\bLP(?: relaxation)?\b|(?i:\blinear program(?:me|ming)?s?\b)",
+    "subgradient": r"(?i:\bsubgradients?\b)",
+    "greedy association": r"(?i:\bgreedy\b|\bnearest[- ]neighbou?r (?:pairing|rule)s?\b)",
+    "operating characteristic": r"(?i:\boperating characteristics?\b)",
+    "ADS-B": r"\bADS-B\b",
+    "WGS-84": r"\bWGS-84\b",
+    "ENU": r"\bENU\b|(?i:\beast[- ]north[- ]up\b)",
+    "Stone Soup": r"\bStone Soup\b",
 }
 
 
@@ -162,12 +175,13 @@ def page_text(path: Path) -> str:
 
 
 def _compact(body: str):
-    """The prose's words joined by single spaces (lines kept), and the map back to offsets.
+    """The prose's words joined by single spaces, and the map back to offsets in the page.
 
     Blanked prose is mostly spaces, which makes every pattern search slow; the words, joined
-    by one space each (a line break stays a token of its own), are found quickly.
+    by one space each, are searched quickly. A line break inside a paragraph joins its words
+    like a space (a term may be broken across lines); a blank line stays a token of its own.
     """
-    tokens = list(re.finditer(r"[^ \n]+|\n+", body))
+    tokens = list(re.finditer(r"[^ \n]+|\n[ \n]*\n", body))
     starts, position = [], 0
     for t in tokens:
         starts.append(position)
@@ -181,6 +195,23 @@ def _compact(body: str):
     return compact, to_body
 
 
+@cache
+def _compiled(pattern: str) -> tuple[re.Pattern, re.Pattern]:
+    """A term's pattern, and the same without its word boundaries (a quicker superset)."""
+    return re.compile(pattern), re.compile(pattern.replace(r"\b", ""))
+
+
+def _search(pattern: str, text: str) -> re.Match | None:
+    r"""``re.search(pattern, text)``, started where the pattern without ``\b`` first matches.
+
+    Every match of the pattern matches without its boundaries, so none starts earlier; a
+    leading ``\b`` keeps ``re`` from its quick literal scan, which the superset can use.
+    """
+    exact, loose = _compiled(pattern)
+    first = loose.search(text)
+    return None if first is None else exact.search(text, first.start())
+
+
 def first_uses(text: str, terms: dict[str, str] = TERMS, *,
                parsed=None) -> dict[str, tuple[int, int, bool]]:
     """Each term's first prose use on a page: ``term -> (offset, end, linked_or_defined)``.
@@ -192,7 +223,7 @@ def first_uses(text: str, terms: dict[str, str] = TERMS, *,
     compact, to_body = _compact(body)
     found = {}
     for term, pattern in terms.items():
-        m = re.search(pattern, compact)
+        m = _search(pattern, compact)
         if m is None:
             continue
         a, b = to_body(m.start()), to_body(m.end() - 1) + 1
