@@ -45,7 +45,7 @@ TERMS: dict[str, str] = {
     "clutter": r"(?i:\bclutter\b)",
     "registration": r"(?i:\bregistration\b)",
     "covariance intersection": r"(?i:\bcovariance[- ]intersection\b)",
-    "track-to-track fusion": r"(?i:\btrack-to-track\b|\btrack fusion\b)",
+    "track-to-track fusion": r"(?i:\btrack-to-track(?: fusion)?\b|\btrack fusion\b)",
     "Monte Carlo interval": r"(?i:\b95 ?% (?:confidence |Wilson )?intervals?\b|\bMonte[- ]Carlo "
                             r"intervals?\b|\bconfidence intervals?\b|\bWilson(?:'s)?(?: score)? "
                             r"intervals?\b)",
@@ -59,11 +59,11 @@ TERMS: dict[str, str] = {
     "likelihood measure": r"(?i:\blikelihood measures?\b)",
     "noncentrality": r"(?i:\bnoncentrality(?: parameter)?\b|\bnoncentral\b)",
     "Fisher information": r"(?i:\bFisher information\b)",
-    "Cramér–Rao bound": r"(?i:\bCram[eé]r[–-]Rao\b)",
+    "Cramér–Rao bound": r"(?i:\bCram[eé]r[–-]Rao(?: bound| lower bound)?\b)",
     "whitening": r"(?i:\bwhiten(?:ed|ing|s)?\b)",
     "S-D assignment": r"\bS-D(?: assignment(?: problem)?)?\b",
     "Lagrangian relaxation": r"(?i:\bLagrangian relaxation\b|\bduality gap\b)",
-    "Murty's algorithm": r"\bMurty(?:'s algorithm)?\b",
+    "Murty's algorithm": r"\bMurty(?:'s(?: algorithm)?)?",
     "process noise": r"(?i:\bprocess[- ]noise\b)",
     "track score": r"(?i:\btrack scores?\b)",
     "M-of-N": r"\bM-of-N\b",
@@ -174,19 +174,26 @@ def page_text(path: Path) -> str:
     return re.sub(r"^```\{include\}\s*(\S+)\s*\n```\s*$", include, text, flags=re.M)
 
 
-def _compact(body: str):
+def _compact(text: str, body: str):
     """The prose's words joined by single spaces, and the map back to offsets in the page.
 
     Blanked prose is mostly spaces, which makes every pattern search slow; the words, joined
-    by one space each, are searched quickly. A line break inside a paragraph joins its words
-    like a space (a term may be broken across lines); a blank line stays a token of its own.
+    by one character each, are searched quickly. Words that the page separates by a space or
+    a line break (a term may be broken across lines) are joined by a space; words separated by
+    anything else (a blank line, math, the markup of a role) by a NUL, which no term spans.
     """
-    tokens = list(re.finditer(r"[^ \n]+|\n[ \n]*\n", body))
-    starts, position = [], 0
+    tokens = list(re.finditer(r"[^ \n]+", body))
+    pieces, starts, position, last = [], [], 0, None
     for t in tokens:
+        if last is not None:
+            gap = text[last:t.start()]
+            pieces.append(" " if re.fullmatch(r" |[ \t]*\n[ \t]*", gap) else "\0")
+            position += 1
         starts.append(position)
-        position += len(t.group()) + 1
-    compact = " ".join(t.group() for t in tokens)
+        pieces.append(t.group())
+        position += len(t.group())
+        last = t.end()
+    compact = "".join(pieces)
 
     def to_body(i: int) -> int:
         k = bisect_right(starts, i) - 1
@@ -220,7 +227,7 @@ def first_uses(text: str, terms: dict[str, str] = TERMS, *,
     """
     body, links = parsed or prose(text)
     bold = [m.span() for m in _BOLD.finditer(body)]
-    compact, to_body = _compact(body)
+    compact, to_body = _compact(text, body)
     found = {}
     for term, pattern in terms.items():
         m = _search(pattern, compact)
@@ -385,3 +392,16 @@ def test_rule_blanks_only_what_is_not_prose():
     assert "GOSPA" not in body and body.count("NEES") == 1 and body.count("NIS") == 1
     assert len(body) == len(text) and body.count("\n") == text.count("\n")
     assert links == []
+
+
+def test_rule_finds_a_term_broken_across_lines_and_not_across_markup(tmp_path):
+    terms = {"maximum likelihood": TERMS["maximum likelihood"]}
+    page = tmp_path / "broken.md"
+    page.write_text("# Title\n\nThe maximum $x$ likelihood of it, the {term}`maximum <GOSPA>`\n"
+                    "likelihood, then the\nmaximum-likelihood\n  estimate.\n", encoding="utf-8")
+    assert [(u.line, u.text) for u in unexplained(page, terms, name="broken.md")] == [
+        (5, "maximum-likelihood")]
+    page = tmp_path / "broken_2.md"      # pages are read once per path
+    page.write_text("# Title\n\nThe first is the maximum\n  likelihood estimate.\n", encoding="utf-8")
+    assert [(u.line, u.text) for u in unexplained(page, terms, name="broken.md")] == [
+        (3, "maximum\n  likelihood")]
