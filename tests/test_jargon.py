@@ -34,7 +34,7 @@ TERMS: dict[str, str] = {
     "GNN": r"\bGNN\b|(?i:\bglobal nearest[- ]neighbou?r)",
     "JPDA": r"\bJPDA\b|(?i:\bjoint probabilistic data association)",
     "IMM": r"\bIMM\b|(?i:\binteracting multiple[- ]model)",
-    "SPRT": r"\bSPRT\b|(?i:\bsequential probability ratio test)",
+    "SPRT": r"\bSPRT\b|(?i:\bsequential probability ratio test|\bWald's sequential test)",
     "BLUE": r"\bBLUE\b|(?i:\bbest linear unbiased)",
     "maximum likelihood": r"(?i:\bmaximum[- ]likelihood\b)|\bML\b",
     "likelihood ratio": r"(?i:\blikelihood[- ]ratios?\b)",
@@ -59,7 +59,7 @@ TERMS: dict[str, str] = {
     "likelihood measure": r"(?i:\blikelihood measures?\b)",
     "noncentrality": r"(?i:\bnoncentrality(?: parameter)?\b|\bnoncentral\b)",
     "Fisher information": r"(?i:\bFisher information\b)",
-    "Cramér–Rao bound": r"(?i:\bCram[eé]r[–-]Rao(?: bound| lower bound)?\b)",
+    "Cramér–Rao bound": r"(?i:\bCram[eé]r[–-]Rao(?: bound| lower bound)?\b)|\bCRLB\b",
     "whitening": r"(?i:\bwhiten(?:ed|ing|s)?\b)",
     "S-D assignment": r"\bS-D(?: assignment(?: problem)?)?\b",
     "Lagrangian relaxation": r"(?i:\bLagrangian relaxation\b|\bduality gap\b)",
@@ -81,6 +81,10 @@ TERMS: dict[str, str] = {
     "WGS-84": r"\bWGS-84\b",
     "ENU": r"\bENU\b|(?i:\beast[- ]north[- ]up\b)",
     "Stone Soup": r"\bStone Soup\b",
+    "non-assignment cost": r"(?i:\bnon-assignment costs?\b)",
+    "linearized conversion": r"(?i:\blineari[sz]ed (?:conversions?|covariances?)\b)",
+    "binding": r"(?i:\bbinding\b)",
+    "false-accept probability": r"(?i:\bfalse[- ]accept(?:ance)?(?: rates?| probabilit(?:y|ies))?\b)",
 }
 
 
