@@ -138,8 +138,7 @@ def prose(text: str) -> tuple[str, list[tuple[int, int, str]]]:
     text = CODE_CELL.sub(_blank, text)
     for pattern in (_FENCED, _PLAIN_FENCE, _DISPLAY_MATH, _COMMENT):
         text = pattern.sub(_blank, text)
-    text = _OPTION_BLOCK.sub(lambda m: m.group(1) + _blank(re.match(r"(?s).*", m.group(2))),
-                             text)
+    text = _OPTION_BLOCK.sub(lambda m: m.group(1) + re.sub(r"[^\n]", " ", m.group(2)), text)
     for pattern in (_DIRECTIVE_LINE, _OPTION_LINE, _LABEL_LINE, _HEADING):
         text = pattern.sub(_blank, text)
     links = []
@@ -262,23 +261,26 @@ def book_uses(path: Path) -> dict[str, tuple[int, int, bool]]:
 
 
 def glossary_entries(text: str) -> dict[str, str]:
-    """The entries of the ``{glossary}`` directives of a page: ``term (lower case) -> definition``."""
+    """The entries of the ``{glossary}`` directives of a page: ``term (lower case) -> definition``.
+
+    A term starts a line; terms on consecutive lines share the indented definition below them.
+    """
     entries: dict[str, str] = {}
-    for block in re.findall(r"^```\{glossary\}[^\n]*\n(.*?)^```\s*$", text, re.S | re.M):
+    for block in re.findall(r"^```\{glossary\}[^\n]*\n(.*?)^```[ \t]*$", text, re.S | re.M):
         names: list[str] = []
+        defining = False
         for line in block.splitlines():
-            if line.startswith(":") or not line.strip():
-                names = [] if not line.strip() and names and entries.get(names[0]) else names
+            if not line.strip() or line.startswith(":"):
                 continue
-            if not line[0].isspace():
-                if names and entries.get(names[-1]):
-                    names = []
-                names.append(line.strip().lower())
+            if line[0].isspace():
+                defining = True
                 for n in names:
-                    entries.setdefault(n, "")
+                    entries[n] = f"{entries[n]} {line.strip()}".strip()
             else:
-                for n in names:
-                    entries[n] = (entries[n] + " " + line.strip()).strip()
+                if defining:
+                    names, defining = [], False
+                names.append(line.strip().lower())
+                entries.setdefault(names[-1], "")
     return entries
 
 
@@ -409,3 +411,13 @@ def test_rule_finds_a_term_broken_across_lines_and_not_across_markup(tmp_path):
     page.write_text("# Title\n\nThe first is the maximum\n  likelihood estimate.\n", encoding="utf-8")
     assert [(u.line, u.text) for u in unexplained(page, terms, name="broken.md")] == [
         (3, "maximum\n  likelihood")]
+
+
+def test_glossary_entries_are_read_as_sphinx_reads_them():
+    text = ("```{glossary}\n:sorted:\n\nGOSPA\n  A metric, eq. {eq}`eq-gospa`.\n\nclutter\n"
+            "false report\n  Reports of no object.\n  Uniform in space.\nlone\n```\n")
+    assert glossary_entries(text) == {
+        "gospa": "A metric, eq. {eq}`eq-gospa`.",
+        "clutter": "Reports of no object. Uniform in space.",
+        "false report": "Reports of no object. Uniform in space.",
+        "lone": ""}
