@@ -153,11 +153,14 @@ def test_the_not_yet_clean_list_names_chapters():
     assert set(MAIN_PAGES) >= NOT_YET_CLEAN, sorted(NOT_YET_CLEAN - set(MAIN_PAGES))
 
 
-@pytest.mark.parametrize("listing", BOOK_LISTINGS,
-                         ids=[f"{x.page.stem}-{x.pyobject}" for x in BOOK_LISTINGS])
-def test_listing_fits_the_code_box(listing):
-    assert shown_lines(listing), f"{listing.page.name}: {listing.pyobject} shows nothing"
-    assert not too_wide(listing), "\n".join(too_wide(listing))
+def test_every_listing_fits_the_code_box():
+    """Every package listing a page shows (none today: pages show reader's functions)."""
+    problems = []
+    for listing in BOOK_LISTINGS:
+        if not shown_lines(listing):
+            problems.append(f"{listing.page.name}: {listing.pyobject} shows nothing")
+        problems += too_wide(listing)
+    assert not problems, "\n".join(problems)
 
 
 # ----------------------------------------------------------------------------- the checks
