@@ -86,6 +86,12 @@ __all__ = [
 
 #: Default pairs per chunk of :func:`mahalanobis_sq_pairwise`: the work buffers stay in cache.
 _PAIR_CHUNK = 65536
+#: Pairs per trial at or below which the trials run innermost (see :func:`_pairwise`).
+_TRIAL_LAST_PAIRS = 1024
+#: Covariances per run of the door's check (:func:`_covariance_in_runs`).
+_VALIDATE_RUN = 32768
+#: Shortest inner run of a block, when the chunk allows it.
+_MIN_RUN = 4096
 
 
 # --------------------------------------------------------------------------- door checks
@@ -131,13 +137,34 @@ def _mahalanobis_iv(d, cov):
     return a, c
 
 
+def _covariance_in_runs(value, name, k):
+    """:func:`~radarfusion_ref.engine.validation.as_covariance` of a long stack, run by run.
+
+    The same rule on runs of :data:`_VALIDATE_RUN` matrices, so its work arrays stay
+    in cache; a run that breaks it sends the whole argument through the rule, for the
+    one message (and count) of the argument as received.
+    """
+    if not (isinstance(value, np.ndarray) and value.dtype == np.float64 and value.ndim > 2
+            and value.shape[-2:] == (k, k) and value.flags.c_contiguous
+            and value.size > 2 * _VALIDATE_RUN * k * k):
+        return as_covariance(value, name, dim=k)
+    flat = value.reshape(-1, k, k)
+    try:
+        for r0 in range(0, len(flat), _VALIDATE_RUN):
+            as_covariance(flat[r0:r0 + _VALIDATE_RUN], name, dim=k)
+    except ValueError:
+        as_covariance(value, name, dim=k)
+        raise                                   # not reached: the whole breaks the rule too
+    return value
+
+
 def _pairwise_iv(x1, x2, cov1, cov2, chunk_size, out_bytes):
     a = as_float_array(x1, "x1", ndim_min=2)
     k = a.shape[-1]
     b = as_float_array(x2, "x2", ndim_min=2, last_dims=(None, k))
     covs = []
     for name, value, x, xname in (("cov1", cov1, a, "x1"), ("cov2", cov2, b, "x2")):
-        c = as_covariance(value, name, dim=k)
+        c = _covariance_in_runs(value, name, k)
         c = c[None] if c.ndim == 2 else c                 # one (k, k) matrix: shared
         if c.shape[-3] not in (1, x.shape[-2]):
             raise ValueError(f"`{name}` must hold one {k}x{k} matrix per report of `{xname}` "
@@ -224,33 +251,53 @@ def mahalanobis_sq_k2_kernel(delta: np.ndarray, s: np.ndarray, out: np.ndarray) 
     np.add(out, d0, out=out)
 
 
-def _ldl2_block(p, q, work, kk):
-    """kappa of one block of 2-D pairs, in place into `kk` (the k = 2 case of :func:`_ldl_kappa`).
+def _ldl_pairs(p, q, k, work, out, logdet=None):
+    """kappa of one block of pairs, in place into `out`: the in-place form of :func:`_ldl_kappa`.
 
-    `p`, `q`: the five per-report parts x, y, s11, s12, s22 of each side, broadcasting
-    to the block; u = s12/s11, D2 = s22 - u s12, w = dy - u dx,
-    kappa = dx (dx / s11) + w (w / D2).
+    `p`, `q`: each side's parts, stacked: ``(k + k (k + 1) / 2, ...)`` arrays (the k
+    coordinates, then the lower-triangle covariance entries row by row) broadcasting
+    to the block; `work`: a ``(k^2 + k + 1, *block)`` buffer. S = P + Q and
+    Delta = x_p - x_q, then for each pivot j
+
+        D_j  = S_jj - sum_{m<j} G_jm L_jm,
+        G_ij = S_ij - sum_{m<j} G_im L_jm,        L_ij = G_ij / D_j     (i > j),
+        w_j  = Delta_j - sum_{m<j} L_jm w_m,      kappa += w_j (w_j / D_j)
+
+    (G_ij = L_ij D_j). With `logdet` (an array like `out`), sum_j ln D_j goes into it.
     """
-    va, vb, vc, d0, d1, t = work
-    np.add(p[2], q[2], out=va)
-    np.add(p[3], q[3], out=vb)
-    np.add(p[4], q[4], out=vc)
-    np.divide(vb, va, out=t)                 # u
-    np.multiply(t, vb, out=vb)
-    np.subtract(vc, vb, out=vc)              # D2
-    np.subtract(p[0], q[0], out=d0)
-    np.subtract(p[1], q[1], out=d1)
-    np.multiply(t, d0, out=vb)
-    np.subtract(d1, vb, out=d1)              # w
-    np.divide(d0, va, out=va)
-    np.multiply(d0, va, out=d0)
-    np.divide(d1, vc, out=vc)
-    np.multiply(d1, vc, out=d1)
-    np.add(d0, d1, out=kk)
+    nt = k * (k + 1) // 2
+    w, s = work[:k], work[k:k + nt]                 # Delta -> w; S_ij -> G_ij (diagonal -> D_j)
+    low, t = work[k + nt:-1], work[-1]              # L_ij at i (i - 1) / 2 + j
+    np.subtract(p[:k], q[:k], out=w)
+    np.add(p[k:], q[k:], out=s)
+    for j in range(k):
+        dj, row = s[j * (j + 1) // 2 + j], j * (j - 1) // 2
+        for m in range(j):
+            np.multiply(s[j * (j + 1) // 2 + m], low[row + m], out=t)
+            np.subtract(dj, t, out=dj)              # D_j
+            np.multiply(low[row + m], w[m], out=t)
+            np.subtract(w[j], t, out=w[j])          # w_j
+        for i in range(j + 1, k):
+            gij = s[i * (i + 1) // 2 + j]
+            for m in range(j):
+                np.multiply(s[i * (i + 1) // 2 + m], low[row + m], out=t)
+                np.subtract(gij, t, out=gij)        # G_ij
+            np.divide(gij, dj, out=low[i * (i - 1) // 2 + j])   # L_ij
+        np.divide(w[j], dj, out=t)
+        if j:
+            np.multiply(t, w[j], out=t)
+            np.add(out, t, out=out)                 # kappa += w_j^2 / D_j
+        else:
+            np.multiply(t, w[j], out=out)
+    if logdet is not None:
+        np.log(s[0], out=logdet)
+        for j in range(1, k):
+            np.log(s[j * (j + 1) // 2 + j], out=t)
+            np.add(logdet, t, out=logdet)
 
 
 def _report_parts(x, c, lead, n):
-    """Per-report (L, n) views: the k coordinates, then the lower-triangle covariance entries."""
+    """Per-report parts, stacked ``(k + k (k + 1) / 2, L, n)``: coordinates, lower-triangle entries."""
     k = x.shape[-1]
     n_lead = math.prod(lead)
     comps = [x[..., i] for i in range(k)]
@@ -258,10 +305,20 @@ def _report_parts(x, c, lead, n):
     return [np.broadcast_to(v, (*lead, n)).reshape(n_lead, n) for v in comps]
 
 
+def _trial_last(n_lead, n1, n2):
+    """Whether the trials run innermost: few reports per radar (short pair rows), many trials."""
+    return n1 * n2 <= _TRIAL_LAST_PAIRS and n_lead > n2
+
+
+def _trial_run(n_lead, n1, n2, chunk):
+    """Trials per gathered run of the trial-last order: long enough for fast inner loops."""
+    return max(1, min(n_lead, max(_MIN_RUN, chunk // (n1 * n2)), chunk // max(n1, n2)))
+
+
 def _tiles(lengths, chunk):
     """Blocks (slices per axis, outer to inner) of at most `chunk` elements, long inner runs."""
     outer, mid, inner = lengths
-    bi = min(inner, chunk, max(256, chunk // max(1, outer * mid)))
+    bi = min(inner, chunk, max(_MIN_RUN, chunk // max(1, outer * mid)))
     bm = max(1, min(mid, chunk // bi))
     bo = max(1, min(outer, chunk // (bi * bm)))
     for o0 in range(0, outer, bo):
@@ -272,45 +329,56 @@ def _tiles(lengths, chunk):
 
 
 def _pairwise(a, b, c1, c2, lead, chunk, want_logdet=False):
-    """The chunked pairwise kernel on validated input; returns (kappa, logdet | None)."""
+    """The chunked pairwise kernel on validated input; returns (kappa, logdet | None).
+
+    Two loop orders, the same arithmetic pair by pair (so the same bits): with many
+    trials of few reports the trials run innermost (each run of trials' reports
+    gathered once into contiguous buffers, the result stored trial-last); otherwise
+    the radar-2 reports do (each side's parts copied once into contiguous arrays).
+    """
     k, n1, n2 = a.shape[-1], a.shape[-2], b.shape[-2]
     n_lead = math.prod(lead)
     if n_lead * n1 * n2 == 0:
         return np.empty((*lead, n1, n2)), (np.empty((*lead, n1, n2)) if want_logdet else None)
-    # long inner runs: the radar-2 reports, or with few of them and many trials the trials
-    # (each block's reports gathered into small contiguous buffers)
-    trial_last = n2 < 32 and n_lead > n2
+    trial_last = _trial_last(n_lead, n1, n2)
     p = _report_parts(a, c1, lead, n1)
     q = _report_parts(b, c2, lead, n2)
-    if not trial_last:
-        p = [np.ascontiguousarray(v) for v in p]
-        q = [np.ascontiguousarray(v) for v in q]
     shape = (n1, n2, n_lead) if trial_last else (n_lead, n1, n2)
     kappa = np.empty(shape)
     logdet = np.empty(shape) if want_logdet else None
-    fast2 = k == 2 and not want_logdet
-    work = [np.empty(min(chunk, n1 * n2 * n_lead)) for _ in range(6 if fast2 else 0)]
-    tri = [[k + i * (i + 1) // 2 + j for j in range(i + 1)] for i in range(k)]
-    for blk in _tiles(shape, chunk):
+    size = min(chunk, n1 * n2 * n_lead)
+    work = np.empty((k * k + k + 1, size))
+    if trial_last:
+        bt = _trial_run(n_lead, n1, n2, chunk)
+        gp, gq = np.empty((len(p), n1, bt)), np.empty((len(q), n2, bt))
+        runs = [slice(t0, min(t0 + bt, n_lead)) for t0 in range(0, n_lead, bt)]
+    else:
+        p, q = np.stack(p), np.stack(q)
+        runs = [slice(None)]
+    for run in runs:
         if trial_last:
-            si, sj, st = blk
-            pv = [np.ascontiguousarray(v[st, si].T)[:, None, :] for v in p]
-            qv = [np.ascontiguousarray(v[st, sj].T)[None, :, :] for v in q]
+            m = run.stop - run.start
+            pr = gp.reshape(-1)[:gp.size // bt * m].reshape(len(p), n1, m)
+            qr = gq.reshape(-1)[:gq.size // bt * m].reshape(len(q), n2, m)
+            for g, v in zip(pr, p, strict=True):
+                np.copyto(g, v[run].T)
+            for g, v in zip(qr, q, strict=True):
+                np.copyto(g, v[run].T)
+            tiles = _tiles((n1, n2, m), chunk)
         else:
-            st, si, sj = blk
-            pv = [v[st, si, None] for v in p]
-            qv = [v[st, None, sj] for v in q]
-        kk = kappa[blk]
-        if fast2:
-            m = kk.size
-            _ldl2_block(pv, qv, [w[:m].reshape(kk.shape) for w in work], kk)
-            continue
-        d = [pv[i] - qv[i] for i in range(k)]
-        s = [[pv[tri[i][j]] + qv[tri[i][j]] for j in range(i + 1)] for i in range(k)]
-        ld: list = []
-        kk[...] = _ldl_kappa(d, s, ld if logdet is not None else None)
-        if logdet is not None:
-            logdet[blk] = ld[0]
+            tiles = _tiles(shape, chunk)
+        for blk in tiles:
+            if trial_last:
+                si, sj, st = blk
+                pv, qv = pr[:, si, None, st], qr[:, None, sj, st]
+                kk = kappa[si, sj, run][..., st]
+            else:
+                st, si, sj = blk
+                pv, qv = p[:, st, si, None], q[:, st, None, sj]
+                kk = kappa[blk]
+            _ldl_pairs(pv, qv, k, work[:, :kk.size].reshape(-1, *kk.shape), kk,
+                       None if logdet is None else logdet[si, sj, run][..., st]
+                       if trial_last else logdet[blk])
 
     def back(arr):
         if arr is None:
