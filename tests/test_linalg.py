@@ -313,3 +313,19 @@ def test_pairwise_covariance_rule_in_runs_keeps_the_whole_argument_message():
         assert str(got.value) == str(whole.value)
     ok = linalg.mahalanobis_sq_pairwise(x1[:4], x2, np.ascontiguousarray(good[:4]), np.eye(2))
     assert np.array_equal(ok, np.zeros((4, 1)))
+
+
+@pytest.mark.parametrize(("trials", "n1", "n2"), [(1, 50, 3), (3, 200, 70), (100, 9, 2)])
+def test_pairwise_swapped_sides_give_the_transposed_bits(trials, n1, n2):
+    """kappa_ij = kappa_ji with the sides exchanged, to the bit: the kernel may run either
+    report axis innermost (the differences change sign exactly, the sums are the same)."""
+    rng = np.random.default_rng(n1)
+    x1, x2 = rng.normal(size=(trials, n1, 3)), rng.normal(size=(trials, n2, 3))
+    c1, c2 = _spd(rng, 3, (trials, n1), 1e4), _spd(rng, 3, (trials, n2), 1e4)
+    kappa, logdet = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True)
+    back, ld = linalg.mahalanobis_sq_pairwise(x2, x1, c2, c1, return_logdet=True)
+    assert kappa.shape == (trials, n1, n2) and np.all(kappa > 0)
+    assert np.array_equal(back.swapaxes(-1, -2), kappa)
+    assert np.array_equal(ld.swapaxes(-1, -2), logdet)
+    ref, _ = _pairs_by_solve(x1[:1], x2[:1], c1[:1], c2[:1])
+    np.testing.assert_allclose(kappa[:1], ref, rtol=1e-8)

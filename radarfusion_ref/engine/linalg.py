@@ -84,10 +84,13 @@ __all__ = [
     "mahalanobis_sq_pairwise",
 ]
 
-#: Default pairs per chunk of :func:`mahalanobis_sq_pairwise`: the work buffers stay in cache.
+#: Default pairs per chunk of :func:`mahalanobis_sq_pairwise`: long enough that each ufunc
+#: call's fixed cost is small, short enough that its k^2 + k + 2 work buffers stay in the last-level cache.
 _PAIR_CHUNK = 65536
-#: Pairs per trial at or below which the trials run innermost (see :func:`_pairwise`).
-_TRIAL_LAST_PAIRS = 1024
+#: Largest chunk: larger `chunk_size` values give the same blocks as this one.
+_MAX_CHUNK = 1 << 20
+#: Reports per radar at or below which, with more trials than that, the trials run innermost.
+_TRIAL_LAST_REPORTS = 64
 #: Covariances per run of the door's check (:func:`_covariance_in_runs`).
 _VALIDATE_RUN = 32768
 #: Shortest inner run of a block, when the chunk allows it.
@@ -179,18 +182,18 @@ def _pairwise_iv(x1, x2, cov1, cov2, chunk_size, out_bytes):
         raise ValueError("`x1`, `x2`, `cov1`, `cov2` must have broadcastable leading (batch) "
                          f"axes; received shapes {a.shape}, {b.shape}, {np.shape(cov1)}, "
                          f"{np.shape(cov2)}") from None
-    chunk = as_int(chunk_size, "chunk_size", minimum=1)
+    chunk = min(as_int(chunk_size, "chunk_size", minimum=1), _MAX_CHUNK)
     n_lead, n1, n2 = math.prod(lead), a.shape[-2], b.shape[-2]
     n_pairs = n_lead * n1 * n2
     parts = k + k * (k + 1) // 2
     planned = (n_pairs * out_bytes                            # the result
                + 2 * parts * 8 * n_lead * (n1 + n2)           # per-report component copies
-               + (parts + 8) * 8 * min(chunk, n_pairs))       # work buffers
+               + (k * k + k + 2 + 2 * parts) * 8 * min(chunk, n_pairs))   # work, gathers
     check_size(planned, MEMORY_LIMIT,
                what=f"bytes for {n_pairs} pairs of `x1` x `x2` (result, per-report copies "
                     "and work buffers)",
                alternative="smaller batches of trials (split the leading axes of `x1`, `x2`)")
-    return a, b, c1, c2, lead, min(chunk, 1 << 20)
+    return a, b, c1, c2, lead, chunk
 
 
 # --------------------------------------------------------------------------- kernels
@@ -256,7 +259,7 @@ def _ldl_pairs(p, q, k, work, out, logdet=None):
 
     `p`, `q`: each side's parts, stacked: ``(k + k (k + 1) / 2, ...)`` arrays (the k
     coordinates, then the lower-triangle covariance entries row by row) broadcasting
-    to the block; `work`: a ``(k^2 + k + 1, *block)`` buffer. S = P + Q and
+    to the block; `work`: a ``(k^2 + k + 2, *block)`` buffer. S = P + Q and
     Delta = x_p - x_q, then for each pivot j
 
         D_j  = S_jj - sum_{m<j} G_jm L_jm,
@@ -267,7 +270,7 @@ def _ldl_pairs(p, q, k, work, out, logdet=None):
     """
     nt = k * (k + 1) // 2
     w, s = work[:k], work[k:k + nt]                 # Delta -> w; S_ij -> G_ij (diagonal -> D_j)
-    low, t = work[k + nt:-1], work[-1]              # L_ij at i (i - 1) / 2 + j
+    low, (acc, t) = work[k + nt:-2], work[-2:]      # L_ij at i (i - 1) / 2 + j; kappa's sum
     np.subtract(p[:k], q[:k], out=w)
     np.add(p[k:], q[k:], out=s)
     for j in range(k):
@@ -286,14 +289,14 @@ def _ldl_pairs(p, q, k, work, out, logdet=None):
         np.divide(w[j], dj, out=t)
         if j:
             np.multiply(t, w[j], out=t)
-            np.add(out, t, out=out)                 # kappa += w_j^2 / D_j
+            np.add(acc, t, out=out if j == k - 1 else acc)    # kappa += w_j^2 / D_j
         else:
-            np.multiply(t, w[j], out=out)
-    if logdet is not None:
-        np.log(s[0], out=logdet)
+            np.multiply(t, w[j], out=out if k == 1 else acc)
+    if logdet is not None:                          # the result is written once
+        np.log(s[0], out=logdet if k == 1 else acc)
         for j in range(1, k):
             np.log(s[j * (j + 1) // 2 + j], out=t)
-            np.add(logdet, t, out=logdet)
+            np.add(acc, t, out=logdet if j == k - 1 else acc)
 
 
 def _report_parts(x, c, lead, n):
@@ -307,7 +310,7 @@ def _report_parts(x, c, lead, n):
 
 def _trial_last(n_lead, n1, n2):
     """Whether the trials run innermost: few reports per radar (short pair rows), many trials."""
-    return n1 * n2 <= _TRIAL_LAST_PAIRS and n_lead > n2
+    return max(n1, n2) <= _TRIAL_LAST_REPORTS and n_lead > max(n1, n2)
 
 
 def _trial_run(n_lead, n1, n2, chunk):
@@ -334,20 +337,26 @@ def _pairwise(a, b, c1, c2, lead, chunk, want_logdet=False):
     Two loop orders, the same arithmetic pair by pair (so the same bits): with many
     trials of few reports the trials run innermost (each run of trials' reports
     gathered once into contiguous buffers, the result stored trial-last); otherwise
-    the radar-2 reports do (each side's parts copied once into contiguous arrays).
+    the longer report axis does (each side's parts copied once into contiguous arrays).
+    Blocks of at most `chunk` pairs go through :func:`_ldl_pairs`.
     """
     k, n1, n2 = a.shape[-1], a.shape[-2], b.shape[-2]
     n_lead = math.prod(lead)
     if n_lead * n1 * n2 == 0:
         return np.empty((*lead, n1, n2)), (np.empty((*lead, n1, n2)) if want_logdet else None)
     trial_last = _trial_last(n_lead, n1, n2)
+    if not trial_last and n1 > n2:
+        # the longer report axis innermost: with the sides swapped every difference is negated
+        # exactly and every sum of covariances is the same, so kappa and logdet keep their bits
+        kappa, logdet = _pairwise(b, a, c2, c1, lead, chunk, want_logdet)
+        return kappa.swapaxes(-1, -2), (None if logdet is None else logdet.swapaxes(-1, -2))
     p = _report_parts(a, c1, lead, n1)
     q = _report_parts(b, c2, lead, n2)
     shape = (n1, n2, n_lead) if trial_last else (n_lead, n1, n2)
     kappa = np.empty(shape)
     logdet = np.empty(shape) if want_logdet else None
     size = min(chunk, n1 * n2 * n_lead)
-    work = np.empty((k * k + k + 1, size))
+    work = np.empty((k * k + k + 2, size))
     if trial_last:
         bt = _trial_run(n_lead, n1, n2, chunk)
         gp, gq = np.empty((len(p), n1, bt)), np.empty((len(q), n2, bt))
