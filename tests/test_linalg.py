@@ -329,3 +329,24 @@ def test_pairwise_swapped_sides_give_the_transposed_bits(trials, n1, n2):
     assert np.array_equal(ld.swapaxes(-1, -2), logdet)
     ref, _ = _pairs_by_solve(x1[:1], x2[:1], c1[:1], c2[:1])
     np.testing.assert_allclose(kappa[:1], ref, rtol=1e-8)
+
+
+@pytest.mark.parametrize("k", [2, 3])
+@pytest.mark.parametrize(("trials", "n1", "n2"), [(300, 3, 5), (2, 40, 30)])
+def test_pairwise_shared_covariances_give_the_bits_of_per_report_copies(k, trials, n1, n2):
+    """A covariance shared by every report (or trial) is factorised once per block, not per
+    pair: the values are those of the same matrices copied to every report, to the bit."""
+    rng = np.random.default_rng(k + n1)
+    x1, x2 = rng.normal(size=(trials, n1, k)), rng.normal(size=(trials, n2, k))
+    shared = [(_spd(rng, k, (), 1e3), _spd(rng, k, (), 1e3)),                # one per side
+              (_spd(rng, k, (trials, 1), 1e3), _spd(rng, k, (), 1e3)),       # one per trial
+              (_spd(rng, k, (1, n1), 1e3), _spd(rng, k, (trials, n2), 1e3))]  # one per report
+    for c1, c2 in shared:
+        got, ld = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True)
+        full1 = np.broadcast_to(c1, (trials, n1, k, k)).copy()
+        full2 = np.broadcast_to(c2, (trials, n2, k, k)).copy()
+        ref, ref_ld = linalg.mahalanobis_sq_pairwise(x1, x2, full1, full2, return_logdet=True)
+        assert np.array_equal(got, ref) and np.array_equal(ld, ref_ld)
+        by_solve, _ = _pairs_by_solve(x1[:2], x2[:2], full1[:2], full2[:2])
+        np.testing.assert_allclose(got[:2], by_solve, rtol=1e-9)
+        assert np.array_equal(linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, chunk_size=7), got)

@@ -86,7 +86,7 @@ __all__ = [
 ]
 
 #: Default pairs per chunk of :func:`mahalanobis_sq_pairwise`: long enough that each ufunc
-#: call's fixed cost is small, short enough that its k^2 + k + 2 work buffers stay in the last-level cache.
+#: call's fixed cost is small, short enough that its k^2 + k + 3 work buffers stay in the last-level cache.
 _PAIR_CHUNK = 65536
 #: Largest chunk: larger `chunk_size` values give the same blocks as this one.
 _MAX_CHUNK = 1 << 20
@@ -189,7 +189,7 @@ def _pairwise_iv(x1, x2, cov1, cov2, chunk_size, out_bytes):
     parts = k + k * (k + 1) // 2
     planned = (n_pairs * out_bytes                            # the result
                + 2 * parts * 8 * n_lead * (n1 + n2)           # per-report component copies
-               + (k * k + k + 2 + 2 * parts) * 8 * min(chunk, n_pairs))   # work, gathers
+               + (k * k + k + 3 + 2 * parts) * 8 * min(chunk, n_pairs))   # work, gathers
     check_size(planned, MEMORY_LIMIT,
                what=f"bytes for {n_pairs} pairs of `x1` x `x2` (result, per-report copies "
                     "and work buffers)",
@@ -255,13 +255,16 @@ def mahalanobis_sq_k2_kernel(delta: np.ndarray, s: np.ndarray, out: np.ndarray) 
     np.add(out, d0, out=out)
 
 
-def _ldl_pairs(p, q, k, work, out, logdet=None):
+def _ldl_pairs(px, qx, pc, qc, k, work, cwork, out, logdet=None):
     """kappa of one block of pairs, in place into `out`: the in-place form of :func:`_ldl_kappa`.
 
-    `p`, `q`: each side's parts, stacked: ``(k + k (k + 1) / 2, ...)`` arrays (the k
-    coordinates, then the lower-triangle covariance entries row by row) broadcasting
-    to the block; `work`: a ``(k^2 + k + 2, *block)`` buffer. S = P + Q and
-    Delta = x_p - x_q, then for each pivot j
+    `px`, `qx`: each side's coordinates, stacked ``(k, ...)``, broadcasting to the
+    block; `pc`, `qc`: each side's lower-triangle covariance entries, row by row,
+    stacked ``(k (k + 1) / 2, ...)``, broadcasting to the shape the covariances vary
+    along within the block (one element when both sides share one matrix), over which
+    the factorisation runs; `work`: ``(k + 2, *block)`` and `cwork`:
+    ``(k^2 + 1, *that shape)`` buffers. S = P + Q and Delta = x_p - x_q, then for
+    each pivot j
 
         D_j  = S_jj - sum_{m<j} G_jm L_jm,
         G_ij = S_ij - sum_{m<j} G_im L_jm,        L_ij = G_ij / D_j     (i > j),
@@ -270,22 +273,22 @@ def _ldl_pairs(p, q, k, work, out, logdet=None):
     (G_ij = L_ij D_j). With `logdet` (an array like `out`), sum_j ln D_j goes into it.
     """
     nt = k * (k + 1) // 2
-    w, s = work[:k], work[k:k + nt]                 # Delta -> w; S_ij -> G_ij (diagonal -> D_j)
-    low, (acc, t) = work[k + nt:-2], work[-2:]      # L_ij at i (i - 1) / 2 + j; kappa's sum
-    np.subtract(p[:k], q[:k], out=w)
-    np.add(p[k:], q[k:], out=s)
+    w, (acc, t) = work[:k], work[k:]                # Delta -> w; kappa's running sum; a temporary
+    s, low, ts = cwork[:nt], cwork[nt:-1], cwork[-1]    # S_ij -> G_ij (D_j); L_ij; a temporary
+    np.subtract(px, qx, out=w)
+    np.add(pc, qc, out=s)
     for j in range(k):
-        dj, row = s[j * (j + 1) // 2 + j], j * (j - 1) // 2
+        dj, row = s[j * (j + 1) // 2 + j], j * (j - 1) // 2     # L_jm at row + m
         for m in range(j):
-            np.multiply(s[j * (j + 1) // 2 + m], low[row + m], out=t)
-            np.subtract(dj, t, out=dj)              # D_j
+            np.multiply(s[j * (j + 1) // 2 + m], low[row + m], out=ts)
+            np.subtract(dj, ts, out=dj)             # D_j
             np.multiply(low[row + m], w[m], out=t)
             np.subtract(w[j], t, out=w[j])          # w_j
         for i in range(j + 1, k):
             gij = s[i * (i + 1) // 2 + j]
             for m in range(j):
-                np.multiply(s[i * (i + 1) // 2 + m], low[row + m], out=t)
-                np.subtract(gij, t, out=gij)        # G_ij
+                np.multiply(s[i * (i + 1) // 2 + m], low[row + m], out=ts)
+                np.subtract(gij, ts, out=gij)       # G_ij
             np.divide(gij, dj, out=low[i * (i - 1) // 2 + j])   # L_ij
         np.divide(w[j], dj, out=t)
         if j:
@@ -301,12 +304,20 @@ def _ldl_pairs(p, q, k, work, out, logdet=None):
 
 
 def _report_parts(x, c, lead, n):
-    """Per-report parts, stacked ``(k + k (k + 1) / 2, L, n)``: coordinates, lower-triangle entries."""
+    """One side's parts: k coordinate views ``(L, n)``, then the lower-triangle covariance entries.
+
+    The covariance entries are ``(Lc, nc)`` views with ``Lc = 1`` when every trial
+    shares them and ``nc = 1`` when every report does: a shared covariance is not
+    copied per report, and its factorisation is not repeated.
+    """
     k = x.shape[-1]
     n_lead = math.prod(lead)
-    comps = [x[..., i] for i in range(k)]
-    comps += [c[..., i, j] for i in range(k) for j in range(i + 1)]
-    return [np.broadcast_to(v, (*lead, n)).reshape(n_lead, n) for v in comps]
+    xs = [np.broadcast_to(x[..., i], (*lead, n)).reshape(n_lead, n) for i in range(k)]
+    nc, shared = c.shape[-3], all(v == 1 for v in c.shape[:-3])
+    lc = 1 if shared else n_lead
+    cs = [(c[..., i, j] if shared else np.broadcast_to(c[..., i, j], (*lead, nc)))
+          .reshape(lc, nc) for i in range(k) for j in range(i + 1)]
+    return xs, cs
 
 
 def _trial_last(n_lead, n1, n2):
@@ -338,8 +349,8 @@ def _pairwise(a, b, c1, c2, lead, chunk, want_logdet=False):
     Two loop orders, the same arithmetic pair by pair (so the same bits): with many
     trials of few reports the trials run innermost (each run of trials' reports
     gathered once into contiguous buffers, the result stored trial-last); otherwise
-    the longer report axis does (each side's parts copied once into contiguous arrays).
-    Blocks of at most `chunk` pairs go through :func:`_ldl_pairs`.
+    the longer report axis does. Blocks of at most `chunk` pairs go through
+    :func:`_ldl_pairs`, the factorisation over the covariances' own shape in the block.
     """
     k, n1, n2 = a.shape[-1], a.shape[-2], b.shape[-2]
     n_lead = math.prod(lead)
@@ -351,44 +362,62 @@ def _pairwise(a, b, c1, c2, lead, chunk, want_logdet=False):
         # exactly and every sum of covariances is the same, so kappa and logdet keep their bits
         kappa, logdet = _pairwise(b, a, c2, c1, lead, chunk, want_logdet)
         return kappa.swapaxes(-1, -2), (None if logdet is None else logdet.swapaxes(-1, -2))
-    p = _report_parts(a, c1, lead, n1)
-    q = _report_parts(b, c2, lead, n2)
+    (px, pc), (qx, qc) = _report_parts(a, c1, lead, n1), _report_parts(b, c2, lead, n2)
     shape = (n1, n2, n_lead) if trial_last else (n_lead, n1, n2)
     kappa = np.empty(shape)
     logdet = np.empty(shape) if want_logdet else None
     size = min(chunk, n1 * n2 * n_lead)
-    work = np.empty((k * k + k + 2, size))
+    work, cwork = np.empty((k + 2, size)), np.empty((k * k + 1, size))
+    every = slice(None)
+
+    def pick(parts, trials, reports):           # a side's covariance entries in a block
+        lc, nc = parts[0].shape
+        return (trials if lc > 1 else every), (reports if nc > 1 else every)
+
     if trial_last:
         bt = _trial_run(n_lead, n1, n2, chunk)
-        gp, gq = np.empty((len(p), n1, bt)), np.empty((len(q), n2, bt))
+        # per side, (parts, reports, trials) buffers; entries shared by every trial stay put
+        bufs = [np.empty((len(v), v[0].shape[-1], bt)) if v[0].shape[-2] > 1
+                else np.stack(v).swapaxes(-1, -2) for v in (px, pc, qx, qc)]
         runs = [slice(t0, min(t0 + bt, n_lead)) for t0 in range(0, n_lead, bt)]
     else:
-        p, q = np.stack(p), np.stack(q)
-        runs = [slice(None)]
+        px, pc, qx, qc = (np.stack(v) for v in (px, pc, qx, qc))
+        runs = [every]
     for run in runs:
         if trial_last:
             m = run.stop - run.start
-            pr = gp.reshape(-1)[:gp.size // bt * m].reshape(len(p), n1, m)
-            qr = gq.reshape(-1)[:gq.size // bt * m].reshape(len(q), n2, m)
-            for g, v in zip(pr, p, strict=True):
-                np.copyto(g, v[run].T)
-            for g, v in zip(qr, q, strict=True):
-                np.copyto(g, v[run].T)
+            gathered = []
+            for v, buf in zip((px, pc, qx, qc), bufs, strict=True):
+                if v[0].shape[-2] == 1:
+                    gathered.append(buf)
+                    continue
+                g = buf.reshape(-1)[:buf.size // bt * m].reshape(len(v), v[0].shape[-1], m)
+                for dst, part in zip(g, v, strict=True):
+                    np.copyto(dst, part[run].T)
+                gathered.append(g)
+            prx, prc, qrx, qrc = gathered
             tiles = _tiles((n1, n2, m), chunk)
         else:
             tiles = _tiles(shape, chunk)
         for blk in tiles:
             if trial_last:
                 si, sj, st = blk
-                pv, qv = pr[:, si, None, st], qr[:, None, sj, st]
                 kk = kappa[si, sj, run][..., st]
+                ld = None if logdet is None else logdet[si, sj, run][..., st]
+                ti, ri = pick(pc, st, si)
+                tj, rj = pick(qc, st, sj)
+                views = (prx[:, si, None, st], qrx[:, None, sj, st],
+                         prc[:, ri, None, ti], qrc[:, None, rj, tj])
             else:
                 st, si, sj = blk
-                pv, qv = p[:, st, si, None], q[:, st, None, sj]
-                kk = kappa[blk]
-            _ldl_pairs(pv, qv, k, work[:, :kk.size].reshape(-1, *kk.shape), kk,
-                       None if logdet is None else logdet[si, sj, run][..., st]
-                       if trial_last else logdet[blk])
+                kk, ld = kappa[blk], (None if logdet is None else logdet[blk])
+                ti, ri = pick(pc, st, si)
+                tj, rj = pick(qc, st, sj)
+                views = (px[:, st, si, None], qx[:, st, None, sj],
+                         pc[:, ti, ri, None], qc[:, tj, None, rj])
+            cshape = np.broadcast_shapes(views[2].shape[1:], views[3].shape[1:])
+            _ldl_pairs(*views, k, work[:, :kk.size].reshape(-1, *kk.shape),
+                       cwork[:, :math.prod(cshape)].reshape(-1, *cshape), kk, ld)
 
     def back(arr):
         if arr is None:
