@@ -547,8 +547,11 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
         \kappa = \sum_j w_j \, (w_j / D_j),
 
     fifteen element-wise operations per pair for :math:`k = 2`, thirty-four for
-    :math:`k = 3`. Every pair goes through the same operations whatever the
-    chunk or loop order, so the result is the same to the bit.
+    :math:`k = 3`. The operations on :math:`S` alone run over the axes the
+    covariances vary along: with one covariance per side (or per trial) they run
+    once per block, not per pair, leaving nine (:math:`k = 2`) or seventeen
+    (:math:`k = 3`) per pair. Every pair goes through the same operations whatever
+    the chunk, loop order or sharing, so the result is the same to the bit.
 
     Examples
     --------
