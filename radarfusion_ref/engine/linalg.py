@@ -86,7 +86,8 @@ __all__ = [
 ]
 
 #: Default pairs per chunk of :func:`mahalanobis_sq_pairwise`: long enough that each ufunc
-#: call's fixed cost is small, short enough that its k^2 + k + 3 work buffers stay in the last-level cache.
+#: call's fixed cost is small, short enough that the k^2 + k + 3 work buffers stay in the
+#: last-level cache.
 _PAIR_CHUNK = 65536
 #: Largest chunk: larger `chunk_size` values give the same blocks as this one.
 _MAX_CHUNK = 1 << 20
