@@ -244,3 +244,109 @@ def test_pairwise_refuses_before_allocating():
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 16 * 2**20
+
+
+# ---------------------------------------------------------------- pairwise: layouts and chunks
+# the shape families of the two loop orders: many trials of few reports (trials innermost,
+# including the tiniest scenes) and few trials of many reports (radar-2 reports innermost)
+_FAMILIES = [(400, 2, 2), (300, 3, 4), (200, 10, 10), (3, 40, 70), (1, 120, 90)]
+
+
+def _pairs_by_solve(x1, x2, c1, c2):
+    """kappa of every pair by batched np.linalg.solve (LU) on the materialised sums."""
+    d = x1[..., :, None, :] - x2[..., None, :, :]
+    s = c1[..., :, None, :, :] + c2[..., None, :, :, :]
+    return np.einsum("...i,...i->...", d, np.linalg.solve(s, d[..., None])[..., 0]), s
+
+
+@pytest.mark.parametrize("k", [2, 3])
+@pytest.mark.parametrize(("trials", "n1", "n2"), _FAMILIES)
+def test_pairwise_every_layout_against_solve_ill_conditioned(k, trials, n1, n2):
+    rng = np.random.default_rng(100 * k + n1)
+    x1, x2 = rng.normal(size=(trials, n1, k)) * 10, rng.normal(size=(trials, n2, k)) * 10
+    c1 = _spd(rng, k, (trials, n1), 1e8)                  # condition numbers up to 1e8
+    c2 = _spd(rng, k, (trials, n2), 1e8)
+    got, logdet = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True)
+    ref, s = _pairs_by_solve(x1, x2, c1, c2)
+    cond = np.linalg.cond(s)
+    assert got.shape == (trials, n1, n2) and cond.max() > 1e3
+    assert np.all(np.abs(got - ref) <= 64 * k * 2.2e-16 * cond * ref + 1e-300)
+    assert np.all(np.abs(logdet - np.linalg.slogdet(s)[1]) <= 64 * k * 2.2e-16 * cond + 1e-12)
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4])
+@pytest.mark.parametrize(("trials", "n1", "n2"), [(150, 3, 2), (2, 20, 40)])
+def test_pairwise_bit_for_bit_across_chunkings(k, trials, n1, n2):
+    rng = np.random.default_rng(7 + k)
+    x1, x2 = rng.normal(size=(trials, n1, k)), rng.normal(size=(trials, n2, k))
+    c1, c2 = _spd(rng, k, (trials, n1), 1e6), _spd(rng, k, (trials, n2), 1e6)
+    kappa, logdet = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True)
+    assert np.all(np.isfinite(kappa)) and np.all(kappa > 0)
+    for chunk in (1, 2, 7, 97, 1000, 4096, 65536, 10**7):
+        got, ld = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True,
+                                                 chunk_size=chunk)
+        assert np.array_equal(got, kappa) and np.array_equal(ld, logdet), chunk
+    # trial by trial (one trial: the radar-2 reports innermost) gives the same bits as the
+    # batch, whichever loop order the batch took
+    for t in (0, trials // 2, trials - 1):
+        one = linalg.mahalanobis_sq_pairwise(x1[t], x2[t], c1[t], c2[t], chunk_size=5)
+        assert np.array_equal(one, kappa[t])
+
+
+def test_pairwise_covariance_rule_in_runs_keeps_the_whole_argument_message():
+    """A long stack is checked run by run; a bad matrix in a later run gets the message (and
+    count) the rule gives for the whole argument, as for a short stack."""
+    from radarfusion_ref.engine import validation
+    n = 3 * 32768 + 5                                       # more than two runs of the door
+    x1, x2 = np.zeros((n, 2)), np.zeros((1, 2))
+    good = np.broadcast_to(np.eye(2), (n, 2, 2))
+    cases = {"be symmetric": [[1.0, 0.5], [0.0, 1.0]],
+             "be positive definite": [[1.0, 2.0], [2.0, 1.0]],
+             "variance within the numeric domain": [[1e-60, 0.0], [0.0, 1.0]]}
+    for what, bad in cases.items():
+        cov1 = good.copy()
+        cov1[n - 2] = bad                                   # in the last run
+        with pytest.raises(ValueError, match=f"`cov1` must .*{what}") as whole:
+            validation.as_covariance(cov1, "cov1", dim=2)
+        with pytest.raises(ValueError, match="`cov1`") as got:
+            linalg.mahalanobis_sq_pairwise(x1, x2, cov1, np.eye(2))
+        assert str(got.value) == str(whole.value)
+    ok = linalg.mahalanobis_sq_pairwise(x1[:4], x2, np.ascontiguousarray(good[:4]), np.eye(2))
+    assert np.array_equal(ok, np.zeros((4, 1)))
+
+
+@pytest.mark.parametrize(("trials", "n1", "n2"), [(1, 50, 3), (3, 200, 70), (100, 9, 2)])
+def test_pairwise_swapped_sides_give_the_transposed_bits(trials, n1, n2):
+    """kappa_ij = kappa_ji with the sides exchanged, to the bit: the kernel may run either
+    report axis innermost (the differences change sign exactly, the sums are the same)."""
+    rng = np.random.default_rng(n1)
+    x1, x2 = rng.normal(size=(trials, n1, 3)), rng.normal(size=(trials, n2, 3))
+    c1, c2 = _spd(rng, 3, (trials, n1), 1e4), _spd(rng, 3, (trials, n2), 1e4)
+    kappa, logdet = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True)
+    back, ld = linalg.mahalanobis_sq_pairwise(x2, x1, c2, c1, return_logdet=True)
+    assert kappa.shape == (trials, n1, n2) and np.all(kappa > 0)
+    assert np.array_equal(back.swapaxes(-1, -2), kappa)
+    assert np.array_equal(ld.swapaxes(-1, -2), logdet)
+    ref, _ = _pairs_by_solve(x1[:1], x2[:1], c1[:1], c2[:1])
+    np.testing.assert_allclose(kappa[:1], ref, rtol=1e-8)
+
+
+@pytest.mark.parametrize("k", [2, 3])
+@pytest.mark.parametrize(("trials", "n1", "n2"), [(300, 3, 5), (2, 40, 30)])
+def test_pairwise_shared_covariances_give_the_bits_of_per_report_copies(k, trials, n1, n2):
+    """A covariance shared by every report (or trial) is factorised once per block, not per
+    pair: the values are those of the same matrices copied to every report, to the bit."""
+    rng = np.random.default_rng(k + n1)
+    x1, x2 = rng.normal(size=(trials, n1, k)), rng.normal(size=(trials, n2, k))
+    shared = [(_spd(rng, k, (), 1e3), _spd(rng, k, (), 1e3)),                # one per side
+              (_spd(rng, k, (trials, 1), 1e3), _spd(rng, k, (), 1e3)),       # one per trial
+              (_spd(rng, k, (1, n1), 1e3), _spd(rng, k, (trials, n2), 1e3))]  # one per report
+    for c1, c2 in shared:
+        got, ld = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, return_logdet=True)
+        full1 = np.broadcast_to(c1, (trials, n1, k, k)).copy()
+        full2 = np.broadcast_to(c2, (trials, n2, k, k)).copy()
+        ref, ref_ld = linalg.mahalanobis_sq_pairwise(x1, x2, full1, full2, return_logdet=True)
+        assert np.array_equal(got, ref) and np.array_equal(ld, ref_ld)
+        by_solve, _ = _pairs_by_solve(x1[:2], x2[:2], full1[:2], full2[:2])
+        np.testing.assert_allclose(got[:2], by_solve, rtol=1e-9)
+        assert np.array_equal(linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, chunk_size=7), got)
