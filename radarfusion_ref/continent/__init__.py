@@ -8,3 +8,23 @@ sectors.
   overlap, one tracker per sector, hand-over of tracks that cross a border, run in one
   process or on a Dask cluster with the same answer.
 """
+
+from .sectors import (
+    MAX_SECTORS,
+    REPORT_BYTES,
+    SectoredTracks,
+    SectorError,
+    Sectors,
+    sector_grid,
+    track_sectored,
+)
+
+__all__ = [
+    "MAX_SECTORS",
+    "REPORT_BYTES",
+    "SectoredTracks",
+    "SectorError",
+    "Sectors",
+    "sector_grid",
+    "track_sectored",
+]
