@@ -178,10 +178,14 @@ def merge_histories(sectors, histories, gamma):
     ids, t, x, P, c, sec = (np.concatenate(v) for v in zip(*parts, strict=True))
     order = np.lexsort((sec, ids, t))                    # time, identity, then sector
     ids, t, sec = ids[order], t[order], sec[order]
-    # one row per (identity, instant): the aircraft on a border, placed on each side by
-    # the two trackers, keeps the row of the lower sector index
-    first = np.r_[True, (np.diff(t) != 0) | (np.diff(ids) != 0)]
-    keep = order[first]
-    history = TrackHistory(ids[first], t[first], x[keep], P[keep], c[keep],
+    # an identity's rows at one instant come from one sector: the aircraft on a border,
+    # placed on each side by the two trackers, keeps the rows of the lower sector (one
+    # tracker's several rows at one instant, scans of several radars, all stay)
+    start = np.r_[True, (np.diff(t) != 0) | (np.diff(ids) != 0)]
+    group = np.cumsum(start) - 1
+    lowest = sec[np.flatnonzero(start)][group]
+    mine = sec == lowest
+    keep = order[mine]
+    history = TrackHistory(ids[mine], t[mine], x[keep], P[keep], c[keep],
                            int(initiated.sum()))
     return history, links, handovers

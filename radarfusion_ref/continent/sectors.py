@@ -41,11 +41,15 @@ from ..engine.validation import (
 from ..tracking import MAX_REPORTS, TrackerSettings, TrackHistory, track_reports
 from ._sectors_merge import empty_history, merge_histories
 
-__all__ = ["MAX_SECTORS", "REPORT_BYTES", "SectorError", "SectoredTracks", "Sectors",
+__all__ = ["MAX_LOST", "MAX_SECTORS", "REPORT_BYTES", "SectorError", "SectoredTracks", "Sectors",
            "sector_grid", "track_sectored"]
 
 #: Most sectors of one grid (one tracker, and on a cluster one task, each).
 MAX_SECTORS = 65_536
+
+#: Times a sector's task may be cancelled because its scattered input was lost with a
+#: worker (it is scattered and submitted again) before the run fails.
+MAX_LOST = 3
 
 #: Bytes of one report's copy in a sector's inputs (time, position, covariance, radar,
 #: scan): the unit of the memory check of :func:`track_sectored`.
@@ -406,10 +410,11 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
     client : distributed.Client, optional
         None (default): the sectors one after the other in this process. A running
         ``distributed.Client``: one task per sector on its cluster, each sector's
-        reports scattered to the cluster (on two workers where there are two, so that
-        a worker lost mid-run loses no input: the scheduler reruns its task elsewhere),
-        the histories gathered, then the same hand-over here. The answer is the same
-        bit for bit.
+        reports scattered to the cluster, the histories gathered, then the same
+        hand-over here. The answer is the same bit for bit. A worker lost mid-run
+        changes nothing: the scheduler reruns its task on another worker, and a sector
+        whose scattered reports were lost with the worker is scattered and submitted
+        again (up to :data:`MAX_LOST` times).
 
     Returns
     -------
@@ -452,8 +457,9 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
 
     **Hand-over.** For each two sectors :math:`s < t` whose grown rectangles meet, and
     each track :math:`a` of :math:`s` and :math:`b` of :math:`t` with confirmed rows at
-    common instants :math:`\mathcal T_{ab}` inside both grown rectangles (the band along
-    their border, where both trackers see the same reports),
+    common instants inside both grown rectangles (the band along their border, where both
+    trackers see the same reports), :math:`\mathcal T_{ab}` the pairs of such rows at one
+    instant,
 
     .. math::
 
@@ -474,10 +480,10 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
     sector whose spans of time meet is refused. Track :math:`a` of sector :math:`s` has
     provisional id :math:`o_s + a`, with :math:`o_s` the tracks initiated by the sectors
     before :math:`s`; each joined group takes its smallest provisional id, so an
-    aircraft that crosses a border keeps its track's id. When two rows of one identity
-    fall at one instant (the aircraft on the border, each tracker placing it on its own
-    side), the row of the lower sector is kept. Every step is a function of the inputs
-    alone (sorted, never in the order of a dict, a set or a finishing task).
+    aircraft that crosses a border keeps its track's id. When rows of one identity come
+    from two sectors at one instant (the aircraft on the border, each tracker placing it
+    on its own side), the rows of the lower sector are kept. Every step is a function of
+    the inputs alone (sorted, never in the order of a dict, a set or a finishing task).
 
     Examples
     --------
@@ -497,7 +503,8 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
         raise TypeError(f"`settings` must be a TrackerSettings; received {describe(settings)}")
     t, z, R, rad, sc = _reports_iv(time, position, cov, radar, scan)
     _coverage_iv(sectors, z)
-    workers = _client_iv(client) if client is not None else 0
+    if client is not None:
+        _client_iv(client)
 
     def inputs(k):
         m = sectors.in_grown(z, k)
@@ -515,7 +522,7 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
             except Exception as exc:
                 raise _failed(sectors, k, counts[k], exc) from exc
     else:
-        results = _on_cluster(client, workers, sectors, inputs, settings, counts)
+        results = _on_cluster(client, sectors, inputs, settings, counts)
     for k, (_, caught) in enumerate(results):
         for category, message in caught:
             warnings.warn(f"{_describe_sector(sectors, k, counts[k])}: {message}", category,
@@ -528,26 +535,44 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
                           np.stack(links[:4], axis=1).astype(np.int64), links[4])
 
 
-def _on_cluster(client, workers, sectors, inputs, settings, counts):
-    """One task per sector on the cluster; results in sector order, or the lowest failure."""
+def _on_cluster(client, sectors, inputs, settings, counts):
+    """One task per sector on the cluster; results in sector order, or the lowest failure.
+
+    A task whose worker dies is rerun by the scheduler; a task whose scattered input died
+    with its worker is cancelled by the scheduler, and is scattered and submitted again
+    here (at most :data:`MAX_LOST` times per sector)."""
     distributed = require("distributed", feature="track_sectored(client=...)")
+    S = sectors.n_sectors
     data = []
-    for k in range(sectors.n_sectors):
+    for k in range(S):
         data.append(inputs(k))
         counts[k] = data[-1][0].size
     scattered = client.scatter(data, hash=False)
-    del data
-    futures = []
+    futures = [client.submit(_track_sector, f, settings, pure=False) for f in scattered]
+    sector = {f.key: k for k, f in enumerate(futures)}
+    lost = np.zeros(S, np.int64)
+    failed: dict[int, BaseException] = {}
     try:
-        if workers > 1:
-            client.replicate(scattered, n=2)            # a lost worker loses no input
-        futures = [client.submit(_track_sector, f, settings, pure=False) for f in scattered]
-        distributed.wait(futures)
-        for k, f in enumerate(futures):                  # the lowest failing sector
-            if f.status != "finished":
-                exc = (f.exception() if f.status == "error"
-                       else RuntimeError(f"the task ended with status {f.status!r}"))
-                raise _failed(sectors, k, counts[k], exc) from exc
+        done = distributed.as_completed(futures)
+        for f in done:
+            k = sector[f.key]
+            if f.status == "finished":
+                continue
+            if f.status == "error":
+                failed[k] = f.exception()
+                continue
+            lost[k] += 1                                 # cancelled: its input was lost
+            if lost[k] > MAX_LOST:
+                failed[k] = RuntimeError(f"its task was cancelled {lost[k]} times (status "
+                                         f"{f.status!r}: workers lost with its input)")
+                continue
+            [scattered[k]] = client.scatter([data[k]], hash=False)
+            futures[k] = client.submit(_track_sector, scattered[k], settings, pure=False)
+            sector[futures[k].key] = k
+            done.add(futures[k])
+        if failed:
+            k = min(failed)                              # the lowest failing sector
+            raise _failed(sectors, k, counts[k], failed[k]) from failed[k]
         return client.gather(futures)
     finally:
         client.cancel(futures + scattered)
