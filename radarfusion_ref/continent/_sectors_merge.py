@@ -20,7 +20,7 @@ def empty_history(initiated=0):
 
 def neighbour_pairs(sectors):
     """Pairs ``(s, t)``, ``s < t``, of sectors whose grown rectangles intersect, in order."""
-    lo_e, hi_e, lo_n, hi_n = sectors.grown_edges()
+    lo_e, hi_e, lo_n, hi_n = sectors._grown_edges()
     ne = lo_e.size
     pairs = []
     for s in range(sectors.n_sectors):
@@ -35,7 +35,7 @@ def neighbour_pairs(sectors):
 def _band_rows(history, sectors, s, t):
     """Confirmed rows of `history` (sector `s`) whose position lies in both grown rectangles."""
     x = history.state
-    inside = sectors.in_grown(x[:, :2], s) & sectors.in_grown(x[:, :2], t)
+    inside = sectors._in_grown(x[:, :2], s) & sectors._in_grown(x[:, :2], t)
     return np.flatnonzero(history.confirmed & inside)
 
 
@@ -64,6 +64,36 @@ def pair_costs(ha, hb, rows_a, rows_b):
     return pairs[:, 0], pairs[:, 1], total / count
 
 
+def _rows_of(history, tracks):
+    """Confirmed rows of each of `tracks` (sorted distinct ids), in time order."""
+    rows = np.flatnonzero(history.confirmed & np.isin(history.track, tracks))
+    rows = rows[np.lexsort((history.time[rows], history.track[rows]))]
+    cut = np.searchsorted(history.track[rows], tracks, side="left")
+    end = np.searchsorted(history.track[rows], tracks, side="right")
+    return {int(k): rows[a:b] for k, a, b in zip(tracks, cut, end, strict=True)}
+
+
+def consistent(ha, hb, ka, kb, gamma):
+    """Whether the tracks `ka[i]` of `ha` and `kb[i]` of `hb` agree (squared distance below
+    `gamma`) at every common instant of their confirmed rows, anywhere: a track that one
+    sector's tracker carried on to another aircraft after the hand-over is not joined."""
+    rows_a, rows_b = _rows_of(ha, np.unique(ka)), _rows_of(hb, np.unique(kb))
+    ok = np.ones(ka.size, bool)
+    for i, (a, b) in enumerate(zip(ka.tolist(), kb.tolist(), strict=True)):
+        ra, rb = rows_a[a], rows_b[b]
+        lo = np.searchsorted(hb.time[rb], ha.time[ra], side="left")
+        hi = np.searchsorted(hb.time[rb], ha.time[ra], side="right")
+        n = hi - lo
+        if not n.sum():
+            continue
+        ia = np.repeat(ra, n)
+        ib = rb[np.repeat(lo - np.r_[0, np.cumsum(n)[:-1]], n) + np.arange(ia.size)]
+        d2 = mahalanobis_sq(ha.state[ia, :3] - hb.state[ib, :3],
+                            ha.covariance[ia, :3, :3] + hb.covariance[ib, :3, :3])
+        ok[i] = bool(np.max(d2) < gamma)
+    return ok
+
+
 def candidate_links(sectors, histories, gamma):
     """The one-to-one links of every pair of neighbouring sectors: arrays ``s, a, t, b,
     kappa`` (sector and local track of each side, mean squared distance), in the order
@@ -78,6 +108,10 @@ def candidate_links(sectors, histories, gamma):
             continue
         ka, kb, kappa = pair_costs(ha, hb, ra, rb)
         ok = kappa < gamma                               # the gate on the mean distance
+        if not ok.any():
+            continue
+        ka, kb, kappa = ka[ok], kb[ok], kappa[ok]
+        ok = consistent(ha, hb, ka, kb, gamma)
         if not ok.any():
             continue
         ka, kb, kappa = ka[ok], kb[ok], kappa[ok]
@@ -154,7 +188,9 @@ def join_identities(histories, offset, links):
         members[lo] = mp + mq
         members.pop(hi, None)
         accepted[k] = True
-    identity = np.array([find(i) for i in range(n_ids)], dtype=np.int64) if n_ids else parent
+    identity = parent.copy()
+    for i in np.flatnonzero(parent != np.arange(n_ids)):   # the linked tracks only
+        identity[i] = find(int(i))
     return identity, accepted
 
 
@@ -167,7 +203,7 @@ def merge_histories(sectors, histories, gamma):
     links = tuple(v[accepted] for v in links)
     parts = []
     for k, h in enumerate(histories):
-        own = np.flatnonzero(sectors.owner(h.state[:, :2]) == k) if h.track.size else []
+        own = np.flatnonzero(sectors._owner(h.state[:, :2]) == k) if h.track.size else []
         if len(own):
             parts.append((identity[offset[k] + h.track[own]], h.time[own], h.state[own],
                           h.covariance[own], h.confirmed[own], np.full(len(own), k)))

@@ -83,7 +83,7 @@ def _overlap_iv(overlap):
     return w
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Sectors:
     r"""A grid of rectangular sectors in the common frame's east and north, with an overlap.
 
@@ -130,7 +130,8 @@ class Sectors:
     overlap: float
 
     def __post_init__(self):
-        east, north = _edges_iv(self.east, "east"), _edges_iv(self.north, "north")
+        east = _edges_iv(self.east, "east").copy()              # read-only copies
+        north = _edges_iv(self.north, "north").copy()
         count = (east.size - 1) * (north.size - 1)
         if count > MAX_SECTORS:
             raise ValueError(f"`east`, `north`: {east.size - 1} x {north.size - 1} = {count} "
@@ -191,26 +192,27 @@ class Sectors:
         return self._owner(p)
 
     def _owner(self, p):
+        """Kernel of :meth:`owner` (positions (N, >= 2), trusted)."""
         i = np.searchsorted(self.east[1:-1], p[:, 0], side="right")
         j = np.searchsorted(self.north[1:-1], p[:, 1], side="right")
         return (j * (self.east.size - 1) + i).astype(np.int64)
 
-    def grown_edges(self):
+    def _grown_edges(self):
         """Kernel: the grown rectangles' edges ``(lo_e, hi_e, lo_n, hi_n)`` per column/row."""
         w = self.overlap
         return (self.east[:-1] - w, self.east[1:] + w, self.north[:-1] - w, self.north[1:] + w)
 
-    def in_grown(self, p, k):
+    def _in_grown(self, p, k):
         """Kernel: which of the positions `p` (N, >= 2) lie in sector `k`'s grown rectangle."""
-        lo_e, hi_e, lo_n, hi_n = self.grown_edges()
+        lo_e, hi_e, lo_n, hi_n = self._grown_edges()
         i, j = k % lo_e.size, k // lo_e.size
         return ((p[:, 0] >= lo_e[i]) & (p[:, 0] <= hi_e[i])
                 & (p[:, 1] >= lo_n[j]) & (p[:, 1] <= hi_n[j]))
 
-    def copies(self, p):
+    def _copies(self, p):
         """Kernel: in how many sectors' grown rectangles each position lies (one pass, no
         per-sector masks)."""
-        lo_e, hi_e, lo_n, hi_n = self.grown_edges()
+        lo_e, hi_e, lo_n, hi_n = self._grown_edges()
         ce = (np.searchsorted(lo_e, p[:, 0], side="right")
               - np.searchsorted(hi_e, p[:, 0], side="left"))
         cn = (np.searchsorted(lo_n, p[:, 1], side="right")
@@ -272,7 +274,7 @@ def sector_grid(position, n_east, n_north, *, overlap) -> Sectors:
                    w)
 
 
-@dataclass(frozen=True, repr=False)
+@dataclass(frozen=True, repr=False, eq=False)
 class SectoredTracks:
     r"""The result of :func:`track_sectored`: the merged history and per-sector diagnostics.
 
@@ -348,7 +350,7 @@ def _coverage_iv(sectors, z):
                          f"{sectors.north[-1]:.6g}]); e.g. report {k} at east {e[k]:.6g}, north "
                          f"{n[k]:.6g}; widen the grid (sector_grid(position, ...) spans the "
                          "reports)")
-    copies = int(sectors.copies(z).sum())
+    copies = int(sectors._copies(z).sum())
     check_size(copies * REPORT_BYTES, MEMORY_LIMIT, name="sectors",
                what=f"bytes of per-sector copies of the reports ({copies} copies in "
                     f"{sectors.n_sectors} sectors, overlap {sectors.overlap:.6g})",
@@ -472,7 +474,11 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
     pair is allowed when :math:`\bar\kappa_{ab} < \gamma`, the :math:`\chi^2_3` gate of
     `settings.p_relink` (:func:`radarfusion_ref.gating.gate_threshold`; the sum
     :math:`P_a + P_b` ignores the two estimates' correlation through common reports, so
-    the gate is conservative), and the pairs of the two sectors are made one-to-one by
+    the gate is conservative), and if at every common instant of their confirmed rows,
+    in the band or not, the squared distance is below :math:`\gamma` too (a track that
+    one sector's tracker carried on to another aircraft once the first left its sight is
+    not joined: that aircraft changes identity at the border rather than two aircraft
+    sharing one); the pairs of the two sectors are then made one-to-one by
     the assignment of least total :math:`\bar\kappa`
     (:func:`radarfusion_ref.engine.assignment.assign_two_lists`). The links of all
     pairs of sectors are then joined in order of increasing :math:`\bar\kappa` (ties by
@@ -507,7 +513,7 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
         _client_iv(client)
 
     def inputs(k):
-        m = sectors.in_grown(z, k)
+        m = sectors._in_grown(z, k)
         return t[m], z[m], R[m], rad[m], sc[m]
 
     S = sectors.n_sectors
