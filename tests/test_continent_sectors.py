@@ -272,3 +272,44 @@ def test_a_killed_worker_changes_nothing(client):
     assert killed, "no sector was seen running on a worker"
     _same(out["result"], ref)
     client.wait_for_workers(2, timeout=30)
+
+
+def _history(track, t, east, initiated):
+    n = len(t)
+    state = np.zeros((n, 6))
+    state[:, 0] = east
+    return trk.TrackHistory(np.full(n, track), np.asarray(t, float), state,
+                            np.tile(np.eye(6) * 0.01, (n, 1, 1)), np.ones(n, bool), initiated)
+
+
+@pytest.mark.parametrize("switch", [False, True])
+def test_hand_over_rule_on_handmade_histories(switch):
+    """Aircraft X crosses east over the border at 0 (overlap 2) between instants 3 and 4,
+    seen by track 5 of sector 0 and track 2 of sector 1 in the band; at instant 3 the two
+    trackers place it on either side. With `switch`, sector 0's track then carries on to
+    another aircraft far west: the tracks disagree at common instants out of the band and
+    are not joined, so no row of either is lost."""
+    from radarfusion_ref.continent._sectors_merge import merge_histories
+
+    g = Sectors([-10.0, 0.0, 10.0], [-10.0, 10.0], overlap=2.0)
+    x = -1.5 + 0.5 * np.arange(10.0)                    # X: -1.5 ... 3.0
+    west_x = x[:5].copy()
+    west_x[3] = -0.01
+    east_x = x.copy()
+    east_x[3] = 0.01
+    t0 = np.arange(10.0) if switch else np.arange(5.0)
+    e0 = np.r_[west_x, np.full(5, -8.0)] if switch else west_x
+    h0, h1 = _history(5, t0, e0, 6), _history(2, np.arange(10.0), east_x, 3)
+    h, links, handovers = merge_histories(g, [h0, h1], 96.0)
+    if not switch:
+        assert [v.tolist() for v in links[:4]] == [[0], [5], [1], [2]]
+        assert handovers.tolist() == [1, 1]
+        assert h.track.tolist() == [5] * 10                   # the provisional id of track 5
+        assert h.time.tolist() == list(range(10))
+        assert h.state[:, 0].tolist() == [-1.5, -1.0, -0.5, -0.01, *x[4:].tolist()]
+    else:
+        assert links[0].size == 0 and handovers.tolist() == [0, 0]
+        assert sorted(np.unique(h.track).tolist()) == [5, 6 + 2]
+        assert np.array_equal(h.state[h.track == 8, 0], east_x[3:])   # all of X's east rows
+        assert np.array_equal(h.state[h.track == 5, 0], np.r_[west_x[:4], np.full(5, -8.0)])
+    assert h.initiated == 9
