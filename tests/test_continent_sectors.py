@@ -129,6 +129,14 @@ def test_link_cost_is_the_documented_mean_distance(reports, local):
         assert cost == pytest.approx(np.mean(d2), rel=1e-9, abs=1e-12)
 
 
+def test_the_answer_depends_on_the_reports_not_their_order(reports, local):
+    order = np.random.default_rng(3).permutation(reports[0][0].size)
+    r = track_sectored(*(a[order] for a in reports[0]), sectors=GRID)
+    for f in ("track", "time", "state", "covariance", "confirmed"):
+        assert np.array_equal(getattr(r.history, f), getattr(local.history, f))
+    assert np.array_equal(r.links, local.links)
+
+
 def test_a_sector_without_reports_yields_no_tracks(reports, local):
     """A second row of sectors far north, with no report: no tracks there, and the
     answer of the two southern sectors unchanged."""
