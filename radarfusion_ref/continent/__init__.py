@@ -10,6 +10,7 @@ sectors.
 """
 
 from .sectors import (
+    MAX_LOST,
     MAX_SECTORS,
     REPORT_BYTES,
     SectoredTracks,
@@ -20,6 +21,7 @@ from .sectors import (
 )
 
 __all__ = [
+    "MAX_LOST",
     "MAX_SECTORS",
     "REPORT_BYTES",
     "SectoredTracks",
