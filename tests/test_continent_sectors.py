@@ -257,14 +257,18 @@ def test_dask_gives_the_same_answer_bit_for_bit(reports, local, client):
 
 
 def test_a_killed_worker_changes_nothing(client):
-    """A worker killed while it tracks a sector: the nanny restarts it, the scheduler
-    reruns the task (its input replicated on the other worker), the answer is the same."""
+    """A worker killed while it tracks a sector: the nanny restarts it; the scheduler
+    reruns the task, or, its scattered input lost with the worker, track_sectored scatters
+    and submits it again; the answer is the same."""
     rep, _ = scene(duration=400.0, periods=(2.0, 3.0))    # about a second per sector
     ref = track_sectored(*rep, sectors=GRID)
     out, killed = {}, []
 
     def run():
-        out["result"] = track_sectored(*rep, sectors=GRID, client=client)
+        try:
+            out["result"] = track_sectored(*rep, sectors=GRID, client=client)
+        except Exception as exc:                         # shown by the assertion below
+            out["error"] = exc
 
     worker = threading.Thread(target=run)
     worker.start()
@@ -278,6 +282,7 @@ def test_a_killed_worker_changes_nothing(client):
         time.sleep(0.005)
     worker.join(60)
     assert killed, "no sector was seen running on a worker"
+    assert "error" not in out, out.get("error")
     _same(out["result"], ref)
     client.wait_for_workers(2, timeout=30)
 
