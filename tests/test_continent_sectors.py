@@ -284,7 +284,11 @@ def test_a_killed_worker_changes_nothing(client):
     assert killed, "no sector was seen running on a worker"
     assert "error" not in out, out.get("error")
     _same(out["result"], ref)
-    client.wait_for_workers(2, timeout=30)
+    deadline = time.monotonic() + 30
+    while killed[0] in client.nthreads() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert killed[0] not in client.nthreads()            # it died ...
+    client.wait_for_workers(2, timeout=30)               # ... and a new one took over
 
 
 def _history(track, t, east, initiated):
