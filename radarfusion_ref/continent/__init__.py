@@ -32,6 +32,16 @@ from .scenario import (
     truth_at,
     truth_samples,
 )
+from .sectors import (
+    MAX_LOST,
+    MAX_SECTORS,
+    REPORT_BYTES,
+    SectoredTracks,
+    SectorError,
+    Sectors,
+    sector_grid,
+    track_sectored,
+)
 
 __all__ = [
     # scenario
@@ -56,4 +66,13 @@ __all__ = [
     "to_map",
     "truth_at",
     "truth_samples",
+    # sectors
+    "MAX_LOST",
+    "MAX_SECTORS",
+    "REPORT_BYTES",
+    "SectoredTracks",
+    "SectorError",
+    "Sectors",
+    "sector_grid",
+    "track_sectored",
 ]
