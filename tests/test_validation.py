@@ -237,6 +237,7 @@ def _valid_calls():
     """
     from radarfusion_ref import (
         association,
+        continent,
         conversion,
         features,
         fusion,
@@ -354,6 +355,12 @@ def _valid_calls():
                                      dict(_tracking_reports(), period=5.0), {"cov": 3}),
         "tracking.fuse_then_track": (tracking.fuse_then_track,
                                      dict(_tracking_reports(), window=5.0), {"cov": 3}),
+    }
+    one_sector = continent.Sectors([-1.0, 3000.0], [-1.0, 1.0], overlap=0.0)
+    for name in ("continent.track_sectored", "continent.sectors.track_sectored"):
+        calls[name] = (continent.track_sectored,
+                       dict(_tracking_reports(), sectors=one_sector), {"cov": 3})
+    calls |= {
         "plotting.plot_covariance_ellipse": (
             _on_axes(plotting.plot_covariance_ellipse), dict(mean=[0.0, 0.0], cov=eye2),
             {"cov": 2}),
