@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 from .. import gating
 from ..engine import assignment
 from ..engine.errors import RadarFusionWarning
-from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
+from ..engine.linalg import mahalanobis_sq_kernel
 from ..engine.tracker import (
     event_bound,
     exact_kernel,
@@ -68,9 +68,12 @@ class _Live:
         for f in self.FIELDS:
             setattr(self, f, getattr(self, f)[mask])
 
-    def extend(self, **new):
+    def extend(self, kept=None, **new):
+        """Append the tracks `new` (one array per field), after keeping the rows `kept`
+        (a mask; None: all), in one copy."""
         for f in self.FIELDS:
-            setattr(self, f, np.concatenate([getattr(self, f), new[f]]))
+            a = getattr(self, f)
+            setattr(self, f, np.concatenate([a if kept is None else a[kept], new[f]]))
 
 
 class _Rows:
@@ -289,6 +292,7 @@ class _Tracker:
         self.s = s
         self.imm = s.motion == "imm"
         self.qm = mode_q(s)
+        self.q_axis = axis_q(s)
         self.live = _Live(n_radars, s.n, self.qm.shape[0] if self.imm else 0)
         self.rows = _Rows()
         self.next_id = 0
@@ -303,7 +307,12 @@ class _Tracker:
 
     # ------------------------------------------------------------------ gate
     def _gate(self, z, R):
-        """Gated (track, report) pairs with d² and ln det S."""
+        """Gated (track, report) pairs with d² and ln det S, in order of track then report.
+
+        Only tracks near the scan are looked at: a report within a track's search radius
+        lies in the reports' bounding box grown by that radius, so the tracks outside it
+        (most of a wide airspace) have no candidate and skip the tree query.
+        """
         lv = self.live
         T, M = lv.ids.size, z.shape[0]
         empty = np.zeros(0, np.int64)
@@ -311,17 +320,20 @@ class _Tracker:
             return empty, empty, np.zeros(0), np.zeros(0)
         spread = np.trace(lv.P[:, :3, :3], axis1=1, axis2=2) + np.trace(R, axis1=1, axis2=2).max()
         radius = np.sqrt(self.gamma * spread)            # |ν|² <= tr(S) d²: a sound prefilter
-        lists = cKDTree(z).query_ball_point(lv.x[:, :3], radius)
-        counts = np.fromiter((len(v) for v in lists), np.int64, T)
+        near = _near_box(lv.x[:, :3], radius, z)
+        if not near.size:
+            return empty, empty, np.zeros(0), np.zeros(0)
+        lists = cKDTree(z).query_ball_point(lv.x[near, :3], radius[near], return_sorted=True)
+        counts = np.fromiter((len(v) for v in lists), np.int64, near.size)
         if not counts.sum():
             return empty, empty, np.zeros(0), np.zeros(0)
-        ti = np.repeat(np.arange(T), counts)
-        rj = np.fromiter((j for v in lists for j in v), np.int64, int(counts.sum()))
-        d2, ld = mahalanobis_sq(z[rj] - lv.x[ti, :3], lv.P[ti, :3, :3] + R[rj],
-                                return_logdet=True)
-        d2, ld = np.atleast_1d(d2), np.atleast_1d(ld)
+        ti = np.repeat(near, counts)
+        rj = np.fromiter(itertools.chain.from_iterable(lists), np.int64, int(counts.sum()))
+        ld: list = []
+        d2 = mahalanobis_sq_kernel(z[rj] - lv.x[ti, :3], lv.P[ti, :3, :3] + R[rj],
+                                   "`position`, `cov`", ld)
         ok = d2 < self.gamma
-        return ti[ok], rj[ok], d2[ok], ld[ok]
+        return ti[ok], rj[ok], d2[ok], ld[0][ok]
 
     # ------------------------------------------------------------------ one scan
     def scan(self, t, r, s, z, R):
@@ -329,8 +341,9 @@ class _Tracker:
         if lv.ids.size and self.imm:
             imm_predict_live(lv, t, st, self.qm)
             lv.t[:] = t
-        elif lv.ids.size:
-            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - lv.t, axis_q(st), per_axis=True)
+        elif lv.ids.size:                                # all at the last scan's instant
+            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - float(lv.t[0]), self.q_axis,
+                                        per_axis=True)
             lv.t[:] = t
         T, M = lv.ids.size, z.shape[0]
         scored = (s - lv.last_seen[:, r]) <= st.miss_scans
@@ -341,19 +354,16 @@ class _Tracker:
         hit = np.zeros(T, dtype=bool)
         used = np.zeros(M)                               # total probability of each report
         if ti.size:
-            _n_c, label = connected_components(
-                coo_matrix((np.ones(ti.size), (ti, T + rj)), shape=(T + M, T + M)),
-                directed=False)
-            track_lab, pair_lab = label[:T], label[ti]
+            pair_lab = _clusters(ti, rj, M)
             if st.association == "gnn":
                 self._gnn(z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used)
             else:
-                self._jpda(z, R, ti, rj, inc_pair, pair_lab, track_lab, scored, inc, hit, used)
+                self._jpda(z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used)
         lv.last_seen[hit, r] = s
         lv.t_hit[hit] = t
-        self._score(t, inc, hit, scored)
+        kept = self._score(t, inc, hit, scored)
         fresh = used < 0.5
-        self._start(t, r, s, z[fresh], R[fresh])
+        self._start(t, r, s, z[fresh], R[fresh], kept)
 
     def _gnn(self, z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used):
         lv = self.live
@@ -373,7 +383,7 @@ class _Tracker:
         hit[i] = True
         used[j] = 1.0
 
-    def _jpda(self, z, R, ti, rj, inc_pair, pair_lab, track_lab, scored, inc, hit, used):
+    def _jpda(self, z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used):
         lv, st = self.live, self.s
         if not self.imm:
             xu, Pu, _, _ = update_kernel(lv.x[ti], lv.P[ti], z[rj], R[rj])
@@ -450,7 +460,7 @@ class _Tracker:
             lost = drop & lv.confirmed
             lost[merged] = False
             self._lose(t, lost)
-        lv.keep(~drop)
+        return None if not drop.any() else ~drop
 
     def _duplicates(self, promote):
         """Tracks about to be confirmed inside the relinking gate of a confirmed track that
@@ -461,8 +471,7 @@ class _Tracker:
         dup = np.zeros(lv.ids.size, bool)
         if not old.size:
             return dup
-        kappa = np.atleast_2d(mahalanobis_sq_pairwise(lv.x[new, :3], lv.x[old, :3],
-                                                      lv.P[new, :3, :3], lv.P[old, :3, :3]))
+        kappa = _kappa_pairs(lv.x[new, :3], lv.x[old, :3], lv.P[new, :3, :3], lv.P[old, :3, :3])
         alive = lv.t_hit[old][None, :] >= lv.born[new][:, None]
         dup[new] = ((kappa < self.gamma_relink) & alive).any(axis=1)
         return dup
@@ -472,6 +481,8 @@ class _Tracker:
         lv = self.live
         ids, x, P, tt, th = self.lost
         keep = (t - th) <= self.s.max_coast
+        if keep.all() and not lost.any():
+            return
         self.lost = (np.concatenate([ids[keep], lv.ids[lost]]),
                      np.concatenate([x[keep], lv.x[lost]]),
                      np.concatenate([P[keep], lv.P[lost]]),
@@ -494,9 +505,9 @@ class _Tracker:
         cand_P = np.concatenate([lv.P[old, :3, :3], Pl[:, :3, :3]])
         cand_hit = np.concatenate([lv.t_hit[old], th[fresh]])
         cand_id = np.concatenate([lv.ids[old], ids[fresh]])
-        kappa = mahalanobis_sq_pairwise(lv.x[new, :3], cand_x, lv.P[new, :3, :3], cand_P)
+        kappa = _kappa_pairs(lv.x[new, :3], cand_x, lv.P[new, :3, :3], cand_P)
         before = cand_hit[None, :] < lv.born[new][:, None]
-        link = assignment.assign_two_lists(np.where(before, np.atleast_2d(kappa), np.inf),
+        link = assignment.assign_two_lists(np.where(before, kappa, np.inf),
                                    threshold=self.gamma_relink).row_to_col
         merged, gone = [], []
         for i, j in zip(new, link, strict=True):
@@ -514,9 +525,13 @@ class _Tracker:
             self.lost = tuple(a[keep] for a in self.lost)
         return merged
 
-    def _start(self, t, r, s, z, R):
+    def _start(self, t, r, s, z, R, kept=None):
+        """Start a tentative track at each report, once the tracks not `kept` (a mask,
+        None: all) are removed."""
         n = z.shape[0]
         if not n:
+            if kept is not None:
+                self.live.keep(kept)
             return
         x = np.zeros((n, 6))
         x[:, :3] = z
@@ -530,13 +545,48 @@ class _Tracker:
         recent[:, -1] = True                                  # the report that started it
         self.next_id += n
         M = self.live.mu.shape[1]
-        self.live.extend(x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
+        self.live.extend(kept, x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
                          recent=recent, scored=np.ones(n, np.int64), last_seen=seen,
                          born=np.full(n, t),
                          mu=np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1)),
                          xm=np.repeat(x[:, None], M, 1), Pm=np.repeat(P[:, None], M, 1))
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
+
+
+def _clusters(ti, rj, M):
+    """Cluster label of each gated pair: the connected components of the graph linking
+    each track (`ti`, nondecreasing) to its reports (`rj`, of `M`), on the gated tracks only.
+    Labels increase with the cluster's first track, as on the graph of every track."""
+    first = np.r_[True, ti[1:] != ti[:-1]]
+    loc = np.cumsum(first) - 1                          # the tracks, numbered 0..nt-1
+    nt = int(loc[-1]) + 1
+    _n, label = connected_components(
+        coo_matrix((np.ones(ti.size), (loc, nt + rj)), shape=(nt + M, nt + M)),
+        directed=False)
+    return label[loc]
+
+
+def _kappa_pairs(x1, x2, P1, P2):
+    """κ of every pair of two sets of track positions, shape (n1, n2) (trusted input: the
+    tracker's own estimates)."""
+    return mahalanobis_sq_kernel(x1[:, None] - x2[None], P1[:, None] + P2[None],
+                                 "`position`, `cov`")
+
+
+def _near_box(x, radius, z):
+    """Indices (increasing) of the points `x` (T, 3) within their own `radius` of the
+    bounding box of `z` (M, 3): the only ones that can have a point of `z` within `radius`.
+
+    The box is grown by a relative margin of 1e-9 (and 1e-300 absolute) so that rounding
+    never excludes a point whose distance, as the tree computes it, is within its radius.
+    """
+    r = radius * (1.0 + 1e-9) + 1e-300
+    lo, hi = z.min(0), z.max(0)
+    inside = ((x[:, 0] >= lo[0] - r) & (x[:, 0] <= hi[0] + r)
+              & (x[:, 1] >= lo[1] - r) & (x[:, 1] <= hi[1] + r)
+              & (x[:, 2] >= lo[2] - r) & (x[:, 2] <= hi[2] + r))
+    return np.flatnonzero(inside)
 
 
 def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):

@@ -90,8 +90,12 @@ def _generator(sojourn):
 
 # ----------------------------------------------------------------------------- IMM tracks
 def imm_predict_live(lv, t, s, qm):
-    """Predict the live tracks' modes to `t` (mixing first); the combined estimate follows."""
-    dt = t - lv.t
+    """Predict the live tracks' modes to `t` (mixing first); the combined estimate follows.
+
+    Every live track stands at the same instant (the last scan's), so one interval, one
+    transition matrix and one set of model matrices serve them all.
+    """
+    dt = t - float(lv.t[0])
     cbar, lv.xm, lv.Pm = imm_predict_kernel(lv.mu, lv.xm, lv.Pm, transition(s, dt), dt, qm,
                                             per_axis=True)
     lv.mu = cbar
