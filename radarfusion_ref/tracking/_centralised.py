@@ -7,8 +7,6 @@ import math
 import warnings
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .. import gating
@@ -45,9 +43,9 @@ class _Live:
     """The live tracks, as parallel arrays (one row per track)."""
 
     FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "recent", "scored",
-              "last_seen", "born", "mu", "xm", "Pm")
+              "key", "born", "mu", "xm", "Pm")
 
-    def __init__(self, n_radars, n_window, modes=0):
+    def __init__(self, n_window, modes=0):
         self.x = np.zeros((0, 6))
         self.P = np.zeros((0, 6, 6))
         self.t = np.zeros(0)
@@ -58,7 +56,7 @@ class _Live:
         self.ids = np.zeros(0, dtype=np.int64)
         self.recent = np.zeros((0, n_window), dtype=bool)     # M-of-N: last n scored scans
         self.scored = np.zeros(0, dtype=np.int64)
-        self.last_seen = np.zeros((0, n_radars), dtype=np.int64)
+        self.key = np.zeros(0, dtype=np.int64)      # start order, never changes (ids may)
         self.born = np.zeros(0)
         self.mu = np.zeros((0, modes))               # IMM: mode probabilities, states, covs
         self.xm = np.zeros((0, modes, 6))
@@ -77,41 +75,90 @@ class _Live:
 
 
 class _Rows:
-    """Rows written out: confirmed tracks' rows, and the pending rows of tentative tracks."""
+    """Rows written out: confirmed tracks' rows, and the pending rows of tentative tracks.
+
+    Each row written out carries its place in the order of writing (``seq`` of its chunk,
+    then its place in it), which breaks the ties of (time, track) in the history as the
+    order of writing would. The pending rows are sorted out in batches, when they have
+    doubled since the last sorting (so the work per row stays constant however many
+    tentative tracks are alive): a promoted track's rows then go out with the place they
+    had when it was promoted, a dropped track's are forgotten.
+    """
+
+    #: Pending rows below which they are not sorted out.
+    MIN_BATCH = 4096
 
     def __init__(self):
-        self.out = []          # (ids, time, state, cov, confirmed) chunks
-        self.pending = []      # same, of tentative tracks
+        self.out = []          # (ids, time, state, cov, confirmed, seq, place) chunks
+        self.pending = []      # (ids, time, state, cov, confirmed, place) of tentative tracks
+        self.n_chunks = 0      # chunks written (the next seq)
+        self.n_pending = 0     # pending rows added so far (the next place)
+        self.n_sorted = 0      # pending rows left at the last sorting
+        self.n_new = 0         # pending rows added since
+        self.promoted: dict[int, int] = {}     # id -> seq, rows not moved out yet
+        self.dropped: list[np.ndarray] = []    # ids whose pending rows are to be forgotten
+
+    def _write(self, chunk):
+        n = chunk[0].size
+        self.out.append((*chunk, np.full(n, self.n_chunks), np.arange(n)))
+        self.n_chunks += 1
 
     def add(self, ids, t, x, P, confirmed):
         if not ids.size:
             return
         chunk = (ids.copy(), np.full(ids.size, t), x.copy(), P.copy(), confirmed.copy())
         if confirmed.all():
-            self.out.append(chunk)
-        elif not confirmed.any():
-            self.pending.append(chunk)
-        else:
-            self.out.append(tuple(c[confirmed] for c in chunk))
-            self.pending.append(tuple(c[~confirmed] for c in chunk))
+            self._write(chunk)
+            return
+        if confirmed.any():
+            self._write(tuple(c[confirmed] for c in chunk))
+            chunk = tuple(c[~confirmed] for c in chunk)
+        n = chunk[0].size
+        self.pending.append((*chunk, self.n_pending + np.arange(n)))
+        self.n_pending += n
+        self.n_new += n
 
     def settle(self, promoted, dropped):
-        """Move the pending rows of `promoted` tracks out; forget those of `dropped` ones."""
-        if not self.pending or not (promoted.size or dropped.size):
+        """The pending rows of `promoted` tracks go out (in place of a chunk written now);
+        those of `dropped` ones are forgotten."""
+        if promoted.size:
+            for i in promoted.tolist():
+                self.promoted[i] = self.n_chunks
+            self.n_chunks += 1
+        if dropped.size:
+            self.dropped.append(dropped)
+        if self.n_new > max(self.n_sorted, self.MIN_BATCH):
+            self._sort_out()
+
+    def _sort_out(self):
+        self.n_new = 0
+        if not self.pending:
+            self.promoted, self.dropped = {}, []
             return
         cols = [np.concatenate(c) for c in zip(*self.pending, strict=True)]
-        up = np.isin(cols[0], promoted)
-        gone = np.isin(cols[0], dropped)
-        if up.any():
-            self.out.append(tuple(c[up] for c in cols))
-        rest = ~(up | gone)
+        ids = cols[0]
+        rest = np.ones(ids.size, bool)
+        if self.promoted:
+            pid = np.fromiter(self.promoted, np.int64, len(self.promoted))
+            pseq = np.fromiter(self.promoted.values(), np.int64, len(self.promoted))
+            up = np.isin(ids, pid)
+            if up.any():
+                o = np.argsort(pid)
+                seq = pseq[o][np.searchsorted(pid[o], ids[up])]
+                self.out.append((*(c[up] for c in cols[:5]), seq, cols[5][up]))
+                rest &= ~up
+        if self.dropped:
+            rest &= ~np.isin(ids, np.concatenate(self.dropped))
+        self.promoted, self.dropped = {}, []
         self.pending = [tuple(c[rest] for c in cols)] if rest.any() else []
+        self.n_sorted = int(rest.sum())
 
     def history(self, initiated, alias=None):
+        self._sort_out()
         if not self.out:
             return TrackHistory(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
                                 np.zeros((0, 6, 6)), np.zeros(0, bool), initiated)
-        ids, t, x, P, c = (np.concatenate(v) for v in zip(*self.out, strict=True))
+        ids, t, x, P, c, seq, place = (np.concatenate(v) for v in zip(*self.out, strict=True))
         if alias:                                        # a relinked track takes its old id
             u, inv = np.unique(ids, return_inverse=True)
             for n, i in enumerate(u):
@@ -119,7 +166,7 @@ class _Rows:
                     i = alias[int(i)]
                 u[n] = i
             ids = u[inv]
-        o = np.lexsort((ids, t))
+        o = np.lexsort((place, seq, ids, t))
         return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated)
 
 
@@ -263,7 +310,7 @@ def track_reports(time, position, cov, radar, scan, *,
     new_group = np.r_[True, (np.diff(t) != 0) | (np.diff(radar) != 0)]
     starts = np.flatnonzero(new_group)
     ends = np.r_[starts[1:], t.size]
-    state = _Tracker(settings, int(radar.max()) + 1)
+    state = _Tracker(settings)
     for a, b in zip(starts, ends, strict=True):
         state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
     return _in_unit(state.rows.history(state.next_id, state.alias), u)
@@ -285,15 +332,21 @@ def _warn_scale(R):
                       RadarFusionWarning, stacklevel=3)
 
 
+#: The last scan at which a radar reported a track it never reported.
+_NEVER = 1 << 40
+
+
 class _Tracker:
     """The tracker's state between scans and the processing of one scan."""
 
-    def __init__(self, s: TrackerSettings, n_radars: int):
+    def __init__(self, s: TrackerSettings):
         self.s = s
         self.imm = s.motion == "imm"
         self.qm = mode_q(s)
         self.q_axis = axis_q(s)
-        self.live = _Live(n_radars, s.n, self.qm.shape[0] if self.imm else 0)
+        self.live = _Live(s.n, self.qm.shape[0] if self.imm else 0)
+        # per radar: the keys (increasing) of the tracks it reported, and its last scan of each
+        self.seen: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.rows = _Rows()
         self.next_id = 0
         self.gamma = float(gating.gate_threshold(s.p_false_reject, 3))
@@ -346,7 +399,7 @@ class _Tracker:
                                         per_axis=True)
             lv.t[:] = t
         T, M = lv.ids.size, z.shape[0]
-        scored = (s - lv.last_seen[:, r]) <= st.miss_scans
+        scored = self._scored(r, s)
         ti, rj, d2, ld = self._gate(z, R)
         inc_pair = (imm_increments(lv, ti, rj, z, R, st) if self.imm and ti.size
                     else increments_kernel(d2, ld, st.p_detection, st.clutter_density))
@@ -359,11 +412,39 @@ class _Tracker:
                 self._gnn(z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used)
             else:
                 self._jpda(z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used)
-        lv.last_seen[hit, r] = s
+        seen = lv.key[hit]
         lv.t_hit[hit] = t
         kept = self._score(t, inc, hit, scored)
         fresh = used < 0.5
-        self._start(t, r, s, z[fresh], R[fresh], kept)
+        born = self._start(t, r, s, z[fresh], R[fresh], kept)
+        self._see(r, s, np.concatenate([seen, born]))
+
+    def _scored(self, r, s):
+        """Tracks whose miss at radar `r`'s scan `s` counts: those `r` reported within its
+        last `miss_scans` scans (a track it never reported: last scan -2⁴⁰). The radar's
+        table forgets the deleted tracks."""
+        lv = self.live
+        keys, scans = self.seen.get(r, (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        scored = np.full(lv.key.size, (s + _NEVER) <= self.s.miss_scans)
+        if not keys.size or not lv.key.size:
+            return scored
+        row = np.searchsorted(lv.key, keys)
+        alive = row < lv.key.size
+        alive[alive] = lv.key[row[alive]] == keys[alive]
+        keys, scans, row = keys[alive], scans[alive], row[alive]
+        self.seen[r] = (keys, scans)
+        scored[row] = (s - scans) <= self.s.miss_scans
+        return scored
+
+    def _see(self, r, s, keys):
+        """Radar `r` reported the tracks `keys` (increasing) at its scan `s`."""
+        if not keys.size:
+            return
+        old_k, old_s = self.seen.get(r, (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        other = ~np.isin(old_k, keys, assume_unique=True)
+        k = np.concatenate([old_k[other], keys])
+        o = np.argsort(k, kind="stable")
+        self.seen[r] = (k[o], np.concatenate([old_s[other], np.full(keys.size, s)])[o])
 
     def _gnn(self, z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used):
         lv = self.live
@@ -527,19 +608,17 @@ class _Tracker:
 
     def _start(self, t, r, s, z, R, kept=None):
         """Start a tentative track at each report, once the tracks not `kept` (a mask,
-        None: all) are removed."""
+        None: all) are removed; returns their keys."""
         n = z.shape[0]
         if not n:
             if kept is not None:
                 self.live.keep(kept)
-            return
+            return np.zeros(0, np.int64)
         x = np.zeros((n, 6))
         x[:, :3] = z
         P = np.zeros((n, 6, 6))
         P[:, :3, :3] = R
         P[:, 3:, 3:] = np.diag(velocity_sd(self.s) ** 2)
-        seen = np.full((n, self.live.last_seen.shape[1]), -(1 << 40), dtype=np.int64)
-        seen[:, r] = s
         ids = self.next_id + np.arange(n, dtype=np.int64)
         recent = np.zeros((n, self.s.n), dtype=bool)
         recent[:, -1] = True                                  # the report that started it
@@ -547,24 +626,36 @@ class _Tracker:
         M = self.live.mu.shape[1]
         self.live.extend(kept, x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
-                         recent=recent, scored=np.ones(n, np.int64), last_seen=seen,
+                         recent=recent, scored=np.ones(n, np.int64), key=ids.copy(),
                          born=np.full(n, t),
                          mu=np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1)),
                          xm=np.repeat(x[:, None], M, 1), Pm=np.repeat(P[:, None], M, 1))
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
+        return ids
 
 
 def _clusters(ti, rj, M):
     """Cluster label of each gated pair: the connected components of the graph linking
-    each track (`ti`, nondecreasing) to its reports (`rj`, of `M`), on the gated tracks only.
-    Labels increase with the cluster's first track, as on the graph of every track."""
-    first = np.r_[True, ti[1:] != ti[:-1]]
-    loc = np.cumsum(first) - 1                          # the tracks, numbered 0..nt-1
-    nt = int(loc[-1]) + 1
-    _n, label = connected_components(
-        coo_matrix((np.ones(ti.size), (loc, nt + rj)), shape=(nt + M, nt + M)),
-        directed=False)
-    return label[loc]
+    each track (`ti`, nondecreasing) to its reports (`rj`, of `M`).
+
+    A cluster's label is its first track's index: labels increase with the cluster's
+    first track, as the components of the graph of every track and report are numbered.
+    Each track's label falls to the smallest label among the tracks of its reports,
+    then to its label's label, until nothing changes (a few passes: one per link of the
+    longest chain of overlapping gates, halved by the second step).
+    """
+    lab = ti.copy()                                    # each pair: its track's label
+    first = np.flatnonzero(np.r_[True, ti[1:] != ti[:-1]])
+    node = np.full(int(ti[-1]) + 1, np.iinfo(np.int64).max)
+    while True:
+        rep = np.full(M, np.iinfo(np.int64).max)
+        np.minimum.at(rep, rj, lab)                    # each report: its tracks' smallest
+        low = np.minimum.reduceat(rep[rj], first)      # each track: its reports' smallest
+        node[ti[first]] = low
+        new = node[node[ti]]                           # and its label's label
+        if np.array_equal(new, lab):
+            return lab
+        lab = new
 
 
 def _kappa_pairs(x1, x2, P1, P2):
