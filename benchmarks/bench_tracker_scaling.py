@@ -1,7 +1,7 @@
 """Benchmark: how the tracker's cost grows with the traffic (architecture (a), one process).
 
-Run as ``python benchmarks/bench_tracker_scaling.py [--max-tiles K] [--trackers cv imm jpda]
-[--profile TRACKER]``. The scene is the scored Swiss hour (``capstone.load_traffic()``, the
+Run as ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tracker_scaling.py [--max-tiles K]
+[--trackers cv imm jpda] [--profile TRACKER]`` (one thread: the target is one core). The scene is the scored Swiss hour (``capstone.load_traffic()``, the
 default realistic radars ``capstone.realistic_radars()``, ``simulate_detections(...,
 rng=2018)``, registered from the first five minutes by ``capstone.register_detections`` and
 converted by ``capstone.to_common``, as ``benchmarks/bench_tracking.py`` does) **tiled** K
@@ -16,11 +16,13 @@ For K = 1, 2, 4, ... up to ``--max-tiles`` (default 32) and each tracker
 * ``imm``: with ``tracking.IMM_SETTINGS`` (GNN, interacting multiple model);
 * ``jpda``: with ``TrackerSettings(association="jpda")`` (constant velocity);
 
-it prints the reports, the seconds of one call (``time.perf_counter``), the microseconds
-per report, and the least-squares slope of log(seconds) against log(reports) over K >= 2
-(0: the cost per report does not grow with the traffic; 1: it grows like the traffic).
-Timings are of one run on a shared machine: compare the slope and the ratios, not single
-numbers. ``--profile cv`` (or ``imm``, ``jpda``) runs that tracker once more at the largest
+it prints the reports, the processor seconds of one call (``time.process_time``: this
+process's own, which other jobs on a shared machine disturb far less than the wall clock;
+the wall-clock seconds are printed beside them), the microseconds per report, and the
+least-squares slope of log(seconds) against log(reports) over K >= 2 (1: the cost per
+report does not grow with the traffic, the cost is linear in the reports; 2: the cost per
+report grows like the traffic). Timings are of one run: compare the slope and the ratios,
+not single numbers. ``--profile cv`` (or ``imm``, ``jpda``) runs that tracker once more at the largest
 K under ``cProfile`` and prints the 25 most expensive functions (cumulative time).
 
 The last line is exactly::
@@ -85,19 +87,20 @@ def main(max_tiles=32, trackers=("cv", "imm", "jpda"), profile=None) -> int:
     base = swiss_reports()
     ks = [1 << i for i in range(max(0, int(np.log2(max_tiles))) + 1)]
     print(f"the Swiss hour: {base[0].size} reports; tiles {ks}")
-    print(f"{'tracker':<8}{'K':>4}{'reports':>10}{'s':>9}{'us/report':>11}{'tracks':>9}")
+    print(f"{'tracker':<8}{'K':>4}{'reports':>10}{'s':>9}{'us/report':>11}{'wall s':>9}"
+          f"{'tracks':>9}")
     result = {}
     for name in trackers:
         n_rep, secs = [], []
         for k in ks:
             rep = tile(base, k)
-            t0 = time.perf_counter()
+            t0, w0 = time.process_time(), time.perf_counter()
             h = trk.track_reports(*rep, settings=SETTINGS[name])
-            s = time.perf_counter() - t0
+            s, wall = time.process_time() - t0, time.perf_counter() - w0
             n_rep.append(rep[0].size)
             secs.append(s)
             print(f"{name:<8}{k:>4}{rep[0].size:>10}{s:>9.2f}{1e6 * s / rep[0].size:>11.2f}"
-                  f"{h.initiated:>9}", flush=True)
+                  f"{wall:>9.2f}{h.initiated:>9}", flush=True)
         big = [i for i, k in enumerate(ks) if k >= 2]
         sl = slope([n_rep[i] for i in big], [secs[i] for i in big])
         result[name] = (1e6 * secs[-1] / n_rep[-1], sl)

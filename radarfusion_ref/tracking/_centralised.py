@@ -249,7 +249,12 @@ def track_reports(time, position, cov, radar, scan, *,
     Per scan (one radar at one instant): every live track is predicted to the instant
     (:func:`radarfusion_ref.engine.tracker.kalman_predict`'s kernel); a report enters a
     track's gate when :math:`d^2 = \boldsymbol\nu^\mathsf T S^{-1}\boldsymbol\nu` is below
-    :func:`radarfusion_ref.gating.gate_threshold` (3 degrees of freedom). Clusters of
+    :func:`radarfusion_ref.gating.gate_threshold` (3 degrees of freedom). Only the tracks
+    whose search radius :math:`\sqrt{\gamma\,(\operatorname{tr}P + \max\operatorname{tr}R)}`
+    (:math:`|\boldsymbol\nu|^2 \le d^2\operatorname{tr}S`) reaches the bounding box of the
+    scan's reports are gated (:math:`\gamma` the gate threshold), so a scan's gating,
+    association and updates cost in proportion to the tracks near its radar, not to all
+    the tracks of a wide airspace. Clusters of
     tracks and reports linked by gates are solved apart:
 
     * ``"gnn"`` — the assignment that maximises the summed score increments
