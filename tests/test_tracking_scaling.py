@@ -172,3 +172,22 @@ def test_pending_rows_sorted_out_in_any_batch(swiss, monkeypatch):
     assert every.n_confirmed > 10
     for f in ("track", *FIELDS):
         assert np.array_equal(getattr(every, f), getattr(at_end, f)), f
+
+
+def test_pair_distances_in_blocks(monkeypatch):
+    # every pair's κ by a solve per pair, whatever the blocks
+    rng = np.random.default_rng(5)
+    x1, x2 = rng.normal(size=(23, 3)) * 1e3, rng.normal(size=(17, 3)) * 1e3
+    A, B = rng.normal(size=(23, 3, 3)) * 30, rng.normal(size=(17, 3, 3)) * 30
+    P1, P2 = A @ np.swapaxes(A, 1, 2) + np.eye(3), B @ np.swapaxes(B, 1, 2) + np.eye(3)
+    d = x1[:, None] - x2[None]
+    ref = np.einsum("abi,abi->ab", d, np.linalg.solve(P1[:, None] + P2[None], d[..., None])[..., 0])
+    for block in (1, 17, 40, 1 << 16):
+        monkeypatch.setattr(central, "_PAIR_BLOCK", block)
+        got = central._kappa_pairs(x1, x2, P1, P2)
+        assert got.shape == (23, 17)
+        np.testing.assert_allclose(got, ref, rtol=1e-10)
+    assert central._kappa_pairs(x1[:0], x2, P1[:0], P2).shape == (0, 17)
+    monkeypatch.setattr(central, "MEMORY_LIMIT", 1000)
+    with pytest.raises(ValueError, match="limit"):
+        central._kappa_pairs(x1, x2, P1, P2)

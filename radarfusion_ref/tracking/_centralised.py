@@ -22,7 +22,13 @@ from ..engine.tracker import (
     update_kernel,
     window_kernel,
 )
-from ..engine.validation import as_covariance, as_float_array, describe
+from ..engine.validation import (
+    MEMORY_LIMIT,
+    as_covariance,
+    as_float_array,
+    check_size,
+    describe,
+)
 from ._motion import (
     axis_q,
     imm_gnn_update,
@@ -663,11 +669,26 @@ def _clusters(ti, rj, M):
         lab = new
 
 
+#: Pairs per block of :func:`_kappa_pairs` (its work arrays stay in cache).
+_PAIR_BLOCK = 65536
+
+
 def _kappa_pairs(x1, x2, P1, P2):
-    """κ of every pair of two sets of track positions, shape (n1, n2) (trusted input: the
-    tracker's own estimates)."""
-    return mahalanobis_sq_kernel(x1[:, None] - x2[None], P1[:, None] + P2[None],
-                                 "`position`, `cov`")
+    """κ of every pair of two sets of positions, shape (n1, n2) (trusted input: validated
+    reports or the tracker's own estimates), in blocks of rows of at most `_PAIR_BLOCK`
+    pairs; the result is refused beyond ``MEMORY_LIMIT`` bytes before it is allocated."""
+    n1, n2 = x1.shape[0], x2.shape[0]
+    check_size(8 * n1 * n2, MEMORY_LIMIT, name="position",
+               what=f"bytes for {n1} x {n2} pairs of tracks",
+               alternative="fewer tracks at once (shorter `settings.max_coast`, or the "
+                           "reports in consecutive slices)")
+    out = np.empty((n1, n2))
+    step = max(1, _PAIR_BLOCK // max(n2, 1))
+    for a in range(0, n1, step):
+        out[a:a + step] = mahalanobis_sq_kernel(x1[a:a + step, None] - x2[None],
+                                                P1[a:a + step, None] + P2[None],
+                                                "`position`, `cov`")
+    return out
 
 
 def _near_box(x, radius, z):
