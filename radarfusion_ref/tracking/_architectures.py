@@ -8,11 +8,10 @@ import numpy as np
 
 from .. import gating, trackfusion
 from ..engine import assignment
-from ..engine.linalg import mahalanobis_sq_pairwise
 from ..engine.tracker import cv_matrices, predict_kernel
 from ..engine.validation import as_choice, as_float, as_positive
 from ..fusion import fuse_gaussian
-from ._centralised import _reports_iv, track_reports
+from ._centralised import _kappa_pairs, _reports_iv, track_reports
 from ._motion import axis_q, predict, velocity_sd
 from ._settings import TrackerSettings, TrackHistory
 
@@ -33,7 +32,7 @@ def _link(x1, P1, x2, P2, gamma, kept=None):
     """
     if not len(x1) or not len(x2):
         return np.full(len(x1), -1)
-    kappa = np.atleast_2d(mahalanobis_sq_pairwise(x1, x2, P1, P2))
+    kappa = _kappa_pairs(x1, x2, P1, P2)              # trusted: validated or our own
     if kept is not None:
         kappa = np.where(kept & (kappa < gamma), kappa - gamma, kappa)
     return assignment.assign_two_lists(kappa, threshold=gamma).row_to_col

@@ -7,14 +7,12 @@ import math
 import warnings
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .. import gating
 from ..engine import assignment
 from ..engine.errors import RadarFusionWarning
-from ..engine.linalg import mahalanobis_sq, mahalanobis_sq_pairwise
+from ..engine.linalg import mahalanobis_sq_kernel
 from ..engine.tracker import (
     event_bound,
     exact_kernel,
@@ -24,7 +22,13 @@ from ..engine.tracker import (
     update_kernel,
     window_kernel,
 )
-from ..engine.validation import as_covariance, as_float_array, describe
+from ..engine.validation import (
+    MEMORY_LIMIT,
+    as_covariance,
+    as_float_array,
+    check_size,
+    describe,
+)
 from ._motion import (
     axis_q,
     imm_gnn_update,
@@ -45,9 +49,9 @@ class _Live:
     """The live tracks, as parallel arrays (one row per track)."""
 
     FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "recent", "scored",
-              "last_seen", "born", "mu", "xm", "Pm")
+              "key", "born", "mu", "xm", "Pm")
 
-    def __init__(self, n_radars, n_window, modes=0):
+    def __init__(self, n_window, modes=0):
         self.x = np.zeros((0, 6))
         self.P = np.zeros((0, 6, 6))
         self.t = np.zeros(0)
@@ -58,7 +62,7 @@ class _Live:
         self.ids = np.zeros(0, dtype=np.int64)
         self.recent = np.zeros((0, n_window), dtype=bool)     # M-of-N: last n scored scans
         self.scored = np.zeros(0, dtype=np.int64)
-        self.last_seen = np.zeros((0, n_radars), dtype=np.int64)
+        self.key = np.zeros(0, dtype=np.int64)      # start order, never changes (ids may)
         self.born = np.zeros(0)
         self.mu = np.zeros((0, modes))               # IMM: mode probabilities, states, covs
         self.xm = np.zeros((0, modes, 6))
@@ -68,47 +72,99 @@ class _Live:
         for f in self.FIELDS:
             setattr(self, f, getattr(self, f)[mask])
 
-    def extend(self, **new):
+    def extend(self, kept=None, **new):
+        """Append the tracks `new` (one array per field), after keeping the rows `kept`
+        (a mask; None: all), in one copy."""
         for f in self.FIELDS:
-            setattr(self, f, np.concatenate([getattr(self, f), new[f]]))
+            a = getattr(self, f)
+            setattr(self, f, np.concatenate([a if kept is None else a[kept], new[f]]))
 
 
 class _Rows:
-    """Rows written out: confirmed tracks' rows, and the pending rows of tentative tracks."""
+    """Rows written out: confirmed tracks' rows, and the pending rows of tentative tracks.
+
+    Each row written out carries its place in the order of writing (``seq`` of its chunk,
+    then its place in it), which breaks the ties of (time, track) in the history as the
+    order of writing would. The pending rows are sorted out in batches, when they have
+    doubled since the last sorting (so the work per row stays constant however many
+    tentative tracks are alive): a promoted track's rows then go out with the place they
+    had when it was promoted, a dropped track's are forgotten.
+    """
+
+    #: Pending rows below which they are not sorted out.
+    MIN_BATCH = 4096
 
     def __init__(self):
-        self.out = []          # (ids, time, state, cov, confirmed) chunks
-        self.pending = []      # same, of tentative tracks
+        self.out = []          # (ids, time, state, cov, confirmed, seq, place) chunks
+        self.pending = []      # (ids, time, state, cov, confirmed, place) of tentative tracks
+        self.n_chunks = 0      # chunks written (the next seq)
+        self.n_pending = 0     # pending rows added so far (the next place)
+        self.n_sorted = 0      # pending rows left at the last sorting
+        self.n_new = 0         # pending rows added since
+        self.promoted: dict[int, int] = {}     # id -> seq, rows not moved out yet
+        self.dropped: list[np.ndarray] = []    # ids whose pending rows are to be forgotten
+
+    def _write(self, chunk):
+        n = chunk[0].size
+        self.out.append((*chunk, np.full(n, self.n_chunks), np.arange(n)))
+        self.n_chunks += 1
 
     def add(self, ids, t, x, P, confirmed):
         if not ids.size:
             return
         chunk = (ids.copy(), np.full(ids.size, t), x.copy(), P.copy(), confirmed.copy())
         if confirmed.all():
-            self.out.append(chunk)
-        elif not confirmed.any():
-            self.pending.append(chunk)
-        else:
-            self.out.append(tuple(c[confirmed] for c in chunk))
-            self.pending.append(tuple(c[~confirmed] for c in chunk))
+            self._write(chunk)
+            return
+        if confirmed.any():
+            self._write(tuple(c[confirmed] for c in chunk))
+            chunk = tuple(c[~confirmed] for c in chunk)
+        n = chunk[0].size
+        self.pending.append((*chunk, self.n_pending + np.arange(n)))
+        self.n_pending += n
+        self.n_new += n
 
     def settle(self, promoted, dropped):
-        """Move the pending rows of `promoted` tracks out; forget those of `dropped` ones."""
-        if not self.pending or not (promoted.size or dropped.size):
+        """The pending rows of `promoted` tracks go out (in place of a chunk written now);
+        those of `dropped` ones are forgotten."""
+        if promoted.size:
+            for i in promoted.tolist():
+                self.promoted[i] = self.n_chunks
+            self.n_chunks += 1
+        if dropped.size:
+            self.dropped.append(dropped)
+        if self.n_new > max(self.n_sorted, self.MIN_BATCH):
+            self._sort_out()
+
+    def _sort_out(self):
+        self.n_new = 0
+        if not self.pending:
+            self.promoted, self.dropped = {}, []
             return
         cols = [np.concatenate(c) for c in zip(*self.pending, strict=True)]
-        up = np.isin(cols[0], promoted)
-        gone = np.isin(cols[0], dropped)
-        if up.any():
-            self.out.append(tuple(c[up] for c in cols))
-        rest = ~(up | gone)
+        ids = cols[0]
+        rest = np.ones(ids.size, bool)
+        if self.promoted:
+            pid = np.fromiter(self.promoted, np.int64, len(self.promoted))
+            pseq = np.fromiter(self.promoted.values(), np.int64, len(self.promoted))
+            up = np.isin(ids, pid)
+            if up.any():
+                o = np.argsort(pid)
+                seq = pseq[o][np.searchsorted(pid[o], ids[up])]
+                self.out.append((*(c[up] for c in cols[:5]), seq, cols[5][up]))
+                rest &= ~up
+        if self.dropped:
+            rest &= ~np.isin(ids, np.concatenate(self.dropped))
+        self.promoted, self.dropped = {}, []
         self.pending = [tuple(c[rest] for c in cols)] if rest.any() else []
+        self.n_sorted = int(rest.sum())
 
     def history(self, initiated, alias=None):
+        self._sort_out()
         if not self.out:
             return TrackHistory(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
                                 np.zeros((0, 6, 6)), np.zeros(0, bool), initiated)
-        ids, t, x, P, c = (np.concatenate(v) for v in zip(*self.out, strict=True))
+        ids, t, x, P, c, seq, place = (np.concatenate(v) for v in zip(*self.out, strict=True))
         if alias:                                        # a relinked track takes its old id
             u, inv = np.unique(ids, return_inverse=True)
             for n, i in enumerate(u):
@@ -116,7 +172,7 @@ class _Rows:
                     i = alias[int(i)]
                 u[n] = i
             ids = u[inv]
-        o = np.lexsort((ids, t))
+        o = np.lexsort((place, seq, ids, t))
         return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated)
 
 
@@ -199,7 +255,12 @@ def track_reports(time, position, cov, radar, scan, *,
     Per scan (one radar at one instant): every live track is predicted to the instant
     (:func:`radarfusion_ref.engine.tracker.kalman_predict`'s kernel); a report enters a
     track's gate when :math:`d^2 = \boldsymbol\nu^\mathsf T S^{-1}\boldsymbol\nu` is below
-    :func:`radarfusion_ref.gating.gate_threshold` (3 degrees of freedom). Clusters of
+    :func:`radarfusion_ref.gating.gate_threshold` (3 degrees of freedom). Only the tracks
+    whose search radius :math:`\sqrt{\gamma\,(\operatorname{tr}P + \max\operatorname{tr}R)}`
+    (:math:`|\boldsymbol\nu|^2 \le d^2\operatorname{tr}S`) reaches the bounding box of the
+    scan's reports are gated (:math:`\gamma` the gate threshold), so a scan's gating,
+    association and updates cost in proportion to the tracks near its radar, not to all
+    the tracks of a wide airspace. Clusters of
     tracks and reports linked by gates are solved apart:
 
     * ``"gnn"`` — the assignment that maximises the summed score increments
@@ -260,7 +321,7 @@ def track_reports(time, position, cov, radar, scan, *,
     new_group = np.r_[True, (np.diff(t) != 0) | (np.diff(radar) != 0)]
     starts = np.flatnonzero(new_group)
     ends = np.r_[starts[1:], t.size]
-    state = _Tracker(settings, int(radar.max()) + 1)
+    state = _Tracker(settings)
     for a, b in zip(starts, ends, strict=True):
         state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
     return _in_unit(state.rows.history(state.next_id, state.alias), u)
@@ -282,14 +343,21 @@ def _warn_scale(R):
                       RadarFusionWarning, stacklevel=3)
 
 
+#: The last scan at which a radar reported a track it never reported.
+_NEVER = 1 << 40
+
+
 class _Tracker:
     """The tracker's state between scans and the processing of one scan."""
 
-    def __init__(self, s: TrackerSettings, n_radars: int):
+    def __init__(self, s: TrackerSettings):
         self.s = s
         self.imm = s.motion == "imm"
         self.qm = mode_q(s)
-        self.live = _Live(n_radars, s.n, self.qm.shape[0] if self.imm else 0)
+        self.q_axis = axis_q(s)
+        self.live = _Live(s.n, self.qm.shape[0] if self.imm else 0)
+        # per radar: the keys (increasing) of the tracks it reported, and its last scan of each
+        self.seen: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.rows = _Rows()
         self.next_id = 0
         self.gamma = float(gating.gate_threshold(s.p_false_reject, 3))
@@ -303,7 +371,12 @@ class _Tracker:
 
     # ------------------------------------------------------------------ gate
     def _gate(self, z, R):
-        """Gated (track, report) pairs with d² and ln det S."""
+        """Gated (track, report) pairs with d² and ln det S, in order of track then report.
+
+        Only tracks near the scan are looked at: a report within a track's search radius
+        lies in the reports' bounding box grown by that radius, so the tracks outside it
+        (most of a wide airspace) have no candidate and skip the tree query.
+        """
         lv = self.live
         T, M = lv.ids.size, z.shape[0]
         empty = np.zeros(0, np.int64)
@@ -311,17 +384,20 @@ class _Tracker:
             return empty, empty, np.zeros(0), np.zeros(0)
         spread = np.trace(lv.P[:, :3, :3], axis1=1, axis2=2) + np.trace(R, axis1=1, axis2=2).max()
         radius = np.sqrt(self.gamma * spread)            # |ν|² <= tr(S) d²: a sound prefilter
-        lists = cKDTree(z).query_ball_point(lv.x[:, :3], radius)
-        counts = np.fromiter((len(v) for v in lists), np.int64, T)
+        near = _near_box(lv.x[:, :3], radius, z)
+        if not near.size:
+            return empty, empty, np.zeros(0), np.zeros(0)
+        lists = cKDTree(z).query_ball_point(lv.x[near, :3], radius[near], return_sorted=True)
+        counts = np.fromiter((len(v) for v in lists), np.int64, near.size)
         if not counts.sum():
             return empty, empty, np.zeros(0), np.zeros(0)
-        ti = np.repeat(np.arange(T), counts)
-        rj = np.fromiter((j for v in lists for j in v), np.int64, int(counts.sum()))
-        d2, ld = mahalanobis_sq(z[rj] - lv.x[ti, :3], lv.P[ti, :3, :3] + R[rj],
-                                return_logdet=True)
-        d2, ld = np.atleast_1d(d2), np.atleast_1d(ld)
+        ti = np.repeat(near, counts)
+        rj = np.fromiter(itertools.chain.from_iterable(lists), np.int64, int(counts.sum()))
+        ld: list = []
+        d2 = mahalanobis_sq_kernel(z[rj] - lv.x[ti, :3], lv.P[ti, :3, :3] + R[rj],
+                                   "`position`, `cov`", ld)
         ok = d2 < self.gamma
-        return ti[ok], rj[ok], d2[ok], ld[ok]
+        return ti[ok], rj[ok], d2[ok], ld[0][ok]
 
     # ------------------------------------------------------------------ one scan
     def scan(self, t, r, s, z, R):
@@ -329,11 +405,12 @@ class _Tracker:
         if lv.ids.size and self.imm:
             imm_predict_live(lv, t, st, self.qm)
             lv.t[:] = t
-        elif lv.ids.size:
-            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - lv.t, axis_q(st), per_axis=True)
+        elif lv.ids.size:                                # all at the last scan's instant
+            lv.x, lv.P = predict_kernel(lv.x, lv.P, t - float(lv.t[0]), self.q_axis,
+                                        per_axis=True)
             lv.t[:] = t
         T, M = lv.ids.size, z.shape[0]
-        scored = (s - lv.last_seen[:, r]) <= st.miss_scans
+        scored = self._scored(r, s)
         ti, rj, d2, ld = self._gate(z, R)
         inc_pair = (imm_increments(lv, ti, rj, z, R, st) if self.imm and ti.size
                     else increments_kernel(d2, ld, st.p_detection, st.clutter_density))
@@ -341,19 +418,44 @@ class _Tracker:
         hit = np.zeros(T, dtype=bool)
         used = np.zeros(M)                               # total probability of each report
         if ti.size:
-            _n_c, label = connected_components(
-                coo_matrix((np.ones(ti.size), (ti, T + rj)), shape=(T + M, T + M)),
-                directed=False)
-            track_lab, pair_lab = label[:T], label[ti]
+            pair_lab = _clusters(ti, rj, M)
             if st.association == "gnn":
                 self._gnn(z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used)
             else:
-                self._jpda(z, R, ti, rj, inc_pair, pair_lab, track_lab, scored, inc, hit, used)
-        lv.last_seen[hit, r] = s
+                self._jpda(z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used)
+        seen = lv.key[hit]
         lv.t_hit[hit] = t
-        self._score(t, inc, hit, scored)
+        kept = self._score(t, inc, hit, scored)
         fresh = used < 0.5
-        self._start(t, r, s, z[fresh], R[fresh])
+        born = self._start(t, r, s, z[fresh], R[fresh], kept)
+        self._see(r, s, np.concatenate([seen, born]))
+
+    def _scored(self, r, s):
+        """Tracks whose miss at radar `r`'s scan `s` counts: those `r` reported within its
+        last `miss_scans` scans (a track it never reported: last scan -2⁴⁰). The radar's
+        table forgets the deleted tracks."""
+        lv = self.live
+        keys, scans = self.seen.get(r, (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        scored = np.full(lv.key.size, (s + _NEVER) <= self.s.miss_scans)
+        if not keys.size or not lv.key.size:
+            return scored
+        row = np.searchsorted(lv.key, keys)
+        alive = row < lv.key.size
+        alive[alive] = lv.key[row[alive]] == keys[alive]
+        keys, scans, row = keys[alive], scans[alive], row[alive]
+        self.seen[r] = (keys, scans)
+        scored[row] = (s - scans) <= self.s.miss_scans
+        return scored
+
+    def _see(self, r, s, keys):
+        """Radar `r` reported the tracks `keys` (increasing) at its scan `s`."""
+        if not keys.size:
+            return
+        old_k, old_s = self.seen.get(r, (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        other = ~np.isin(old_k, keys, assume_unique=True)
+        k = np.concatenate([old_k[other], keys])
+        o = np.argsort(k, kind="stable")
+        self.seen[r] = (k[o], np.concatenate([old_s[other], np.full(keys.size, s)])[o])
 
     def _gnn(self, z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used):
         lv = self.live
@@ -373,7 +475,7 @@ class _Tracker:
         hit[i] = True
         used[j] = 1.0
 
-    def _jpda(self, z, R, ti, rj, inc_pair, pair_lab, track_lab, scored, inc, hit, used):
+    def _jpda(self, z, R, ti, rj, inc_pair, pair_lab, scored, inc, hit, used):
         lv, st = self.live, self.s
         if not self.imm:
             xu, Pu, _, _ = update_kernel(lv.x[ti], lv.P[ti], z[rj], R[rj])
@@ -450,7 +552,7 @@ class _Tracker:
             lost = drop & lv.confirmed
             lost[merged] = False
             self._lose(t, lost)
-        lv.keep(~drop)
+        return None if not drop.any() else ~drop
 
     def _duplicates(self, promote):
         """Tracks about to be confirmed inside the relinking gate of a confirmed track that
@@ -461,8 +563,7 @@ class _Tracker:
         dup = np.zeros(lv.ids.size, bool)
         if not old.size:
             return dup
-        kappa = np.atleast_2d(mahalanobis_sq_pairwise(lv.x[new, :3], lv.x[old, :3],
-                                                      lv.P[new, :3, :3], lv.P[old, :3, :3]))
+        kappa = _kappa_pairs(lv.x[new, :3], lv.x[old, :3], lv.P[new, :3, :3], lv.P[old, :3, :3])
         alive = lv.t_hit[old][None, :] >= lv.born[new][:, None]
         dup[new] = ((kappa < self.gamma_relink) & alive).any(axis=1)
         return dup
@@ -472,6 +573,8 @@ class _Tracker:
         lv = self.live
         ids, x, P, tt, th = self.lost
         keep = (t - th) <= self.s.max_coast
+        if keep.all() and not lost.any():
+            return
         self.lost = (np.concatenate([ids[keep], lv.ids[lost]]),
                      np.concatenate([x[keep], lv.x[lost]]),
                      np.concatenate([P[keep], lv.P[lost]]),
@@ -494,9 +597,9 @@ class _Tracker:
         cand_P = np.concatenate([lv.P[old, :3, :3], Pl[:, :3, :3]])
         cand_hit = np.concatenate([lv.t_hit[old], th[fresh]])
         cand_id = np.concatenate([lv.ids[old], ids[fresh]])
-        kappa = mahalanobis_sq_pairwise(lv.x[new, :3], cand_x, lv.P[new, :3, :3], cand_P)
+        kappa = _kappa_pairs(lv.x[new, :3], cand_x, lv.P[new, :3, :3], cand_P)
         before = cand_hit[None, :] < lv.born[new][:, None]
-        link = assignment.assign_two_lists(np.where(before, np.atleast_2d(kappa), np.inf),
+        link = assignment.assign_two_lists(np.where(before, kappa, np.inf),
                                    threshold=self.gamma_relink).row_to_col
         merged, gone = [], []
         for i, j in zip(new, link, strict=True):
@@ -514,29 +617,93 @@ class _Tracker:
             self.lost = tuple(a[keep] for a in self.lost)
         return merged
 
-    def _start(self, t, r, s, z, R):
+    def _start(self, t, r, s, z, R, kept=None):
+        """Start a tentative track at each report, once the tracks not `kept` (a mask,
+        None: all) are removed; returns their keys."""
         n = z.shape[0]
         if not n:
-            return
+            if kept is not None:
+                self.live.keep(kept)
+            return np.zeros(0, np.int64)
         x = np.zeros((n, 6))
         x[:, :3] = z
         P = np.zeros((n, 6, 6))
         P[:, :3, :3] = R
         P[:, 3:, 3:] = np.diag(velocity_sd(self.s) ** 2)
-        seen = np.full((n, self.live.last_seen.shape[1]), -(1 << 40), dtype=np.int64)
-        seen[:, r] = s
         ids = self.next_id + np.arange(n, dtype=np.int64)
         recent = np.zeros((n, self.s.n), dtype=bool)
         recent[:, -1] = True                                  # the report that started it
         self.next_id += n
         M = self.live.mu.shape[1]
-        self.live.extend(x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
+        self.live.extend(kept, x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
-                         recent=recent, scored=np.ones(n, np.int64), last_seen=seen,
+                         recent=recent, scored=np.ones(n, np.int64), key=ids.copy(),
                          born=np.full(n, t),
                          mu=np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1)),
                          xm=np.repeat(x[:, None], M, 1), Pm=np.repeat(P[:, None], M, 1))
         self.rows.add(ids, t, x, P, np.zeros(n, bool))
+        return ids
+
+
+def _clusters(ti, rj, M):
+    """Cluster label of each gated pair: the connected components of the graph linking
+    each track (`ti`, nondecreasing) to its reports (`rj`, of `M`).
+
+    A cluster's label is its first track's index: labels increase with the cluster's
+    first track, as the components of the graph of every track and report are numbered.
+    Each track's label falls to the smallest label among the tracks of its reports,
+    then to its label's label, until nothing changes (a few passes: one per link of the
+    longest chain of overlapping gates, halved by the second step).
+    """
+    lab = ti.copy()                                    # each pair: its track's label
+    first = np.flatnonzero(np.r_[True, ti[1:] != ti[:-1]])
+    node = np.full(int(ti[-1]) + 1, np.iinfo(np.int64).max)
+    while True:
+        rep = np.full(M, np.iinfo(np.int64).max)
+        np.minimum.at(rep, rj, lab)                    # each report: its tracks' smallest
+        low = np.minimum.reduceat(rep[rj], first)      # each track: its reports' smallest
+        node[ti[first]] = low
+        new = node[node[ti]]                           # and its label's label
+        if np.array_equal(new, lab):
+            return lab
+        lab = new
+
+
+#: Pairs per block of :func:`_kappa_pairs` (its work arrays stay in cache).
+_PAIR_BLOCK = 65536
+
+
+def _kappa_pairs(x1, x2, P1, P2):
+    """κ of every pair of two sets of positions, shape (n1, n2) (trusted input: validated
+    reports or the tracker's own estimates), in blocks of rows of at most `_PAIR_BLOCK`
+    pairs; the result is refused beyond ``MEMORY_LIMIT`` bytes before it is allocated."""
+    n1, n2 = x1.shape[0], x2.shape[0]
+    check_size(8 * n1 * n2, MEMORY_LIMIT, name="position",
+               what=f"bytes for {n1} x {n2} pairs of tracks",
+               alternative="fewer tracks at once (shorter `settings.max_coast`, or the "
+                           "reports in consecutive slices)")
+    out = np.empty((n1, n2))
+    step = max(1, _PAIR_BLOCK // max(n2, 1))
+    for a in range(0, n1, step):
+        out[a:a + step] = mahalanobis_sq_kernel(x1[a:a + step, None] - x2[None],
+                                                P1[a:a + step, None] + P2[None],
+                                                "`position`, `cov`")
+    return out
+
+
+def _near_box(x, radius, z):
+    """Indices (increasing) of the points `x` (T, 3) within their own `radius` of the
+    bounding box of `z` (M, 3): the only ones that can have a point of `z` within `radius`.
+
+    The box is grown by a relative margin of 1e-9 (and 1e-300 absolute) so that rounding
+    never excludes a point whose distance, as the tree computes it, is within its radius.
+    """
+    r = radius * (1.0 + 1e-9) + 1e-300
+    lo, hi = z.min(0), z.max(0)
+    inside = ((x[:, 0] >= lo[0] - r) & (x[:, 0] <= hi[0] + r)
+              & (x[:, 1] >= lo[1] - r) & (x[:, 1] <= hi[1] + r)
+              & (x[:, 2] >= lo[2] - r) & (x[:, 2] <= hi[2] + r))
+    return np.flatnonzero(inside)
 
 
 def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):

@@ -10,7 +10,7 @@ import functools
 
 import numpy as np
 
-from ..engine.linalg import mahalanobis_sq
+from ..engine.linalg import mahalanobis_sq_kernel
 from ..engine.tracker import (
     combine_kernel,
     imm_predict_kernel,
@@ -90,8 +90,12 @@ def _generator(sojourn):
 
 # ----------------------------------------------------------------------------- IMM tracks
 def imm_predict_live(lv, t, s, qm):
-    """Predict the live tracks' modes to `t` (mixing first); the combined estimate follows."""
-    dt = t - lv.t
+    """Predict the live tracks' modes to `t` (mixing first); the combined estimate follows.
+
+    Every live track stands at the same instant (the last scan's), so one interval, one
+    transition matrix and one set of model matrices serve them all.
+    """
+    dt = t - float(lv.t[0])
     cbar, lv.xm, lv.Pm = imm_predict_kernel(lv.mu, lv.xm, lv.Pm, transition(s, dt), dt, qm,
                                             per_axis=True)
     lv.mu = cbar
@@ -102,11 +106,11 @@ def imm_increments(lv, ti, rj, z, R, s):
     r"""Score increments of gated pairs from the mixture of the mode likelihoods:
     :math:`\ln\frac{P_D\sum_j\bar c_j\Lambda_j}{\lambda}`."""
     nu = z[rj][:, None, :] - lv.xm[ti, :, :3]
-    d2, ld = mahalanobis_sq(nu, lv.Pm[ti, :, :3, :3] + R[rj][:, None], return_logdet=True)
+    ld: list = []                                      # trusted: the tracker's own modes
+    d2 = mahalanobis_sq_kernel(nu, lv.Pm[ti, :, :3, :3] + R[rj][:, None], "`position`, `cov`",
+                               ld)
     with np.errstate(divide="ignore"):
-        a = np.log(lv.mu[ti]) + increments_kernel(np.reshape(d2, nu.shape[:2]),
-                                                  np.reshape(ld, nu.shape[:2]),
-                                                  s.p_detection, s.clutter_density)
+        a = np.log(lv.mu[ti]) + increments_kernel(d2, ld[0], s.p_detection, s.clutter_density)
     top = a.max(1)
     return top + np.log(np.exp(a - top[:, None]).sum(1))
 
