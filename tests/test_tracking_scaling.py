@@ -191,3 +191,18 @@ def test_pair_distances_in_blocks(monkeypatch):
     monkeypatch.setattr(central, "MEMORY_LIMIT", 1000)
     with pytest.raises(ValueError, match="limit"):
         central._kappa_pairs(x1, x2, P1, P2)
+
+
+def test_a_window_whose_prediction_leaves_the_numeric_domain_is_refused_by_name():
+    """A track predicted across the window would pass 2**150 m² of variance: refused naming
+    `time` (the trusted kernels in the loop do not check the domain), a day is accepted."""
+    import pytest
+
+    from radarfusion_ref import tracking as trk
+
+    z = np.c_[[0.0, 1000.0, 2000.0], np.zeros(3), np.full(3, 9e3)]
+    cov = np.tile(np.eye(3) * 100.0, (3, 1, 1))
+    args = (z, cov, np.zeros(3, int), np.arange(3))
+    with pytest.raises(ValueError, match=r"`time` spans 1e\+20 s.*numeric domain"):
+        trk.track_reports(np.array([0.0, 5.0, 1e20]), *args)
+    assert trk.track_reports(np.array([0.0, 5.0, 86400.0]), *args).state.size

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import gating
+from ..engine.montecarlo import as_client
 from ..engine.optional import require
 from ..engine.validation import (
     MEMORY_LIMIT,
@@ -359,18 +360,7 @@ def _coverage_iv(sectors, z):
 
 def _client_iv(client):
     """A running ``distributed.Client`` with at least one worker, and its worker count."""
-    Client = require("distributed", feature="track_sectored(client=...)").Client
-    if not isinstance(client, Client):
-        raise TypeError("`client` must be None (run here) or a distributed.Client; received "
-                        f"{describe(client)}")
-    if client.status != "running":
-        raise ValueError(f"`client` must be a running distributed.Client; its status is "
-                         f"{client.status!r} (create a new Client with the scheduler address)")
-    workers = len(client.nthreads())
-    if workers == 0:
-        raise ValueError("`client` has no workers: start some (dask worker <scheduler address>) "
-                         "or wait for them with client.wait_for_workers(n)")
-    return workers
+    return as_client(client, feature="track_sectored(client=...)")[1]
 
 
 def _track_sector(inputs, settings):

@@ -54,7 +54,7 @@ from .validation import (
 )
 
 __all__ = ["Proportion", "MeanEstimate", "proportion", "mean", "binomial_tolerance",
-           "sweep", "unit_rng", "SweepResult", "SweepError",
+           "sweep", "unit_rng", "SweepResult", "SweepError", "as_client",
            "SEED_BLOCK", "DEFAULT_BLOCK", "MAX_POINTS", "PROGRESS_ENV"]
 
 
@@ -703,9 +703,32 @@ def _bar(show: bool, total: int, backend: str):
     return tqdm(total=total, desc=f"sweep ({backend})", unit="task")
 
 
-def _as_client(client):
-    """A running ``distributed.Client`` with at least one worker, and its worker count."""
-    Client = require("distributed", feature="sweep(client=...)").Client
+def as_client(client, *, feature="sweep(client=...)"):
+    """A running ``distributed.Client`` with at least one worker, and its worker count.
+
+    Parameters
+    ----------
+    client : distributed.Client
+        The cluster's client.
+    feature : str, optional
+        What needs the client, for the message when dask.distributed is not installed.
+
+    Returns
+    -------
+    client : distributed.Client
+    workers : int
+        Its number of workers (at least one).
+
+    Raises
+    ------
+    TypeError
+        `client` not a ``distributed.Client``.
+    ValueError
+        `client` closed, unable to reach its scheduler, or without workers.
+    ImportError
+        dask.distributed not installed (naming the extra).
+    """
+    Client = require("distributed", feature=feature).Client
     if not isinstance(client, Client):
         raise TypeError("`client` must be None (run here) or a distributed.Client; received "
                         f"{describe(client)}")
@@ -863,7 +886,7 @@ def sweep(experiment: Callable, grid, *, trials: int, rng, block: int = DEFAULT_
     root = as_seed_sequence(rng)
     show = _want_progress(progress)
     if client is not None:
-        client, workers = _as_client(client)
+        client, workers = as_client(client)
         backend = f"dask ({workers} workers)"
     else:
         backend = "local"

@@ -23,6 +23,7 @@ from ..engine.tracker import (
     window_kernel,
 )
 from ..engine.validation import (
+    MAX_MAGNITUDE,
     MEMORY_LIMIT,
     as_covariance,
     as_float_array,
@@ -186,6 +187,13 @@ def _reports_iv(time, position, cov, radar, scan, settings):
     if n > MAX_REPORTS:
         raise ValueError(f"`time`: {n} reports exceed the limit MAX_REPORTS = {MAX_REPORTS}; "
                          "track the window in consecutive slices")
+    span = float(t.max() - t.min()) if n else 0.0
+    q = np.maximum(axis_q(settings), mode_q(settings).max(axis=0))
+    var = velocity_sd(settings) ** 2 * span**2 + q * span**3 / 3
+    if var.max() > MAX_MAGNITUDE:                # a track predicted across the whole window
+        raise ValueError(f"`time` spans {span:.6g} s: a track predicted across it would have "
+                         f"a position variance of {var.max():.3g} m², beyond the numeric domain "
+                         "[2**-150, 2**150]; track consecutive windows of time")
     z = as_float_array(position, "position", ndim_min=2, last_dims=(3,))
     if z.shape != (n, 3):
         raise ValueError(f"`position` must have shape ({n}, 3); received shape {z.shape}")
