@@ -20,9 +20,7 @@ each seed go to
   with ``tracking.STONESOUP_SETTINGS``.
 
 Every setting is tuned on the other hour of the same day by ``benchmarks/tune_tracking.py``
-under one protocol (its docstring); nothing is tuned on this scored hour. (Stone Soup's
-searches are not run yet: until they are, ``STONESOUP_SETTINGS`` is the protocol's start
-point, and the committed table holds ours' rows only.)
+under one protocol (its docstring); nothing is tuned on this scored hour.
 
 Each run is scored by ``tracking.evaluate_tracks_over_time`` every 10 s from 60 s against the
 ADS-B truth inside the radars' coverage (GOSPA c = 2000 m, p = 2). Per run: mean GOSPA; its

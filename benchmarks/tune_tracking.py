@@ -8,11 +8,9 @@ velocity), ``tracking.IMM_SETTINGS`` for ours with the interacting multiple mode
 ``tracking.STONESOUP_SETTINGS`` (keyword arguments of ``tracking.stonesoup_track``) for Stone
 Soup's GNN and JPDA. ``python benchmarks/tune_tracking.py gnn ours_cv`` runs those trackers'
 searches only and keeps the other trackers' rows of the table. The committed table holds
-ours' two searches only: Stone Soup's (``gnn``, ``jpda``; 15 runs each of 1-2 minutes
-(GNN) and longer (JPDA) per tuning-hour run on an idle machine) are not run yet, and
-``STONESOUP_SETTINGS`` are the protocol's start point until they are (``python
-benchmarks/tune_tracking.py gnn jpda``). The script exits with 1 if any run failed, and with 1 naming every
-difference between the chosen settings and the package's constants; a test checks the
+all four searches (Stone Soup's take 1-2 minutes per tuning-hour run for the GNN and 2-5
+for the JPDA on an idle machine; the whole script about an hour). The script exits with 1
+if any run failed, and with 1 naming every difference between the chosen settings and the package's constants; a test checks the
 committed table against the constants.
 
 The protocol (fixed before any scored run; it is not changed after scored results are seen):

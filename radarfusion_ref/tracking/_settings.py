@@ -324,17 +324,20 @@ IMM_SETTINGS = TrackerSettings(motion="imm", imm_q=(2.0, 300.0), imm_q_vertical=
 
 #: Stone Soup's settings, tuned on the tuning hour by ``benchmarks/tune_tracking.py`` with
 #: the same protocol (the same motion knobs, its own track-management knobs: the initiator's
-#: ``min_points`` and hold, the deleter's ``max_coast``, the gate / missed distance); the
-#: script fails if its choice differs from these, and a test checks them against the
-#: committed table. Keys: Stone Soup's ``"gnn"`` and ``"jpda"``; values: keyword arguments of
+#: ``min_points`` and hold, the deleter's ``max_coast``, the gate / missed distance), from the
+#: set-up of an experienced Stone Soup user (q 50, vertical q 2, vertical-velocity prior
+#: 15 m/s, missed distance 8, min_points 3, hold 1.5 revisits, max_coast 40 s); the script
+#: fails if its choice differs from these, and a test checks them against the committed
+#: table (``benchmarks/data/tracking_tuning.csv``). Keys: Stone Soup's ``"gnn"`` and
+#: ``"jpda"``; values: keyword arguments of
 #: :func:`~radarfusion_ref.tracking.stonesoup.stonesoup_track` (``settings``, ``hold``), as in
-#: ``stonesoup_track(*reports, tracker="gnn", **STONESOUP_SETTINGS["gnn"])``. Not tuned yet:
-#: Stone Soup's searches are not in the table, and these are the protocol's start point (the
-#: set-up of an experienced Stone Soup user: q 50, vertical q 2, vertical-velocity prior
-#: 15 m/s, missed distance 8, min_points 3, hold 1.5 revisits, max_coast 40 s).
+#: ``stonesoup_track(*reports, tracker="gnn", **STONESOUP_SETTINGS["gnn"])``.
 STONESOUP_SETTINGS = {
-    name: {"settings": TrackerSettings(q=50.0, q_vertical=2.0, speed_max_vertical=15.0, m=3,
-                                       max_coast=40.0, p_false_reject=8.208052945144475e-14),
-           "hold": 1.5}
-    for name in ("gnn", "jpda")
+    "gnn": {"settings": TrackerSettings(q=20.0, q_vertical=0.03, speed_max_vertical=5.0, m=4,
+                                        max_coast=40.0, p_false_reject=8.208052945144475e-14),
+            "hold": 1.0},
+    "jpda": {"settings": TrackerSettings(q=50.0, q_vertical=0.03, speed_max_vertical=5.0, m=5,
+                                         n=5, max_coast=40.0,
+                                         p_false_reject=8.208052945144475e-14),
+             "hold": 1.5},
 }
