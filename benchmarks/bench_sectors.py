@@ -33,23 +33,10 @@ targets; the cost is the relative difference of the mean GOSPA, sectored against
 
 for the largest K.
 
-Measured on 2026-11-29 (2 cores shared with other programs, load average 4 to 8 during the
-runs, so every time below is noisy; each run once):
-
-==  ===============  ==========  =======  ===============  ===============  =========  ========
-K   sectors          hand-overs  single   sectored (x)     Dask 2 (x)       identical  GOSPA
-==  ===============  ==========  =======  ===============  ===============  =========  ========
-1   2                80          3.3 s    8.4 s (x0.39)    8.6 s (x0.38)    yes        +0.011 %
-4   8                311         25.4 s   36.6 s (x0.69)   29.3 s (x0.87)   yes        +0.197 %
-4   4 (1 per tile)   0           17.5 s   17.2 s (x1.02)   30.6 s (x0.57)   yes        +0.000 %
-16  16 (1 per tile)  0           194.7 s  65.0 s (x3.00)   52.2 s (x3.73)   yes        +0.000 %
-16  32               1263        157.7 s  126.0 s (x1.25)  100.7 s (x1.57)  yes        +0.070 %
-==  ===============  ==========  =======  ===============  ===============  =========  ========
-
-The tracker's cost is mostly per scan (one radar at one instant): a scan whose reports fall
-in several sectors is processed once by each, so on one hour sectoring costs time; the one
-tracker's cost grows faster than the scene (every live track is predicted at every scan), so
-on the 16-tile scene the sectors win, in one process and more on two workers.
+Why sectoring can cost time: much of the tracker's cost is per scan (one radar at one
+instant), and a scan whose reports fall in several sectors is processed once by each; what
+it saves is the one tracker's work over all live tracks at every scan, which grows with the
+scene. Which wins depends on the scene's size: the printed times say it for this run.
 """
 
 from __future__ import annotations
