@@ -1,7 +1,7 @@
 """Benchmark: the continental hour on one core and on Dask by sectors, and how its cost grows.
 
 Run as ``python benchmarks/bench_continent.py [--scale 100] [--duration 3600]
-[--sectors 4 3] [--overlap 30000] [--slope-scales 1 10 100] [--slope-duration 600]
+[--sectors 3 3] [--overlap 30000] [--slope-scales 1 10 100] [--slope-duration 600]
 [--no-dask]``. Everything is measured in this run, one thread per process
 (``OPENBLAS_NUM_THREADS=1`` and friends are set before numpy is imported):
 
@@ -14,7 +14,8 @@ Run as ``python benchmarks/bench_continent.py [--scale 100] [--duration 3600]
    constant velocity, GNN, the defaults tuned on the Swiss tuning hour), wall clock in this
    process.
 3. **Sectors.** ``continent.track_sectored`` on ``sector_grid(position, *sectors,
-   overlap=...)`` (default 4 x 3 sectors, 30 km overlap) in this process, and on a
+   overlap=..., spacing="reports")`` (default 3 x 3 sectors whose columns and rows hold equal
+   numbers of reports, 30 km overlap) in this process, and on a
    ``LocalCluster(n_workers=2, threads_per_worker=1, processes=True)`` started and warmed
    before the clock starts; "identical" is every field of the two answers equal bit for bit.
 4. **Slope.** For each scale of ``--slope-scales`` the same pipeline over the first
@@ -79,7 +80,7 @@ def slope(x, y):
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
-def main(scale=100.0, duration=3600.0, sectors=(4, 3), overlap=30e3,
+def main(scale=100.0, duration=3600.0, sectors=(3, 3), overlap=30e3,
          slope_scales=(1.0, 10.0, 100.0), slope_duration=600.0, dask=True):
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}; load average "
           f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}")
@@ -95,7 +96,7 @@ def main(scale=100.0, duration=3600.0, sectors=(4, 3), overlap=30e3,
     print(f"one core, one tracker: {s_one:.1f} s ({duration / s_one:.1f} x real time, "
           f"{1e6 * s_one / rep.time.size:.1f} us/report), {int(one.n_confirmed)} confirmed "
           "tracks")
-    grid = ct.sector_grid(rep.position, *sectors, overlap=overlap)
+    grid = ct.sector_grid(rep.position, *sectors, overlap=overlap, spacing="reports")
     sec, s_sec = bs.timed(lambda: ct.track_sectored(*args_of(rep), sectors=grid))
     print(f"sectored {sectors[0]} x {sectors[1]} ({overlap / 1e3:g} km overlap), one "
           f"process: {s_sec:.1f} s, {int(sec.handovers.sum())} hand-overs")
@@ -133,7 +134,7 @@ if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scale", type=float, default=100.0)
     p.add_argument("--duration", type=float, default=3600.0)
-    p.add_argument("--sectors", type=int, nargs=2, default=(4, 3))
+    p.add_argument("--sectors", type=int, nargs=2, default=(3, 3))
     p.add_argument("--overlap", type=float, default=30e3)
     p.add_argument("--slope-scales", type=float, nargs="+", default=(1.0, 10.0, 100.0))
     p.add_argument("--slope-duration", type=float, default=600.0)

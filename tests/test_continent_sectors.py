@@ -330,3 +330,23 @@ def test_hand_over_rule_on_handmade_histories(switch):
         assert np.array_equal(h.state[h.track == 8, 0], east_x[3:])   # all of X's east rows
         assert np.array_equal(h.state[h.track == 5, 0], np.r_[west_x[:4], np.full(5, -8.0)])
     assert h.initiated == 9
+
+
+def test_sectors_spaced_by_reports_hold_equal_counts():
+    """spacing='reports': each column and row holds the same number of reports (to one),
+    counted directly; coinciding quantiles and an unknown spacing are refused by name."""
+    rng = np.random.default_rng(5)
+    p = np.c_[rng.exponential(50e3, 999), rng.normal(0.0, 20e3, 999), np.full(999, 9e3)]
+    g = sector_grid(p, 3, 3, overlap=0.0, spacing="reports")
+    assert g.east[0] == p[:, 0].min() and g.east[-1] == p[:, 0].max()
+    for axis, edges in ((0, g.east), (1, g.north)):
+        counts = np.histogram(p[:, axis], bins=edges)[0]
+        assert counts.sum() == 999 and counts.max() - counts.min() <= 1, counts
+    equal = sector_grid(p, 3, 3, overlap=0.0)
+    assert np.ptp(np.diff(equal.east)) < 1e-6 * np.ptp(p[:, 0])
+    assert np.ptp(np.histogram(p[:, 0], bins=equal.east)[0]) > 100     # uneven traffic
+    with pytest.raises(ValueError, match="`n_east`: with spacing='reports'"):
+        sector_grid(np.r_[np.zeros((50, 3)), [[1.0, 1.0, 0.0]]], 3, 1, overlap=0.0,
+                    spacing="reports")
+    with pytest.raises(ValueError, match="`spacing` must be 'equal' or 'reports'"):
+        sector_grid(p, 2, 2, overlap=0.0, spacing="even")

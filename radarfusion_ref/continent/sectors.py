@@ -221,8 +221,8 @@ class Sectors:
         return np.maximum(ce, 0).astype(np.int64) * np.maximum(cn, 0)
 
 
-def sector_grid(position, n_east, n_north, *, overlap) -> Sectors:
-    """A grid of equal sectors spanning the reports' east and north extent.
+def sector_grid(position, n_east, n_north, *, overlap, spacing="equal") -> Sectors:
+    """A grid of sectors spanning the reports' east and north extent.
 
     Parameters
     ----------
@@ -233,17 +233,23 @@ def sector_grid(position, n_east, n_north, *, overlap) -> Sectors:
     overlap : float
         Width by which each sector's tracker sees beyond its borders (>= 0, the
         positions' unit; see :class:`Sectors`).
+    spacing : {"equal", "reports"}, optional
+        ``"equal"`` (default): edges evenly spaced from the smallest to the largest east
+        (north) of `position`. ``"reports"``: edges at the quantiles of the reports' east
+        (north), so that each column (row) of the grid holds about the same number of
+        reports: sectors of balanced work where the traffic is uneven, as a continent's is.
 
     Returns
     -------
     Sectors
-        Edges evenly spaced from the smallest to the largest east (north) of `position`.
 
     Raises
     ------
     ValueError
         Counts below 1, no reports, reports of zero extent in east or north (the sectors
-        would have none), a bad `overlap`, more than :data:`MAX_SECTORS` sectors.
+        would have none), a bad `overlap`, more than :data:`MAX_SECTORS` sectors, a
+        `spacing` not listed, or ``"reports"`` quantiles that coincide (too many reports at
+        one east or north for that many columns or rows).
     TypeError
         Non-numeric `position` or `overlap`, non-integer counts.
 
@@ -252,6 +258,9 @@ def sector_grid(position, n_east, n_north, *, overlap) -> Sectors:
     >>> g = sector_grid([[0.0, 0.0, 9e3], [120e3, 60e3, 9e3]], 3, 1, overlap=5e3)
     >>> g.east.tolist(), g.north.tolist(), g.overlap
     ([0.0, 40000.0, 80000.0, 120000.0], [0.0, 60000.0], 5000.0)
+    >>> sector_grid([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [90.0, 3.0]], 2, 1, overlap=0.0,
+    ...             spacing="reports").east.tolist()
+    [0.0, 1.5, 90.0]
     """
     p = as_float_array(position, "position", ndim_min=2)
     if p.ndim != 2 or p.shape[1] not in (2, 3):
@@ -271,8 +280,21 @@ def sector_grid(position, n_east, n_north, *, overlap) -> Sectors:
             raise ValueError(f"`position`: the reports' {name} extent is zero (all at "
                              f"{lo[axis]:.6g}), so the sectors would have none; give the "
                              "edges to Sectors(...) instead")
-    return Sectors(np.linspace(lo[0], hi[0], n_east + 1), np.linspace(lo[1], hi[1], n_north + 1),
-                   w)
+    if spacing not in ("equal", "reports"):
+        raise ValueError(f"`spacing` must be 'equal' or 'reports'; received {describe(spacing)}")
+    edges = []
+    for axis, n, name in ((0, n_east, "n_east"), (1, n_north, "n_north")):
+        if spacing == "equal":
+            e = np.linspace(lo[axis], hi[axis], n + 1)
+        else:
+            e = np.quantile(p[:, axis], np.linspace(0.0, 1.0, n + 1))
+            e[0], e[-1] = lo[axis], hi[axis]
+            if not np.all(np.diff(e) > 0):
+                raise ValueError(f"`{name}`: with spacing='reports' the {n} columns or rows "
+                                 "would have coinciding edges (many reports at one "
+                                 "coordinate); use fewer, or spacing='equal'")
+        edges.append(e)
+    return Sectors(edges[0], edges[1], w)
 
 
 @dataclass(frozen=True, repr=False, eq=False)
