@@ -260,8 +260,9 @@ def gospa(x, y, *, c, p=2.0, parts=True) -> GospaResult:
     ------
     ValueError
         Non-finite points, points whose differences overflow, a dimension mismatch, `c`
-        not positive, `p` < 1 or not finite, sets whose distance
-        matrix exceeds the memory limit, or (with `parts`) :math:`c^p` outside float64.
+        not positive, `p` < 1 or not finite, a distance matrix (of small sets, or of one
+        cluster of points all linked by pairs closer than `c`) or pairs closer than `c`
+        beyond the memory limit, or (with `parts`) :math:`c^p` outside float64.
     TypeError
         Non-numeric input, or `parts` not a bool.
 
@@ -278,6 +279,16 @@ def gospa(x, y, *, c, p=2.0, parts=True) -> GospaResult:
     distance :math:`\ge c` costs :math:`c^p`, exactly one miss plus one false estimate.
     The sum is formed in units of :math:`c^p` (distances divided by :math:`c`) and the
     total is :math:`c` times its p-th root, so no term underflows or overflows.
+
+    Large sets (more than 2 500 truth-estimate combinations) are solved without the full
+    matrix, with the same optimum: since a pair at :math:`d \ge c` costs exactly what
+    leaving both points unassigned costs, the minimum splits over the connected
+    components of the bipartite graph of the pairs closer than :math:`c` (found with a
+    k-d tree, :class:`scipy.spatial.cKDTree`, and
+    :func:`scipy.sparse.csgraph.connected_components`). A component of one truth and one
+    estimate is that pair; a larger one is a small assignment on its own matrix. The
+    total and parts equal the dense ones to rounding; where the optimum is not unique
+    (ties) the pairs, and so the split between the parts, may be another optimum's.
 
     Examples
     --------
