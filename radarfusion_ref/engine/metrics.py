@@ -199,8 +199,9 @@ def _assign_sparse(x, y, c, p):
     reach = 1.0 + 1e-9                     # a margin over the tree's rounding; u < 1 decides
     count = int(tx.count_neighbors(ty, reach))
     check_size(8 * 6 * count, MEMORY_LIMIT,
-               what=f"bytes of the {count} pairs of `x` and `y` closer than `c`",
-               alternative="a smaller `c` or smaller sets (spatial regions)")
+               what=f"bytes of the {count} pairs of points (`x`, `y`) closer than `c`",
+               alternative="scoring smaller sets (one scan at a time, or spatial regions) "
+                           "or a smaller `c`")
     near = tx.sparse_distance_matrix(ty, reach, output_type="ndarray")
     i, j = near["i"].astype(np.int64), near["j"].astype(np.int64)
     u = _pair_distances(x, y, i, j, c)
