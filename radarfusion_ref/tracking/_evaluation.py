@@ -491,8 +491,10 @@ def _truth_at_pairs(traffic, target, times):
     valid = np.zeros(target.size, bool)
     at, inv = np.unique(times, return_inverse=True)
     block = max(1, _TRUTH_BLOCK // (8 * 8 * max(len(traffic.icao24), 1)))
-    for lo in range(0, at.size, block):
-        sel = np.flatnonzero((inv >= lo) & (inv < lo + block))
+    order = np.argsort(inv, kind="stable")
+    cuts = np.searchsorted(inv[order], np.arange(0, at.size + block, block))
+    for b, lo in enumerate(range(0, at.size, block)):
+        sel = order[cuts[b]:cuts[b + 1]]
         pos, ok = truth_at(traffic, at[lo:lo + block])
         out[sel] = pos[target[sel], inv[sel] - lo]
         valid[sel] = ok[target[sel], inv[sel] - lo]
