@@ -18,7 +18,18 @@ Run as ``python benchmarks/bench_continent.py [--scale 100] [--duration 3600]
    numbers of reports, 30 km overlap) in this process, and on a
    ``LocalCluster(n_workers=2, threads_per_worker=1, processes=True)`` started and warmed
    before the clock starts; "identical" is every field of the two answers equal bit for bit.
-4. **Slope.** For each scale of ``--slope-scales`` the same pipeline over the first
+4. **Scores.** The one tracker's history and the sectored one are scored by
+   ``tracking.evaluate_tracks`` against ``continent.truth_samples(sc, times)`` (the aircraft
+   inside some radar's coverage) at ``times`` every 30 s from 60 s, GOSPA c = 2000 m, p = 2
+   (its exact sparse assignment: the pairs closer than c split the instant into small
+   independent problems). Printed: mean GOSPA; GOSPA per aircraft, the root of the mean over
+   the instants of GOSPA^2 over the number of aircraft in the truth then (comparable across
+   traffic levels, where GOSPA itself grows as the root of the aircraft count); tracks per
+   aircraft; false tracks per hour; and the sectoring cost, the relative difference of the
+   mean GOSPA, sectored against one tracker. For comparison, the same GOSPA per aircraft of
+   the Swiss scored hour (the pipeline of ``bench_tracking.py``: seed 2018, ``TrackerSettings()``,
+   ``tracking.evaluate_tracks_over_time`` every 10 s from 60 s in the radars' coverage).
+5. **Slope.** For each scale of ``--slope-scales`` the same pipeline over the first
    ``--slope-duration`` seconds, one tracker on one core: seconds against reports, and the
    least-squares slope of log(seconds) against log(reports) (1: cost linear in the reports;
    2: in their square). The cost per report's own slope against the traffic is that slope
@@ -26,15 +37,12 @@ Run as ``python benchmarks/bench_continent.py [--scale 100] [--duration 3600]
 
 The last line is exactly::
 
-    continent hour: <aircraft> aircraft <radars> radars one core <s> s | dask 2 workers <s> s identical <yes|no> | slope <x>
+    continent hour: <aircraft> aircraft <radars> radars one core <s> s | dask 2 workers <s> s identical <yes|no> | slope <x> | GOSPA/aircraft <m> m (Swiss <m> m) tracks/aircraft <x> | sectoring <+x.x> %
 
 with the aircraft airborne at the window's middle (``continent.airborne_count``), the one-core
-time of step 2, the Dask time of step 3 and the slope of step 4. The machine has 2 cores;
+time of step 2, the Dask time of step 3, the slope of step 5, and the one tracker's GOSPA per
+aircraft (the Swiss hour's beside it), tracks per aircraft and the sectoring cost of step 4. The machine has 2 cores;
 timings on a loaded machine are longer: read them with the load average printed first.
-
-Not measured here yet: GOSPA and tracks per aircraft of the continental hour (the scoring
-function's dense assignment per instant and its truth at every row instant do not fit the
-continent; see ``tracking.evaluate_tracks``' memory refusal).
 """
 
 from __future__ import annotations
@@ -59,6 +67,7 @@ from radarfusion_ref import tracking as trk  # noqa: E402
 
 SEED = 2026
 WARMUP = 300.0                                      # s of reports for the registration
+C_CUT, P_ORDER, STEP, FIRST = 2000.0, 2.0, 30.0, 60.0   # GOSPA (m) and the scored instants (s)
 
 
 def scene(scale, duration):
@@ -73,6 +82,33 @@ def scene(scale, duration):
 
 def args_of(rep):
     return rep.time, rep.position, rep.cov, rep.radar, rep.scan
+
+
+def gospa_per_aircraft(m):
+    """Root of the mean over the instants with aircraft of GOSPA^2 / aircraft in the truth.
+
+    The truth count at an instant is its assigned pairs plus its missed ones (each missed
+    aircraft costs c^p / 2 of the missed part)."""
+    assigned = np.sum(m.track_of >= 0, axis=0)
+    n_truth = assigned + np.rint(2.0 * m.missed / m.c ** m.p).astype(int)
+    ok = n_truth > 0
+    return float(np.sqrt(np.mean(m.gospa[ok] ** 2 / n_truth[ok])))
+
+
+def score(sc, history, duration):
+    """``TrackingMetrics`` of a continental history against the visible truth."""
+    times = np.arange(FIRST, duration, STEP)
+    truth = ct.truth_samples(sc, times)
+    return trk.evaluate_tracks(history, *truth, c=C_CUT, p=P_ORDER, times=times)
+
+
+def swiss_gospa_per_aircraft():
+    """GOSPA per aircraft of the Swiss scored hour (``bench_tracking.py``'s pipeline)."""
+    import bench_tracking as bt
+
+    s = bt._scene()
+    _, reports = bt.detections(s["traffic"], s["radars"], 3600.0, bt.SEED)
+    return gospa_per_aircraft(bt.score(bt.run_tracker("ours_cv", reports), 3600.0))
 
 
 def slope(x, y):
@@ -100,6 +136,16 @@ def main(scale=100.0, duration=3600.0, sectors=(3, 3), overlap=30e3,
     sec, s_sec = bs.timed(lambda: ct.track_sectored(*args_of(rep), sectors=grid))
     print(f"sectored {sectors[0]} x {sectors[1]} ({overlap / 1e3:g} km overlap), one "
           f"process: {s_sec:.1f} s, {int(sec.handovers.sum())} hand-overs")
+    (m_one, m_sec), s_score = bs.timed(lambda: (score(sc, one, duration),
+                                                score(sc, sec.history, duration)))
+    for name, m in (("one tracker", m_one), ("sectored", m_sec)):
+        print(f"scores, {name}: mean GOSPA {m.mean_gospa:.0f} m, GOSPA/aircraft "
+              f"{gospa_per_aircraft(m):.0f} m, tracks/aircraft {m.tracks_per_aircraft:.3f}, "
+              f"false tracks/h {m.false_tracks_per_hour:.1f}")
+    cost = 100.0 * (m_sec.mean_gospa - m_one.mean_gospa) / m_one.mean_gospa
+    swiss = swiss_gospa_per_aircraft()
+    print(f"sectoring cost {cost:+.1f} % of mean GOSPA; Swiss scored hour GOSPA/aircraft "
+          f"{swiss:.0f} m; {s_score:.1f} s to score both")
     s_dask, identical = float("nan"), "no"
     if dask:
         cluster, client = bs.start_cluster()
@@ -126,7 +172,9 @@ def main(scale=100.0, duration=3600.0, sectors=(3, 3), overlap=30e3,
     print(f"slope of seconds against reports {b:.2f}; of the cost per report against the "
           f"traffic {per:.2f}")
     print(f"continent hour: {n_air} aircraft {len(sc.radars)} radars one core {s_one:.1f} s "
-          f"| dask 2 workers {s_dask:.1f} s identical {identical} | slope {b:.2f}")
+          f"| dask 2 workers {s_dask:.1f} s identical {identical} | slope {b:.2f} "
+          f"| GOSPA/aircraft {gospa_per_aircraft(m_one):.0f} m (Swiss {swiss:.0f} m) "
+          f"tracks/aircraft {m_one.tracks_per_aircraft:.3f} | sectoring {cost:+.1f} %")
     return 0
 
 

@@ -24,6 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from .linalg import mahalanobis_sq
 from .montecarlo import Proportion, proportion
@@ -100,9 +103,9 @@ def _gospa_iv(x, y, c, p, parts):
     if not isinstance(parts, (bool, np.bool_)):
         raise TypeError(f"`parts` must be True or False; received {describe(parts)}")
     n, k = x.shape[0], y.shape[0]
-    check_size(8 * 3 * n * k * max(x.shape[1], 1), MEMORY_LIMIT,
-               what=f"bytes of the distance matrix of {n} x {k} points (`x`, `y`)",
-               alternative="scoring smaller sets (one scan at a time, or spatial regions)")
+    _check_differences(x, y)
+    if n * k <= _SPARSE_ABOVE or not _kdtree_safe(x, y, c):
+        _check_matrix(n, k, x.shape[1])
     # the parts are in units of c**p: refuse where that unit is no normal float64
     log_cp = p * np.log(c)
     if parts and (n or k) and not (np.log(_TINY) <= log_cp <= np.log(_HUGE / (n + k))):
@@ -131,6 +134,109 @@ def _scaled_distances(x, y, c):
         return dist / c                                           # inf only beyond the cut-off
 
 
+#: Above this many (truth, estimate) combinations `gospa` solves the assignment sparsely.
+_SPARSE_ABOVE = 2500            # the crossover of the two routes, about 50 x 50 points
+
+
+def _check_differences(x, y):
+    """Refuse points whose differences overflow float64 (the largest |x - y| per axis is
+    max(x) - min(y) or max(y) - min(x))."""
+    if not (x.shape[0] and y.shape[0]):
+        return
+    with np.errstate(over="ignore", invalid="ignore"):
+        span = np.maximum(x.max(axis=0) - y.min(axis=0), y.max(axis=0) - x.min(axis=0))
+    if not np.all(np.isfinite(span)):
+        raise ValueError("`x` and `y` hold points whose differences overflow float64 "
+                         f"(largest |coordinate| {max(np.max(np.abs(x)), np.max(np.abs(y))):.3g})")
+
+
+def _check_matrix(n, k, d):
+    check_size(8 * 3 * n * k * max(d, 1), MEMORY_LIMIT,
+               what=f"bytes of the distance matrix of {n} x {k} points (`x`, `y`)",
+               alternative="scoring smaller sets (one scan at a time, or spatial regions)")
+
+
+def _kdtree_safe(x, y, c):
+    """Whether the points divided by `c` keep their squared distances finite (the k-d
+    tree's domain); otherwise the dense route, which scales each difference, is used."""
+    with np.errstate(over="ignore"):
+        m = max(np.max(np.abs(x)), np.max(np.abs(y))) / c
+    return bool(np.isfinite(m) and m < 2.0 ** 400)
+
+
+def _assign_dense(x, y, c, p):
+    """The assignment on the full matrix of min(d / c, 1)**p: (loc, assigned, pairs)."""
+    n, k = x.shape[0], y.shape[0]
+    if not (n and k):
+        return 0.0, 0, np.zeros((0, 2), dtype=np.int64)
+    u = _scaled_distances(x, y, c)                                    # d / c
+    ri, ci = linear_sum_assignment(np.minimum(u, 1.0) ** p)           # min over gamma
+    close = u[ri, ci] < 1.0                                           # pairs kept in gamma
+    loc = float(np.sum(u[ri, ci][close] ** p))
+    pairs = np.stack([ri[close], ci[close]], axis=-1).astype(np.int64)
+    return loc, int(close.sum()), pairs
+
+
+def _pair_distances(x, y, i, j, c):
+    """d(x_i, y_j) / c for listed pairs, by the formula of :func:`_scaled_distances`."""
+    diff = x[i] - y[j]
+    big = np.max(np.abs(diff), axis=-1, keepdims=True)
+    safe = np.where(big > 0, big, 1.0)
+    with np.errstate(over="ignore"):
+        return big[:, 0] * np.linalg.norm(diff / safe, axis=-1) / c
+
+
+def _assign_sparse(x, y, c, p):
+    r"""The same optimum as :func:`_assign_dense`, component by component.
+
+    A pair at distance :math:`\ge c` costs :math:`c^p`, as much as leaving both points
+    unassigned, so the optimum splits over the connected components of the bipartite
+    graph of the pairs closer than `c`: a component of one truth and one estimate is
+    that pair; a larger one is a small dense assignment.
+    """
+    n, k = x.shape[0], y.shape[0]
+    tx, ty = cKDTree(x / c), cKDTree(y / c)
+    reach = 1.0 + 1e-9                     # a margin over the tree's rounding; u < 1 decides
+    count = int(tx.count_neighbors(ty, reach))
+    check_size(8 * 6 * count, MEMORY_LIMIT,
+               what=f"bytes of the {count} pairs of points (`x`, `y`) closer than `c`",
+               alternative="scoring smaller sets (one scan at a time, or spatial regions) "
+                           "or a smaller `c`")
+    near = tx.sparse_distance_matrix(ty, reach, output_type="ndarray")
+    i, j = near["i"].astype(np.int64), near["j"].astype(np.int64)
+    u = _pair_distances(x, y, i, j, c)
+    keep = u < 1.0                                                 # the graph's edges
+    i, j, u = i[keep], j[keep], u[keep]
+    if not i.size:
+        return 0.0, 0, np.zeros((0, 2), dtype=np.int64)
+    graph = coo_matrix((np.ones(i.size), (i, n + j)), shape=(n + k, n + k))
+    _, label = connected_components(graph, directed=False)
+    size = np.bincount(label[i], minlength=label.max() + 1)        # edges per component
+    single = size[label[i]] == 1                                   # one truth, one estimate
+    loc_parts = [u[single] ** p]
+    pi, pj = [i[single]], [j[single]]
+    rest = np.flatnonzero(~single)
+    if rest.size:
+        rest = rest[np.argsort(label[i[rest]], kind="stable")]
+        bounds = np.flatnonzero(np.diff(label[i[rest]])) + 1
+        for e in np.split(rest, bounds):
+            rows, r_inv = np.unique(i[e], return_inverse=True)
+            cols, c_inv = np.unique(j[e], return_inverse=True)
+            _check_matrix(rows.size, cols.size, x.shape[1])
+            cost = np.ones((rows.size, cols.size))                 # min(d / c, 1)**p
+            cost[r_inv, c_inv] = u[e] ** p
+            ri, ci = linear_sum_assignment(cost)
+            sub = np.full((rows.size, cols.size), np.inf)
+            sub[r_inv, c_inv] = u[e]
+            close = sub[ri, ci] < 1.0
+            loc_parts.append(sub[ri, ci][close] ** p)
+            pi.append(rows[ri[close]])
+            pj.append(cols[ci[close]])
+    pairs = np.stack([np.concatenate(pi), np.concatenate(pj)], axis=-1)
+    pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
+    return float(np.sum(np.concatenate(loc_parts))), pairs.shape[0], pairs
+
+
 def gospa(x, y, *, c, p=2.0, parts=True) -> GospaResult:
     r"""Generalized OSPA metric with α = 2 and its localisation, missed and false parts.
 
@@ -155,8 +261,9 @@ def gospa(x, y, *, c, p=2.0, parts=True) -> GospaResult:
     ------
     ValueError
         Non-finite points, points whose differences overflow, a dimension mismatch, `c`
-        not positive, `p` < 1 or not finite, sets whose distance
-        matrix exceeds the memory limit, or (with `parts`) :math:`c^p` outside float64.
+        not positive, `p` < 1 or not finite, a distance matrix (of small sets, or of one
+        cluster of points all linked by pairs closer than `c`) or pairs closer than `c`
+        beyond the memory limit, or (with `parts`) :math:`c^p` outside float64.
     TypeError
         Non-numeric input, or `parts` not a bool.
 
@@ -174,6 +281,16 @@ def gospa(x, y, *, c, p=2.0, parts=True) -> GospaResult:
     The sum is formed in units of :math:`c^p` (distances divided by :math:`c`) and the
     total is :math:`c` times its p-th root, so no term underflows or overflows.
 
+    Large sets (more than 2 500 truth-estimate combinations) are solved without the full
+    matrix, with the same optimum: since a pair at :math:`d \ge c` costs exactly what
+    leaving both points unassigned costs, the minimum splits over the connected
+    components of the bipartite graph of the pairs closer than :math:`c` (found with a
+    k-d tree, :class:`scipy.spatial.cKDTree`, and
+    :func:`scipy.sparse.csgraph.connected_components`). A component of one truth and one
+    estimate is that pair; a larger one is a small assignment on its own matrix. The
+    total and parts equal the dense ones to rounding; where the optimum is not unique
+    (ties) the pairs, and so the split between the parts, may be another optimum's.
+
     Examples
     --------
     >>> g = gospa([[0.0, 0.0], [10.0, 0.0]], [[1.0, 0.0]], c=5.0)
@@ -182,15 +299,10 @@ def gospa(x, y, *, c, p=2.0, parts=True) -> GospaResult:
     """
     x, y, c, p = _gospa_iv(x, y, c, p, parts)
     n, k = x.shape[0], y.shape[0]
-    loc, assigned = 0.0, 0                                            # in units of c**p
-    pairs = np.zeros((0, 2), dtype=np.int64)
-    if n and k:
-        u = _scaled_distances(x, y, c)                                # d / c
-        ri, ci = linear_sum_assignment(np.minimum(u, 1.0) ** p)       # min over gamma
-        close = u[ri, ci] < 1.0                                       # pairs kept in gamma
-        assigned = int(close.sum())
-        loc = float(np.sum(u[ri, ci][close] ** p))
-        pairs = np.stack([ri[close], ci[close]], axis=-1).astype(np.int64)
+    if n * k > _SPARSE_ABOVE and _kdtree_safe(x, y, c):
+        loc, assigned, pairs = _assign_sparse(x, y, c, p)
+    else:
+        loc, assigned, pairs = _assign_dense(x, y, c, p)
     missed, false = (n - assigned) / 2.0, (k - assigned) / 2.0
     with np.errstate(over="ignore"):
         total = float(c * (loc + missed + false) ** (1.0 / p))

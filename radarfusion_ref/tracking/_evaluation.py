@@ -225,8 +225,8 @@ def _tracks_at(history, times, max_age):
 # --------------------------------------------------------------------------- scoring
 def _score(history, t, truth, valid, truth_id, truth_rows, c, p, max_age):
     """The scores of :class:`TrackingMetrics` at instants `t` against `truth` (A, T, 3)
-    present where `valid`; `truth_rows(times)` gives (truth, valid) at the history's row
-    instants, for NEES."""
+    present where `valid`; `truth_rows(target, times)` gives (truth (N, 3), valid (N,)) of
+    target ``target[i]`` (a row of `truth`) at ``times[i]``, for NEES."""
     states = _tracks_at(history, t, max_age)
     ids, est = states.track, states.state[..., :3]
     A, T = valid.shape
@@ -271,11 +271,6 @@ def _evaluate_iv(history, c, p, times, max_age, n_truth):
                what=f"bytes of track and truth states ({n_tracks} tracks, "
                     f"{n_truth} targets x {t.size} `times`)",
                alternative="fewer `times` (a coarser grid, or windows)")
-    n_rows = np.unique(history.time[history.confirmed]).size       # NEES: truth at rows
-    check_size(8 * 4 * n_truth * n_rows, MEMORY_LIMIT,
-               what=f"bytes of the truth at the rows' instants ({n_truth} targets x "
-                    f"{n_rows} instants of `history`)",
-               alternative="scoring the history in windows of time")
     return c, p, t, max_age
 
 
@@ -311,6 +306,23 @@ class _Samples:
         order = np.lexsort((tt, inv))
         self.inv, self.t, self.pos = inv[order], tt[order], pos[order]
         self.bounds = np.searchsorted(self.inv, np.arange(self.ids.size + 1))
+
+    def at_pairs(self, target, times):
+        """Target ``target[i]`` (index into `ids`) at ``times[i]``: positions (N, 3), NaN
+        where not valid, and valid (N,), as :meth:`__call__` gives them, pair by pair."""
+        out = np.full((target.size, 3), np.nan)
+        valid = np.zeros(target.size, bool)
+        order = np.argsort(target, kind="stable")
+        cuts = np.searchsorted(target[order], np.arange(self.ids.size + 1))
+        for a in np.flatnonzero(np.diff(cuts)):
+            q = order[cuts[a]:cuts[a + 1]]
+            lo, hi = self.bounds[a], self.bounds[a + 1]
+            ts, ps = self.t[lo:hi], self.pos[lo:hi]
+            ok = (times[q] >= ts[0]) & (times[q] <= ts[-1])
+            valid[q] = ok
+            for d in range(3):
+                out[q[ok], d] = np.interp(times[q][ok], ts, ps[:, d])
+        return out, valid
 
     def __call__(self, times):
         A = self.ids.size
@@ -391,8 +403,8 @@ def evaluate_tracks(history, truth_time, truth_position, truth_id, *, c, p=2.0, 
     c, p, t, max_age = _evaluate_iv(history, c, p, times, max_age, np.unique(ident).size)
     samples = _Samples(tt, pos, ident)
     truth, valid = samples(t)
-    return _score(history, t, truth, valid, samples.ids.astype(np.int64), samples, c, p,
-                  max_age)
+    return _score(history, t, truth, valid, samples.ids.astype(np.int64), samples.at_pairs,
+                  c, p, max_age)
 
 
 def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radars=None,
@@ -468,7 +480,29 @@ def evaluate_tracks_over_time(history, traffic, *, c=2000.0, p=2.0, times, radar
         cov[valid] = coverage_count(truth[valid], radars) >= min_radars
         valid = cov
     return _score(history, t, truth, valid, np.arange(valid.shape[0], dtype=np.int64),
-                  lambda at: truth_at(traffic, at), c, p, max_age)
+                  lambda target, at: _truth_at_pairs(traffic, target, at), c, p, max_age)
+
+
+def _truth_at_pairs(traffic, target, times):
+    """Aircraft ``target[i]`` at ``times[i]`` by :func:`~radarfusion_ref.capstone.truth_at`,
+    asked for a block of distinct instants at a time (the whole fleet at each), so memory
+    stays bounded whatever the number of instants."""
+    out = np.full((target.size, 3), np.nan)
+    valid = np.zeros(target.size, bool)
+    at, inv = np.unique(times, return_inverse=True)
+    block = max(1, _TRUTH_BLOCK // (8 * 8 * max(len(traffic.icao24), 1)))
+    order = np.argsort(inv, kind="stable")
+    cuts = np.searchsorted(inv[order], np.arange(0, at.size + block, block))
+    for b, lo in enumerate(range(0, at.size, block)):
+        sel = order[cuts[b]:cuts[b + 1]]
+        pos, ok = truth_at(traffic, at[lo:lo + block])
+        out[sel] = pos[target[sel], inv[sel] - lo]
+        valid[sel] = ok[target[sel], inv[sel] - lo]
+    return out, valid
+
+
+#: Bytes of the fleet's truth asked of ``truth_at`` at once, for the NEES rows.
+_TRUTH_BLOCK = 1 << 26
 
 
 def _nees(history, truth_rows, track_of):
@@ -481,17 +515,15 @@ def _nees(history, truth_rows, track_of):
     order = np.lexsort((-counts, key[:, 0]))                 # most pairings first per track
     key = key[order]
     first = np.unique(key[:, 0], return_index=True)[1]
-    main = dict(zip(key[first, 0].tolist(), key[first, 1].tolist(), strict=True))
-    rows = np.flatnonzero(history.confirmed & np.isin(history.track, list(main)))
+    tracks, mains = key[first, 0], key[first, 1]         # each paired track's main target
+    rows = np.flatnonzero(history.confirmed & np.isin(history.track, tracks))
     if not rows.size:
         return None
-    times, inv = np.unique(history.time[rows], return_inverse=True)
-    truth, valid = truth_rows(times)
-    target = np.array([main[int(k)] for k in history.track[rows]])
-    ok = valid[target, inv]
+    target = mains[np.searchsorted(tracks, history.track[rows])]
+    truth, ok = truth_rows(target, history.time[rows])             # only the pairs needed
     if not ok.any():
         return None
-    err = history.state[rows[ok], :3] - truth[target[ok], inv[ok]]
+    err = history.state[rows[ok], :3] - truth[ok]
     try:
         return nees(err, history.covariance[rows[ok], :3, :3])
     except ValueError as exc:           # the engine names its own argument; name ours
