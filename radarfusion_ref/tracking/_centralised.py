@@ -7,6 +7,7 @@ import math
 import warnings
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 from scipy.spatial import cKDTree
 
 from .. import gating
@@ -730,13 +731,37 @@ def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):
     best = np.lexsort((-gain, cluster))[first]           # largest gain first per cluster
     pick = simple & (gain[best] > 0.0)
     take[order[best[pick]]] = True
-    for c in np.flatnonzero(~simple):
-        p = order[cut[c]:cut[c + 1]]
-        rows, cols = np.unique(ti[p], return_inverse=True)
-        rep, rcol = np.unique(rj[p], return_inverse=True)
-        nt, nm = rows.size, rep.size
+    # the other clusters: one exact assignment each, of the tracks to their gated reports
+    # or to their own miss column (always allowed, so every track is assigned and the
+    # solver's optimum is the GNN hypothesis; the inputs are trusted: finite increments)
+    rest = np.repeat(~simple, np.diff(cut))
+    if not rest.any():
+        return
+    p_all, c_all = order[rest], cluster[rest]
+    col_all = _rank_within(c_all, ti[p_all])        # the track's row in its cluster's matrix
+    rep_all = _rank_within(c_all, rj[p_all])        # the report's column
+    edges = np.flatnonzero(np.r_[True, c_all[1:] != c_all[:-1], True])
+    for a, b in zip(edges[:-1].tolist(), edges[1:].tolist(), strict=True):
+        p, cols, rcol = p_all[a:b], col_all[a:b], rep_all[a:b]
+        nt, nm = int(cols.max()) + 1, int(rcol.max()) + 1
+        tracks = np.empty(nt, np.int64)
+        tracks[cols] = ti[p]
         cost = np.full((nt, nm + nt), np.inf)
         cost[cols, rcol] = -inc_pair[p]
-        cost[np.arange(nt), nm + np.arange(nt)] = -inc[rows]
-        choice = assignment.assign_two_lists(cost).row_to_col
+        cost[np.arange(nt), nm + np.arange(nt)] = -inc[tracks]
+        r_i, c_i = linear_sum_assignment(cost)
+        choice = np.empty(nt, dtype=np.intp)
+        choice[r_i] = c_i
         take[p[choice[cols] == rcol]] = True
+
+
+def _rank_within(group, key):
+    """Dense rank (0, 1, ...) of each `key` among the distinct keys of its `group` (`group`
+    non-decreasing): the index ``np.unique`` of the group's keys would give it."""
+    o = np.lexsort((key, group))
+    g, k = group[o], key[o]
+    first = np.r_[True, g[1:] != g[:-1]]
+    step = np.cumsum(first | np.r_[True, k[1:] != k[:-1]])
+    rank = np.empty(o.size, np.int64)
+    rank[o] = step - step[np.flatnonzero(first)][np.cumsum(first) - 1]
+    return rank
