@@ -140,6 +140,50 @@ def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = 
     return nb, seconds
 
 
+#: Chapters the notebook and mutation tests execute at once, one kernel and one process each
+#: (``RADARFUSION_TEST_WORKERS`` overrides; the suite's budget is measured on 2 cores).
+WORKERS = int(os.environ.get("RADARFUSION_TEST_WORKERS", min(2, os.cpu_count() or 1)))
+
+
+def _execute_job(job):
+    """One chapter in a worker process: ``(notebook, seconds, None)`` or ``(None, 0, error)``."""
+    path, kwargs = job
+    try:
+        nb, seconds = execute_chapter(path, cache_dir=None, **kwargs)
+    except ChapterExecutionError as exc:
+        return None, 0.0, str(exc)
+    return nb, seconds, None
+
+
+def execute_chapters(jobs: dict, *, cache_dir: Path | None = None, workers: int = WORKERS):
+    """Execute several chapters, `workers` at a time, each in a process of its own.
+
+    `jobs` maps a key to ``(path, keyword arguments of execute_chapter)`` (``check_log``,
+    ``preamble``, ``timeout``). Returns the same keys mapped to ``(notebook, seconds,
+    error)``: the error text of :class:`ChapterExecutionError`, or None. The notebooks that
+    executed without error and without a preamble are stored in `cache_dir` afterwards, in
+    this process (one writer for the cache). The largest files go first, so the last
+    chapter to finish is a short one.
+    """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    order = sorted(jobs, key=lambda k: -Path(jobs[k][0]).stat().st_size)
+    if workers <= 1 or len(jobs) <= 1:
+        results = {k: _execute_job(jobs[k]) for k in order}
+    else:
+        ctx = multiprocessing.get_context("spawn")      # no fork of the test process
+        with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx) as pool:
+            futures = {k: pool.submit(_execute_job, jobs[k]) for k in order}
+            results = {k: f.result() for k, f in futures.items()}
+    for k, (nb, seconds, error) in results.items():
+        path, kwargs = jobs[k]
+        if error is None and cache_dir is not None and kwargs.get("preamble") is None:
+            _store_in_cache(nb, Path(path).resolve(), seconds, cache_dir)
+            EXECUTED.add(str(Path(path).resolve()))
+    return {k: results[k] for k in jobs}
+
+
 def _shown_errors(nb) -> list[str]:
     """Error outputs of cells not tagged ``raises-exception``, as "cell N: Name: value"."""
     out = []

@@ -19,7 +19,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from book_tools import ROOT, ChapterExecutionError, execute_chapter, notebook_docnames
+from book_tools import ROOT, execute_chapters, notebook_docnames
 
 BOOK_ROOT = Path(os.environ.get("RADARFUSION_BOOK_ROOT", ROOT))
 CHAPTERS = notebook_docnames(BOOK_ROOT)
@@ -38,16 +38,30 @@ def chapter_key(docname: str) -> str:
     return match.group(1) if match else stem
 
 
+def selected(request, test_name: str) -> list:
+    """The `docname` parameters of `test_name` in this module that this run selected."""
+    return [item.callspec.params["docname"] for item in request.session.items
+            if item.path == request.path and getattr(item, "originalname", None) == test_name]
+
+
+@pytest.fixture(scope="module")
+def executed(request, tmp_path_factory):
+    """The selected chapters, executed two at a time (``book_tools.execute_chapters``) into
+    Jupyter Book's cache, each with its own ledger of passing checks."""
+    logs = tmp_path_factory.mktemp("checks")
+    jobs = {d: (BOOK_ROOT / f"{d}.md", {"check_log": logs / f"{d.replace('/', '-')}.log"})
+            for d in selected(request, "test_chapter_executes")}
+    return jobs, execute_chapters(jobs, cache_dir=BOOK_ROOT / "_build" / ".jupyter_cache")
+
+
 @pytest.mark.notebook
 @pytest.mark.parametrize("docname", CHAPTERS)
-def test_chapter_executes(docname, tmp_path):
-    path = BOOK_ROOT / f"{docname}.md"
-    log = tmp_path / "checks.log"
-    try:
-        _, seconds = execute_chapter(path, cache_dir=BOOK_ROOT / "_build" / ".jupyter_cache",
-                                     check_log=log)
-    except ChapterExecutionError as exc:
-        pytest.fail(str(exc), pytrace=False)
+def test_chapter_executes(docname, executed):
+    jobs, results = executed
+    _, seconds, error = results[docname]
+    if error is not None:
+        pytest.fail(error, pytrace=False)
+    log = jobs[docname][1]["check_log"]
     lines = log.read_text(encoding="utf-8").splitlines() if log.exists() else []
     key = chapter_key(docname)
     EXECUTED_CHECKS[key] = EXECUTED_CHECKS.get(key, 0) + len(lines)
