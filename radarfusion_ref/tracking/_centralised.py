@@ -492,7 +492,7 @@ class _Tracker:
         beta = np.zeros(ti.size)
         b0 = np.ones(lv.ids.size)
         order = np.argsort(pair_lab, kind="stable")
-        cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
+        cut = _cuts(pair_lab[order])
         for a, b in itertools.pairwise(cut):
             p = order[a:b]
             rows, cols = np.unique(ti[p], return_inverse=True)
@@ -665,7 +665,7 @@ def _clusters(ti, rj, M):
     longest chain of overlapping gates, halved by the second step).
     """
     lab = ti.copy()                                    # each pair: its track's label
-    first = np.flatnonzero(np.r_[True, ti[1:] != ti[:-1]])
+    first = np.flatnonzero(_starts(ti))
     node = np.full(int(ti[-1]) + 1, np.iinfo(np.int64).max)
     while True:
         rep = np.full(M, np.iinfo(np.int64).max)
@@ -720,7 +720,7 @@ def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):
     if not pairs.size:
         return
     order = pairs[np.argsort(pair_lab[pairs], kind="stable")]
-    cut = np.flatnonzero(np.r_[True, np.diff(pair_lab[order]) != 0, True])
+    cut = _cuts(pair_lab[order])
     first, t_o, r_o = cut[:-1], ti[order], rj[order]
     # a cluster of one track or of one report: its pair of largest gain over the track's
     # miss, if positive (the assignment of such a cluster), for every such cluster at once
@@ -740,7 +740,7 @@ def _assign_clusters(pairs, ti, rj, inc_pair, pair_lab, inc, take):
     p_all, c_all = order[rest], cluster[rest]
     col_all = _rank_within(c_all, ti[p_all])        # the track's row in its cluster's matrix
     rep_all = _rank_within(c_all, rj[p_all])        # the report's column
-    edges = np.flatnonzero(np.r_[True, c_all[1:] != c_all[:-1], True])
+    edges = _cuts(c_all)
     for a, b in zip(edges[:-1].tolist(), edges[1:].tolist(), strict=True):
         p, cols, rcol = p_all[a:b], col_all[a:b], rep_all[a:b]
         nt, nm = int(cols.max()) + 1, int(rcol.max()) + 1
@@ -760,8 +760,21 @@ def _rank_within(group, key):
     non-decreasing): the index ``np.unique`` of the group's keys would give it."""
     o = np.lexsort((key, group))
     g, k = group[o], key[o]
-    first = np.r_[True, g[1:] != g[:-1]]
-    step = np.cumsum(first | np.r_[True, k[1:] != k[:-1]])
+    first = _starts(g)
+    step = np.cumsum(first | _starts(k))
     rank = np.empty(o.size, np.int64)
     rank[o] = step - step[np.flatnonzero(first)][np.cumsum(first) - 1]
     return rank
+
+
+def _starts(a):
+    """Mask of the entries of `a` (1-D) that differ from their predecessor (the first: True)."""
+    m = np.empty(a.size, dtype=bool)
+    m[:1] = True
+    np.not_equal(a[1:], a[:-1], out=m[1:])
+    return m
+
+
+def _cuts(a):
+    """Bounds of the runs of equal entries of `a` (1-D): run k is ``a[c[k]:c[k + 1]]``."""
+    return np.append(np.flatnonzero(_starts(a)), a.size)
