@@ -85,6 +85,10 @@ TERMS: dict[str, str] = {
     "linearized conversion": r"(?i:\blineari[sz]ed (?:conversions?|covariances?)\b)",
     "binding": r"(?i:\bbinding\b)",
     "false-accept probability": r"(?i:\bfalse[- ]accept(?:ance)?(?: rates?| probabilit(?:y|ies))?\b)",
+    "sector": r"(?i:\bsectors?\b)",
+    "hand-over": r"(?i:\bhand-overs?\b)",
+    "real-time factor": r"(?i:\breal-time factors?\b)",
+    "spatial index": r"(?i:\bspatial ind(?:ex|exes|ices)\b)",
 }
 
 

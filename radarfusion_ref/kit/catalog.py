@@ -80,6 +80,8 @@ CHAPTERS: tuple[Chapter, ...] = (
             "ADS-B truth; the whole pipeline; GOSPA score", (1, 3, 5, 6, 8, 9)),
     Chapter("tracking", 12, "From reports to tracks", "B",
             "track score and SPRT; GNN; JPDA; three architectures", (3, 4, 10, 11)),
+    Chapter("continent", 13, "A continent in real time", "B",
+            "cost per report; sectors and hand-over; real-time factor", (3, 4, 11, 12)),
 )
 
 
