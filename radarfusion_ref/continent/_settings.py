@@ -1,0 +1,38 @@
+"""The tracker's settings for the continental scene: its design values and its tuned choice.
+
+:data:`CONTINENT_DESIGN` states what the tracker is told of the continental radars (their
+clutter density and detection probability, from the scene's draws,
+:data:`~radarfusion_ref.continent.scenario.RADAR_DRAWS`), as
+:class:`~radarfusion_ref.tracking.TrackerSettings` asks for another scene than the
+capstone's; :data:`CONTINENT_SETTINGS` adds the knobs tuned on a continental tuning hour by
+``benchmarks/tune_continent.py`` (the protocol of ``benchmarks/tune_tracking.py``; its runs
+are in ``benchmarks/data/continent_tuning.csv``).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..tracking import TrackerSettings
+from ._reports import CLUTTER_UP
+from ._scene import RADAR_DRAWS
+
+
+def _clutter_density():
+    r"""Mean false reports per m³ per scan of the drawn radars: :math:`E[\lambda]\,E[1/R^2]
+    / (\pi\,\Delta h)` with :math:`\lambda` uniform, :math:`R` uniform on :math:`[a, b]`
+    (:math:`E[1/R^2] = 1/(ab)`) and :math:`\Delta h` the clutter's height band."""
+    lam = sum(RADAR_DRAWS["clutter_rate"]) / 2
+    a, b = RADAR_DRAWS["max_range"]
+    return lam / (a * b) / (math.pi * (CLUTTER_UP[1] - CLUTTER_UP[0]))
+
+
+#: What the tracker is told of the continental radars: the mean clutter density of their
+#: draws (about 2.8e-15 per m³ per scan: 5-20 false reports per scan over a 250-400 km
+#: disk, 1-15 km up) and their mean detection probability (0.875).
+CONTINENT_DESIGN = {"clutter_density": _clutter_density(),
+                    "p_detection": sum(RADAR_DRAWS["p_detect"]) / 2}
+
+#: The tracker's settings for the continental scene: :data:`CONTINENT_DESIGN` and the
+#: knobs chosen on the continental tuning hour (seed 2025, never the scored seed 2026).
+CONTINENT_SETTINGS = TrackerSettings(**CONTINENT_DESIGN)
