@@ -50,7 +50,8 @@ Printed per run:
 ``--swiss-single`` runs only the Swiss hour in the continent's commonest condition, one
 radar: each radar's registered reports alone, scored against the aircraft in its coverage.
 
-The realism checks printed first: the share of the truth samples (aircraft in some radar's
+``--true-biases`` converts the continent's reports with the true biases removed (a perfect
+registration), to isolate what the registration leaves. The realism checks printed first: the share of the truth samples (aircraft in some radar's
 coverage) that no radar reports within the instant's +-30 s, and the airborne aircraft
 outside every radar's coverage.
 """
@@ -144,11 +145,23 @@ def entered_since(visible_grid, grid_times, times):
 
 
 # ------------------------------------------------------------------------------- the runs
-def continent_case(scale, duration, seed):
+def continent_case(scale, duration, seed, true_biases=False):
     """Scene, reports and the truth on the scored grid and on the 10 s grid, with attributes."""
     t0 = time.perf_counter()
     bc.SEED = seed
-    sc, rep = bc.scene(scale, duration)
+    sc = ct.continent_scenario(scale, duration=max(duration, bc.WARMUP), rng=seed)
+    first = ct.simulate_continent(sc, start=0.0, duration=bc.WARMUP, rng=seed + 1)
+    reg = ct.register_continent(sc, first)
+    true_b = np.array([r.biases for r in sc.radars])
+    err = reg.biases - true_b
+    reach = np.array([r.max_range for r in sc.radars]) / 2
+    print(f"  registration: radars informed by no pair {int(np.sum(reg.pairs == 0))}; residual "
+          f"rms: range offset {np.sqrt(np.mean(err[:, 0] ** 2)):.0f} m, azimuth "
+          f"{np.degrees(np.sqrt(np.mean(err[:, 2] ** 2))):.3f} deg (at half range "
+          f"{np.sqrt(np.mean((err[:, 2] * reach) ** 2)):.0f} m); true biases rms azimuth "
+          f"{np.degrees(np.sqrt(np.mean(true_b[:, 2] ** 2))):.3f} deg")
+    rep = ct.simulate_continent(sc, start=0.0, duration=duration, rng=seed + 1,
+                                bias_estimate="true" if true_biases else reg.biases)
     times = np.arange(bc.FIRST, duration, bc.STEP)
     tt, tx, tid = ct.truth_samples(sc, times)
     ids = np.unique(tid)
@@ -429,13 +442,13 @@ def settings_named(name):
     return ct.CONTINENT_SETTINGS
 
 
-def main(scale, duration, seed, ages, settings, swiss, single=False):
+def main(scale, duration, seed, ages, settings, swiss, single=False, true_biases=False):
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}; load average "
           f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     if single:
         swiss_single(ages)
         return 0
-    cases = [continent_case(scale, duration, seed)]
+    cases = [continent_case(scale, duration, seed, true_biases)]
     if swiss:
         cases.append(swiss_case())
     for case in cases:
@@ -466,8 +479,10 @@ if __name__ == "__main__":
     p.add_argument("--settings", nargs="+", default=("default",),
                    choices=("default", "continent"))
     p.add_argument("--no-swiss", action="store_true")
+    p.add_argument("--true-biases", action="store_true",
+                   help="convert the continent's reports with the true biases removed")
     p.add_argument("--swiss-single", action="store_true",
                    help="only the Swiss hour with each radar alone")
     a = p.parse_args()
     sys.exit(main(a.scale, a.duration, a.seed, tuple(a.max_age), tuple(a.settings),
-                  not a.no_swiss, a.swiss_single))
+                  not a.no_swiss, a.swiss_single, a.true_biases))
