@@ -54,6 +54,27 @@ radar: each radar's registered reports alone, scored against the aircraft in its
 registration), to isolate what the registration leaves. The realism checks printed first: the share of the truth samples (aircraft in some radar's
 coverage) that no radar reports within the instant's +-30 s, and the airborne aircraft
 outside every radar's coverage.
+
+Findings (scale 100, the hour, seed 2026; ``TrackerSettings()`` unless said; max_age 15 s):
+
+* GOSPA per aircraft 477 m = localisation 295 + missed 368 + false 70 (shares of the square
+  38 / 60 / 2 %); the Swiss hour 255 m = 164 + 158 + 116 (41 / 38 / 21 %).
+* Scoring bug: 3.8 % of the scored samples are aircraft outside every radar's coverage,
+  which ``evaluate_tracks`` interpolates between the samples either side of a coverage gap;
+  98 % of them are missed, 54 % of the missed part. Scored on the covered truth only: 402 m.
+  What the radars report agrees with ``truth_samples``' coverage (no covered sample without
+  a report within 30 s).
+* The rest of the missed part: samples covered by one radar (65 % of the truth, 4.7 %
+  missed; 2+ radars: 0.2 %); 41 % of the missed samples have a live confirmed track within
+  c whose last update is 15-60 s old (a 12 s radar that misses one scan). Initiation (first
+  minute in coverage) is 10 %, low aircraft 4.5 %, the coverage's edge 15 %.
+* Tracks per aircraft 1.245: 1.072 for the aircraft inside coverage in one stretch, 2.10
+  for the 17 % that leave every coverage and come back (a new track each time); no
+  duplicates, no switches at hand-offs.
+* Localisation: single-radar coverage at 100-300 km (330-360 m); in the Swiss hour's
+  conditions (2+ radars within 200 km) the cost per truth sample is 215 m against the
+  Swiss 222 m; the registration's residual costs 5 m of localisation (``--true-biases``).
+  The Swiss hour with one radar alone: 347-564 m per aircraft.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Tests of radarfusion_ref.continent.scenario: airports, map frame, flights, schedule, radars,
-reports, truth, bad input.
+"""Tests of radarfusion_ref.continent.scenario and its tracker settings: airports, map frame,
+flights, schedule, radars, reports, truth, bad input, the continental tracker settings.
 
 Reference values come from independent routes: the engine's geodesy
 (:func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`) for ground distances and the radars'
