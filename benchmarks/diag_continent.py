@@ -169,7 +169,6 @@ def entered_since(visible_grid, grid_times, times):
 def continent_case(scale, duration, seed, true_biases=False):
     """Scene, reports and the truth on the scored grid and on the 10 s grid, with attributes."""
     t0 = time.perf_counter()
-    bc.SEED = seed
     sc = ct.continent_scenario(scale, duration=max(duration, bc.WARMUP), rng=seed)
     first = ct.simulate_continent(sc, start=0.0, duration=bc.WARMUP, rng=seed + 1)
     reg = ct.register_continent(sc, first)
