@@ -1,5 +1,5 @@
-"""Tests of radarfusion_ref.continent.scenario: airports, map frame, flights, schedule, radars,
-reports, truth, bad input.
+"""Tests of radarfusion_ref.continent.scenario and its tracker settings: airports, map frame,
+flights, schedule, radars, reports, truth, bad input, the continental tracker settings.
 
 Reference values come from independent routes: the engine's geodesy
 (:func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`) for ground distances and the radars'
@@ -529,3 +529,54 @@ def test_bad_input_to_each_argument_is_refused_under_its_own_name():
                     fn(**dict(kw, **{arg: bad}))
                 assert f"`{arg}`" in str(err.value), (fn.__name__, arg, repr(bad),
                                                       str(err.value))
+
+
+# ------------------------------------------------------------------------ tracker settings
+def test_continent_design_is_the_mean_of_the_drawn_radars():
+    """The clutter density and detection probability the tracker is told are the means over
+    the radars' draws: checked against the sample mean of 700 drawn radars (the
+    false-report rate over the disk of their coverage times the 1-15 km band), within 4
+    standard errors."""
+    rads = ct.continent_scenario(0.05, n_radars=700, rng=31).radars
+    dens = np.array([r.clutter_rate / (math.pi * r.max_range**2 * 14e3) for r in rads])
+    pd = np.array([r.p_detect for r in rads])
+    for value, sample in ((ct.CONTINENT_DESIGN["clutter_density"], dens),
+                          (ct.CONTINENT_DESIGN["p_detection"], pd)):
+        se = sample.std(ddof=1) / math.sqrt(sample.size)
+        assert abs(value - sample.mean()) < 4 * se, (value, sample.mean(), se)
+    s = ct.CONTINENT_SETTINGS
+    assert (s.clutter_density, s.p_detection) == (ct.CONTINENT_DESIGN["clutter_density"],
+                                                   ct.CONTINENT_DESIGN["p_detection"])
+
+
+def test_continent_settings_are_the_tuning_tables_choice():
+    """``CONTINENT_SETTINGS`` holds the knobs of the row the continental tuning table marks
+    chosen, and that row is the protocol's winner recomputed here from the table: among
+    the runs with at most 1.05 tracks per aircraft and 12 false tracks per hour per 40
+    aircraft airborne, the lowest mean GOSPA; if none, the smallest sum of relative
+    excesses. The search stayed within its budget of 15 runs, all of them successful."""
+    import csv
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "data" / "continent_tuning.csv"
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert 1 < len(rows) <= 15 and all(r["status"] == "ok" for r in rows)
+    chosen = [r for r in rows if r["chosen"] == "1"]
+    assert len(chosen) == 1
+    best = chosen[0]
+    scale = float(best["scale"])
+
+    def key(r):
+        tpa, fth = float(r["tracks_per_aircraft"]), float(r["false_tracks_per_hour"]) / scale
+        excess = max(0.0, tpa - 1.05) / 0.05 + max(0.0, fth - 12.0) / 12.0
+        return (excess > 0, excess, round(float(r["mean_gospa"])), fth)
+
+    assert key(best) == min(key(r) for r in rows)
+    s = ct.CONTINENT_SETTINGS
+    assert s.relink == (best["p_relink"] != "off")
+    if s.relink:
+        assert s.p_relink == float(best["p_relink"])
+    for name in ("q", "q_vertical", "speed_max_vertical", "p_false_confirm",
+                 "p_false_delete", "p_false_reject"):
+        assert getattr(s, name) == float(best[name]), name

@@ -9,6 +9,7 @@ sectors.
   process or on a Dask cluster with the same answer.
 """
 
+from ._settings import CONTINENT_DESIGN, CONTINENT_SETTINGS
 from .scenario import (
     AIRPORTS_FILE,
     ORIGIN,
@@ -66,6 +67,9 @@ __all__ = [
     "to_map",
     "truth_at",
     "truth_samples",
+    # settings
+    "CONTINENT_DESIGN",
+    "CONTINENT_SETTINGS",
     # sectors
     "MAX_LOST",
     "MAX_SECTORS",
