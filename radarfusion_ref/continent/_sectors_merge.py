@@ -24,7 +24,7 @@ import numpy as np
 from scipy import sparse
 
 from ..engine.assignment import assign_two_lists
-from ..engine.linalg import mahalanobis_sq
+from ..engine.linalg import mahalanobis_sq_kernel
 from ..tracking import TrackHistory
 
 
@@ -44,6 +44,7 @@ class Edge:
     state: np.ndarray            # (E, 3) position
     covariance: np.ndarray       # (E, 3, 3)
     confirmed: np.ndarray        # (E,), all True
+    trace: np.ndarray            # (E,), the covariance's trace
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,8 +119,9 @@ def summarise(sectors, k, history):
         band &= c
     tracks = np.unique(history.track[band])
     rows = np.flatnonzero(c & np.isin(history.track, tracks))
+    P = np.ascontiguousarray(history.covariance[rows, :3, :3])
     edge = Edge(history.track[rows], history.time[rows], np.ascontiguousarray(x[rows, :3]),
-                np.ascontiguousarray(history.covariance[rows, :3, :3]), c[rows])
+                P, c[rows], P[:, 0, 0] + P[:, 1, 1] + P[:, 2, 2])
     ids, first, last = _spans(history)
     own = np.flatnonzero(sectors._owner(x[:, :2]) == k)
     part = Part(history.track[own], history.time[own], x[own], history.covariance[own],
@@ -145,27 +147,49 @@ def _common(ta, tb):
     return i, j
 
 
-def pair_costs(ha, hb, rows_a, rows_b):
-    r"""Mean squared distance of every pair of tracks (one of `ha`, one of `hb`) over their
-    common instants: ``(track_a, track_b, kappa)`` sorted by the two tracks."""
+def _kappa(ha, hb, ia, ib):
+    """Squared distance of the positions of rows `ia` of `ha` and `ib` of `hb` (their
+    covariances summed): tracker output, inside the numeric domain."""
+    d = ha.state[ia, :3] - hb.state[ib, :3]
+    return np.atleast_1d(mahalanobis_sq_kernel(
+        d, ha.covariance[ia, :3, :3] + hb.covariance[ib, :3, :3], "hand-over"))
+
+
+def pair_costs(ha, hb, rows_a, rows_b, gamma):
+    r"""Mean squared distance of the pairs of tracks (one of `ha`, one of `hb`) over their
+    common instants that may pass the gate `gamma`: ``(track_a, track_b, kappa)`` sorted by
+    the two tracks.
+
+    A pair's mean is below `gamma` only if one of its instants is, and
+    :math:`d^\mathsf T S^{-1} d \ge |d|^2 / \operatorname{tr} S`: the pairs without an
+    instant of :math:`|d|^2 < \gamma \operatorname{tr} S` (with a margin for rounding)
+    are left out before any covariance is read. The others' means are summed over all
+    their instants, in the same order as over every pair."""
     ta, tb = ha.time[rows_a], hb.time[rows_b]
     oa, ob = np.argsort(ta, kind="stable"), np.argsort(tb, kind="stable")
     rows_a, rows_b, ta, tb = rows_a[oa], rows_b[ob], ta[oa], tb[ob]
     i, j = _common(ta, tb)
+    empty = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     if not i.size:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+        return empty
     ia, ib = rows_a[i], rows_b[j]
-    d = ha.state[ia, :3] - hb.state[ib, :3]
-    d2 = np.atleast_1d(mahalanobis_sq(d, ha.covariance[ia, :3, :3] + hb.covariance[ib, :3, :3]))
     key_a, key_b = ha.track[ia], hb.track[ib]
     # one integer key per pair, ordered as the pairs (a, b) are
     a0, b0 = key_a.min(), key_b.min()
     width = np.int64(key_b.max() - b0 + 1)
-    keys, inv = np.unique((key_a - a0) * width + (key_b - b0), return_inverse=True)
-    inv = inv.reshape(-1)
-    total = np.bincount(inv, weights=d2, minlength=keys.size)
-    count = np.bincount(inv, minlength=keys.size)
-    return keys // width + a0, keys % width + b0, total / count
+    key = (key_a - a0) * width + (key_b - b0)
+    d = ha.state[ia, :3] - hb.state[ib, :3]
+    near = np.einsum("ij,ij->i", d, d) < gamma * (ha.trace[ia] + hb.trace[ib]) * (1.0 + 1e-6)
+    cand = np.unique(key[near])
+    if not cand.size:
+        return empty
+    pos = np.minimum(np.searchsorted(cand, key), cand.size - 1)
+    mine = np.flatnonzero(cand[pos] == key)              # every instant of those pairs
+    inv = pos[mine]
+    d2 = _kappa(ha, hb, ia[mine], ib[mine])
+    total = np.bincount(inv, weights=d2, minlength=cand.size)
+    count = np.bincount(inv, minlength=cand.size)
+    return cand // width + a0, cand % width + b0, total / count
 
 
 def _rows_of(history, tracks):
@@ -197,52 +221,82 @@ def consistent(ha, hb, ka, kb, gamma):
     ia, ib, pair = (np.concatenate(v) for v in (ia, ib, pair))
     if not ia.size:
         return ok
-    d2 = np.atleast_1d(mahalanobis_sq(ha.state[ia, :3] - hb.state[ib, :3],
-                                      ha.covariance[ia, :3, :3] + hb.covariance[ib, :3, :3]))
+    d2 = _kappa(ha, hb, ia, ib)
     worst = np.full(ka.size, -np.inf)
     np.maximum.at(worst, pair, d2)
     return ok & (worst < gamma)
 
 
-def candidate_links(sectors, edges, gamma):
-    """The one-to-one links of every pair of neighbouring sectors, from the sectors'
-    edges (:class:`Edge`, or whole histories): arrays ``s, a, t, b, kappa`` (sector and
-    local track of each side, mean squared distance), in the order of the pairs of
-    sectors, then of `a`."""
+def pair_links(sectors, s, t, ha, hb, gamma):
+    """The one-to-one links of the neighbouring sectors `s` < `t` from their edges
+    (:class:`Edge`): a list of ``(s, a, t, b, kappa)`` (local tracks, mean squared
+    distance) in the order of `a`."""
     out = []
-    for s, t in neighbour_pairs(sectors):
-        ha, hb = edges[s], edges[t]
-        if not (ha.confirmed.any() and hb.confirmed.any()):
-            continue
-        ra, rb = _band_rows(ha, sectors, s, t), _band_rows(hb, sectors, s, t)
-        if not (ra.size and rb.size):
-            continue
-        ka, kb, kappa = pair_costs(ha, hb, ra, rb)
-        ok = kappa < gamma                               # the gate on the mean distance
-        if not ok.any():
-            continue
-        ka, kb, kappa = ka[ok], kb[ok], kappa[ok]
-        ok = consistent(ha, hb, ka, kb, gamma)
-        if not ok.any():
-            continue
-        ka, kb, kappa = ka[ok], kb[ok], kappa[ok]
-        ua, ia = np.unique(ka, return_inverse=True)
-        ub, ib = np.unique(kb, return_inverse=True)
-        # stored entries are the allowed pairs (an exact 0 included)
-        cost = sparse.csr_array((kappa, (ia.reshape(-1), ib.reshape(-1))),
-                                shape=(ua.size, ub.size))
-        row_to_col = assign_two_lists(cost).row_to_col
-        got = np.flatnonzero(row_to_col >= 0)
-        cols = row_to_col[got]
-        lookup = dict(zip(zip(ia.reshape(-1).tolist(), ib.reshape(-1).tolist(), strict=True),
-                          kappa.tolist(), strict=True))
-        for r, c in zip(got.tolist(), cols.tolist(), strict=True):
-            out.append((s, int(ua[r]), t, int(ub[c]), lookup[(r, c)]))
-    if not out:
-        return (np.zeros(0, np.int64),) * 4 + (np.zeros(0),)
-    s, a, t, b, kappa = (np.array(v) for v in zip(*out, strict=True))
-    return s.astype(np.int64), a.astype(np.int64), t.astype(np.int64), b.astype(np.int64), \
-        kappa.astype(float)
+    if not (ha.confirmed.any() and hb.confirmed.any()):
+        return out
+    ra, rb = _band_rows(ha, sectors, s, t), _band_rows(hb, sectors, s, t)
+    if not (ra.size and rb.size):
+        return out
+    ka, kb, kappa = pair_costs(ha, hb, ra, rb, gamma)
+    ok = kappa < gamma                                   # the gate on the mean distance
+    if not ok.any():
+        return out
+    ka, kb, kappa = ka[ok], kb[ok], kappa[ok]
+    ok = consistent(ha, hb, ka, kb, gamma)
+    if not ok.any():
+        return out
+    ka, kb, kappa = ka[ok], kb[ok], kappa[ok]
+    ua, ia = np.unique(ka, return_inverse=True)
+    ub, ib = np.unique(kb, return_inverse=True)
+    # stored entries are the allowed pairs (an exact 0 included)
+    cost = sparse.csr_array((kappa, (ia.reshape(-1), ib.reshape(-1))),
+                            shape=(ua.size, ub.size))
+    row_to_col = assign_two_lists(cost).row_to_col
+    got = np.flatnonzero(row_to_col >= 0)
+    cols = row_to_col[got]
+    lookup = dict(zip(zip(ia.reshape(-1).tolist(), ib.reshape(-1).tolist(), strict=True),
+                      kappa.tolist(), strict=True))
+    for r, c in zip(got.tolist(), cols.tolist(), strict=True):
+        out.append((s, int(ua[r]), t, int(ub[c]), lookup[(r, c)]))
+    return out
+
+
+class Links:
+    """The candidate links, found pair of sectors by pair as the sectors' edges arrive
+    (in any order: each pair's links depend on its two edges only), and given in the
+    order of the pairs."""
+
+    def __init__(self, sectors, gamma):
+        self.sectors, self.gamma = sectors, gamma
+        self.pairs = neighbour_pairs(sectors)
+        self.edges: dict[int, Edge] = {}
+        self.found: dict[tuple[int, int], list] = {}
+
+    def add(self, k, edge):
+        """Sector `k`'s edge; the links of its pairs with the sectors already in."""
+        self.edges[k] = edge
+        for s, t in self.pairs:
+            if k in (s, t) and s in self.edges and t in self.edges:
+                self.found[s, t] = pair_links(self.sectors, s, t, self.edges[s],
+                                              self.edges[t], self.gamma)
+
+    def result(self):
+        """Arrays ``s, a, t, b, kappa``, in the order of the pairs of sectors, then of `a`."""
+        out = [link for p in self.pairs for link in self.found[p]]
+        if not out:
+            return (np.zeros(0, np.int64),) * 4 + (np.zeros(0),)
+        s, a, t, b, kappa = (np.array(v) for v in zip(*out, strict=True))
+        return (s.astype(np.int64), a.astype(np.int64), t.astype(np.int64),
+                b.astype(np.int64), kappa.astype(float))
+
+
+def candidate_links(sectors, edges, gamma):
+    """The one-to-one links of every pair of neighbouring sectors from the sectors' edges
+    (:class:`Edge`, one per sector in order): :meth:`Links.result`."""
+    links = Links(sectors, gamma)
+    for k, edge in enumerate(edges):
+        links.add(k, edge)
+    return links.result()
 
 
 def join_identities(summaries, offset, links):
@@ -320,12 +374,14 @@ def assemble(parts, identity, offset, initiated):
     return TrackHistory(ids[mine], t[mine], state, cov, conf, int(initiated))
 
 
-def merge(sectors, summaries, parts, gamma):
+def merge(sectors, summaries, parts, gamma, links=None):
     """The merged history, the accepted links and the hand-overs per sector, from the
-    sectors' summaries and parts (:func:`summarise`)."""
+    sectors' summaries and parts (:func:`summarise`) and their candidate links (found
+    here if None)."""
     initiated = np.array([m.initiated for m in summaries], dtype=np.int64)
     offset = np.r_[0, np.cumsum(initiated)]
-    links = candidate_links(sectors, [m.edge for m in summaries], gamma)
+    if links is None:
+        links = candidate_links(sectors, [m.edge for m in summaries], gamma)
     identity, accepted = join_identities(summaries, offset, links)
     links = tuple(v[accepted] for v in links)
     handovers = (np.bincount(links[0], minlength=sectors.n_sectors)

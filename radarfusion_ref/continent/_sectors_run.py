@@ -31,9 +31,10 @@ def run_sector(reports, sectors, k, settings):
     return summary, part, [(w.category, str(w.message)) for w in caught]
 
 
-def on_cluster(client, reports, sectors, settings, counts, max_lost):
+def on_cluster(client, reports, sectors, settings, counts, max_lost, arrived):
     """One task per sector on the cluster: ``(runs, failures)``, the runs in sector order
-    and the failures as ``{sector: exception}``.
+    and the failures as ``{sector: exception}``; ``arrived(k, run)`` is called on each
+    run as it arrives (while the others still run).
 
     The reports are scattered once, to every worker; each task selects its sector's rows
     there. The tasks are prioritised by decreasing report count (the largest first, so
@@ -65,6 +66,8 @@ def on_cluster(client, reports, sectors, settings, counts, max_lost):
             k = sector[f.key]
             if f.status == "finished":
                 runs[k] = f.result()                     # fetched while the others run
+                if not failed:
+                    arrived(k, runs[k])
                 continue
             if f.status == "error":
                 failed[k] = f.exception()

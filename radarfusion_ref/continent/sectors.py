@@ -39,7 +39,7 @@ from ..engine.validation import (
     describe,
 )
 from ..tracking import MAX_REPORTS, TrackerSettings, TrackHistory
-from ._sectors_merge import merge
+from ._sectors_merge import Links, merge
 from ._sectors_run import on_cluster, run_sector
 
 __all__ = ["MAX_LOST", "MAX_SECTORS", "REPORT_BYTES", "SectorError", "SectoredTracks", "Sectors",
@@ -538,16 +538,19 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
         _client_iv(client)
     reports = (t, z, R, rad, sc)
     counts = sectors._counts(z)
-    S = sectors.n_sectors
+    gamma = float(gating.gate_threshold(settings.p_relink, 3))
+    links = Links(sectors, gamma)            # the hand-over's candidates, as sectors finish
     if client is None:
         runs = []
-        for k in range(S):
+        for k in range(sectors.n_sectors):
             try:
                 runs.append(run_sector(reports, sectors, k, settings))
             except Exception as exc:
                 raise _failed(sectors, k, counts[k], exc) from exc
+            links.add(k, runs[k][0].edge)
     else:
-        runs, failed = on_cluster(client, reports, sectors, settings, counts, MAX_LOST)
+        runs, failed = on_cluster(client, reports, sectors, settings, counts, MAX_LOST,
+                                  lambda k, run: links.add(k, run[0].edge))
         if failed:
             k = min(failed)                              # the lowest failing sector
             raise _failed(sectors, k, counts[k], failed[k]) from failed[k]
@@ -556,8 +559,8 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
             warnings.warn(f"{_describe_sector(sectors, k, counts[k])}: {message}", category,
                           stacklevel=2)
     summaries = [m for m, _, _ in runs]
-    gamma = float(gating.gate_threshold(settings.p_relink, 3))
-    history, links, handovers = merge(sectors, summaries, [p for _, p, _ in runs], gamma)
+    history, links, handovers = merge(sectors, summaries, [p for _, p, _ in runs], gamma,
+                                      links.result())
     return SectoredTracks(history, sectors, counts,
                           np.array([m.n_confirmed for m in summaries], np.int64), handovers,
                           np.stack(links[:4], axis=1).astype(np.int64), links[4])
