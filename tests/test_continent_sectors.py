@@ -423,3 +423,34 @@ def test_dask_with_more_sectors_than_workers(reports, client):
     assert here.reports[3:].tolist() == [0, 0, 0] and here.reports[:3].min() > 0
     assert here.links.shape[0] >= 2
     _same(track_sectored(*reports[0], sectors=g, client=client), here)
+
+
+def test_reports_lost_with_every_worker_are_scattered_again(client):
+    """Every worker killed while a sector runs: the reports scattered to them are lost
+    and the tasks cancelled; track_sectored scatters the reports to the new workers and
+    submits the tasks again; the answer is the same."""
+    rep, _ = scene(duration=400.0, periods=(2.0, 3.0))
+    ref = track_sectored(*rep, sectors=GRID)
+    before = set(client.nthreads())
+    out, killed = {}, []
+
+    def run():
+        try:
+            out["result"] = track_sectored(*rep, sectors=GRID, client=client)
+        except Exception as exc:                         # shown by the assertion below
+            out["error"] = exc
+
+    worker = threading.Thread(target=run)
+    worker.start()
+    deadline = time.monotonic() + 30
+    while not killed and worker.is_alive() and time.monotonic() < deadline:
+        if any(client.processing().values()):
+            killed.append(True)
+            client.run(os._exit, 1, on_error="ignore")    # every worker dies
+        time.sleep(0.005)
+    worker.join(90)
+    assert killed, "no sector was seen running on a worker"
+    assert "error" not in out, out.get("error")
+    _same(out["result"], ref)
+    client.wait_for_workers(2, timeout=30)
+    assert not before & set(client.nthreads())           # two new workers took over
