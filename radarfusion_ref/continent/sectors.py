@@ -210,20 +210,11 @@ class Sectors:
         return ((p[:, 0] >= lo_e[i]) & (p[:, 0] <= hi_e[i])
                 & (p[:, 1] >= lo_n[j]) & (p[:, 1] <= hi_n[j]))
 
-    def _copies(self, p):
-        """Kernel: in how many sectors' grown rectangles each position lies (one pass, no
-        per-sector masks)."""
-        lo_e, hi_e, lo_n, hi_n = self._grown_edges()
-        ce = (np.searchsorted(lo_e, p[:, 0], side="right")
-              - np.searchsorted(hi_e, p[:, 0], side="left"))
-        cn = (np.searchsorted(lo_n, p[:, 1], side="right")
-              - np.searchsorted(hi_n, p[:, 1], side="left"))
-        return np.maximum(ce, 0).astype(np.int64) * np.maximum(cn, 0)
-
     def _counts(self, p):
-        """Kernel: how many of the positions `p` lie in each sector's grown rectangle,
-        shape (n_sectors,), in one pass: each position's columns ``c0 .. c1`` and rows
-        ``r0 .. r1`` mark the corners of a 2-D difference array, summed along both axes."""
+        """Kernel: how many of the positions `p` (N, >= 2) lie in each sector's grown
+        rectangle, shape (n_sectors,), in one pass (no per-sector masks): each position's
+        columns ``c0 .. c1 - 1`` and rows ``r0 .. r1 - 1`` mark the corners of a 2-D
+        difference array, summed along both axes."""
         lo_e, hi_e, lo_n, hi_n = self._grown_edges()
         ne, nn = lo_e.size, lo_n.size
         c0 = np.searchsorted(hi_e, p[:, 0], side="left")      # first column reaching it
@@ -381,7 +372,8 @@ def _reports_iv(time, position, cov, radar, scan):
 
 
 def _coverage_iv(sectors, z):
-    """Refuse reports outside every sector, and per-sector copies beyond the memory limit."""
+    """Refuse reports outside every sector, and per-sector copies beyond the memory limit;
+    the reports in each sector's grown rectangle, counted."""
     e, n = z[:, 0], z[:, 1]
     out = ((e < sectors.east[0]) | (e > sectors.east[-1]) | (n < sectors.north[0])
            | (n > sectors.north[-1]))
@@ -393,11 +385,13 @@ def _coverage_iv(sectors, z):
                          f"{sectors.north[-1]:.6g}]); e.g. report {k} at east {e[k]:.6g}, north "
                          f"{n[k]:.6g}; widen the grid (sector_grid(position, ...) spans the "
                          "reports)")
-    copies = int(sectors._copies(z).sum())
+    counts = sectors._counts(z)
+    copies = int(counts.sum())
     check_size(copies * REPORT_BYTES, MEMORY_LIMIT, name="sectors",
                what=f"bytes of per-sector copies of the reports ({copies} copies in "
                     f"{sectors.n_sectors} sectors, overlap {sectors.overlap:.6g})",
                alternative="a smaller `overlap`, fewer sectors, or consecutive time slices")
+    return counts
 
 
 def _client_iv(client):
@@ -533,11 +527,10 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
     if not isinstance(settings, TrackerSettings):
         raise TypeError(f"`settings` must be a TrackerSettings; received {describe(settings)}")
     t, z, R, rad, sc = _reports_iv(time, position, cov, radar, scan)
-    _coverage_iv(sectors, z)
+    counts = _coverage_iv(sectors, z)
     if client is not None:
         _client_iv(client)
     reports = (t, z, R, rad, sc)
-    counts = sectors._counts(z)
     gamma = float(gating.gate_threshold(settings.p_relink, 3))
     links = Links(sectors, gamma)            # the hand-over's candidates, as sectors finish
     if client is None:
