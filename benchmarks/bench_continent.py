@@ -18,7 +18,8 @@ of the run (one core, sectors, slope) uses the settings :data:`SETTINGS`:
    overlap=..., spacing="reports")`` (default 3 x 3 sectors whose columns and rows hold equal
    numbers of reports, 30 km overlap) in this process, and on a
    ``LocalCluster(n_workers=2, threads_per_worker=1, processes=True)`` started and warmed
-   before the clock starts; "identical" is every field of the two answers equal bit for bit.
+   before the clock starts (``bench_sectors.start_cluster``: its workers keep glibc's
+   memory-trimming rule); "identical" is every field of the two answers equal bit for bit.
    Printed with them: the speed-ups of the Dask run over the in-process sectored run and
    over the one tracker, and the **serial fraction** of the in-process sectored run (its
    time outside the sectors' own runs, which are timed one by one: validation, the split
