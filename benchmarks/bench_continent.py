@@ -49,7 +49,11 @@ The last line is exactly::
 with the aircraft airborne at the window's middle (``continent.airborne_count``), the one-core
 time of step 2, the Dask time of step 3, the slope of step 5, and the one tracker's GOSPA per
 aircraft (the Swiss hour's beside it), tracks per aircraft and the sectoring cost of step 4. The machine has 2 cores;
-timings on a loaded machine are longer: read them with the load average printed first.
+timings on a loaded machine are longer: read them with the load average printed first (at
+the start, and again after the Dask run). Linux shares the cores between sessions first
+(``/proc/sys/kernel/sched_autogroup_enabled``): while another session keeps a core busy,
+this run's session gets its share however many processes it has, so the two workers then
+run hardly faster than one process; the Dask speed-up is measured on an idle machine only.
 
 With ``--csv DIR`` two files are written for the book: ``DIR/continent_hour.csv``
 (columns ``quantity,value``; rows ``aircraft, radars, reports, one_core_s, sectored_s,
