@@ -276,5 +276,8 @@ if __name__ == "__main__":
     p.add_argument("--csv", metavar="DIR", default=None,
                    help="write continent_hour.csv and continent_scaling.csv into DIR")
     a = p.parse_args()
+    if len(set(a.slope_scales)) < 2:
+        p.error(f"--slope-scales needs at least two different scales for a slope; "
+                f"received {a.slope_scales}")
     sys.exit(main(a.scale, a.duration, tuple(a.sectors), a.overlap, tuple(a.slope_scales),
                   a.slope_duration, not a.no_dask, a.csv))
