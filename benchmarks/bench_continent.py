@@ -2,22 +2,29 @@
 
 Run as ``python benchmarks/bench_continent.py [--scale 100] [--duration 3600]
 [--sectors 3 3] [--overlap 30000] [--slope-scales 1 10 100] [--slope-duration 600]
-[--no-dask]``. Everything is measured in this run, one thread per process
-(``OPENBLAS_NUM_THREADS=1`` and friends are set before numpy is imported):
+[--no-dask] [--csv DIR]``. Everything is measured in this run, one thread per process
+(``OPENBLAS_NUM_THREADS=1`` and friends are set before numpy is imported). Every tracker
+of the run (one core, sectors, slope) uses the settings :data:`SETTINGS`:
 
 1. **The scene.** ``continent.continent_scenario(scale, rng=2026)`` (``40 * scale`` aircraft
    airborne at once over Europe, 36 radars with their own periods, phases, frames, noise,
    biases and clutter). The radars' biases are estimated from the first five minutes of
    reports (``continent.register_continent``) and the hour's reports are converted with that
    estimate (``simulate_continent(..., bias_estimate=...)``, rng 2027).
-2. **One core.** ``tracking.track_reports`` over the whole continent (``TrackerSettings()``:
-   constant velocity, GNN, the defaults tuned on the Swiss tuning hour), wall clock in this
-   process.
+2. **One core.** ``tracking.track_reports`` over the whole continent (:data:`SETTINGS`,
+   by default ``TrackerSettings()``: constant velocity, GNN, the defaults tuned on the Swiss
+   tuning hour), wall clock in this process.
 3. **Sectors.** ``continent.track_sectored`` on ``sector_grid(position, *sectors,
    overlap=..., spacing="reports")`` (default 3 x 3 sectors whose columns and rows hold equal
    numbers of reports, 30 km overlap) in this process, and on a
    ``LocalCluster(n_workers=2, threads_per_worker=1, processes=True)`` started and warmed
-   before the clock starts; "identical" is every field of the two answers equal bit for bit.
+   before the clock starts (``bench_sectors.start_cluster``: its workers keep glibc's
+   memory-trimming rule); "identical" is every field of the two answers equal bit for bit.
+   Printed with them: the speed-ups of the Dask run over the in-process sectored run and
+   over the one tracker, and the **serial fraction** of the in-process sectored run (its
+   time outside the sectors' own runs, which are timed one by one: validation, the split
+   counts and the hand-over), with the time Amdahl's law then allows on 2 workers, the
+   serial part plus the longest-first schedule of the measured sector runs on 2 workers.
 4. **Scores.** The one tracker's history and the sectored one are scored by
    ``tracking.evaluate_tracks`` against ``continent.truth_samples(sc, times)`` (the aircraft
    inside some radar's coverage) at ``times`` every 30 s from 60 s, GOSPA c = 2000 m, p = 2
@@ -42,7 +49,19 @@ The last line is exactly::
 with the aircraft airborne at the window's middle (``continent.airborne_count``), the one-core
 time of step 2, the Dask time of step 3, the slope of step 5, and the one tracker's GOSPA per
 aircraft (the Swiss hour's beside it), tracks per aircraft and the sectoring cost of step 4. The machine has 2 cores;
-timings on a loaded machine are longer: read them with the load average printed first.
+timings on a loaded machine are longer: read them with the load average printed first (at
+the start, and again after the Dask run). Linux shares the cores between sessions first
+(``/proc/sys/kernel/sched_autogroup_enabled``): while another session keeps a core busy,
+this run's session gets its share however many processes it has, so the two workers then
+run hardly faster than one process; the Dask speed-up is measured on an idle machine only.
+
+With ``--csv DIR`` two files are written for the book: ``DIR/continent_hour.csv``
+(columns ``quantity,value``; rows ``aircraft, radars, reports, one_core_s, sectored_s,
+dask_s, identical, slope, gospa_per_aircraft_m, swiss_gospa_per_aircraft_m,
+tracks_per_aircraft, sectoring_pct, load_average, duration_s``: ``identical`` yes or no,
+``load_average`` the 1-minute load at the start, ``duration_s`` the window) and
+``DIR/continent_scaling.csv`` (columns ``scale,aircraft,reports,seconds``: the slope's
+runs, aircraft airborne at the middle of their window).
 """
 
 from __future__ import annotations
@@ -53,6 +72,7 @@ for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
+import csv  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -64,6 +84,10 @@ import bench_sectors as bs  # noqa: E402  (the sectored runs' helpers)
 
 from radarfusion_ref import continent as ct  # noqa: E402
 from radarfusion_ref import tracking as trk  # noqa: E402
+from radarfusion_ref.continent import sectors as ct_sectors  # noqa: E402
+
+#: The tracker settings of every run (one core, sectors, slope): change them here.
+SETTINGS = trk.TrackerSettings()
 
 SEED = 2026
 WARMUP = 300.0                                      # s of reports for the registration
@@ -116,10 +140,53 @@ def slope(x, y):
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
+def sectored_timed(rep, grid):
+    """The in-process sectored run, its wall clock, and each sector's own run time (the
+    sectors' runs wrapped by a timer for this call only)."""
+    inner, seconds = ct_sectors.run_sector, []
+
+    def timed_run(*a, **k):
+        out, s = bs.timed(lambda: inner(*a, **k))
+        seconds.append(s)
+        return out
+
+    ct_sectors.run_sector = timed_run
+    try:
+        sec, total = bs.timed(lambda: ct.track_sectored(*args_of(rep), sectors=grid,
+                                                        settings=SETTINGS))
+    finally:
+        ct_sectors.run_sector = inner
+    return sec, total, np.array(seconds)
+
+
+def longest_first(seconds, workers=2):
+    """Makespan of the jobs `seconds` on `workers`, each next longest job on the first free."""
+    load = np.zeros(workers)
+    for s in np.sort(seconds)[::-1]:
+        load[np.argmin(load)] += s
+    return float(load.max())
+
+
+def write_csv(directory, hour, scaling):
+    """``continent_hour.csv`` (quantity, value) and ``continent_scaling.csv``."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    with open(d / "continent_hour.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(("quantity", "value"))
+        w.writerows(hour)
+    with open(d / "continent_scaling.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(("scale", "aircraft", "reports", "seconds"))
+        w.writerows(scaling)
+    print(f"wrote {d / 'continent_hour.csv'} and {d / 'continent_scaling.csv'}")
+
+
 def main(scale=100.0, duration=3600.0, sectors=(3, 3), overlap=30e3,
-         slope_scales=(1.0, 10.0, 100.0), slope_duration=600.0, dask=True):
+         slope_scales=(1.0, 10.0, 100.0), slope_duration=600.0, dask=True, csv_dir=None):
+    load = os.getloadavg()
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}; load average "
-          f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+          f"{' '.join(f'{v:.2f}' for v in load)}")
     t0 = time.perf_counter()
     sc, rep = scene(scale, duration)
     n_air = int(ct.airborne_count(sc, [duration / 2])[0])
@@ -128,14 +195,19 @@ def main(scale=100.0, duration=3600.0, sectors=(3, 3), overlap=30e3,
           f"{len(sc.radars)} radars, {rep.time.size} reports ({n_false} false), "
           f"{time.perf_counter() - t0:.1f} s to simulate and register")
 
-    one, s_one = bs.timed(lambda: trk.track_reports(*args_of(rep)))
+    one, s_one = bs.timed(lambda: trk.track_reports(*args_of(rep), settings=SETTINGS))
     print(f"one core, one tracker: {s_one:.1f} s ({duration / s_one:.1f} x real time, "
           f"{1e6 * s_one / rep.time.size:.1f} us/report), {int(one.n_confirmed)} confirmed "
           "tracks")
     grid = ct.sector_grid(rep.position, *sectors, overlap=overlap, spacing="reports")
-    sec, s_sec = bs.timed(lambda: ct.track_sectored(*args_of(rep), sectors=grid))
+    sec, s_sec, s_k = sectored_timed(rep, grid)
+    serial = s_sec - s_k.sum()
+    amdahl = serial + longest_first(s_k)
     print(f"sectored {sectors[0]} x {sectors[1]} ({overlap / 1e3:g} km overlap), one "
-          f"process: {s_sec:.1f} s, {int(sec.handovers.sum())} hand-overs")
+          f"process: {s_sec:.1f} s, {int(sec.handovers.sum())} hand-overs; sector runs "
+          f"{' '.join(f'{v:.1f}' for v in s_k)} s (sum {s_k.sum():.1f} s), serial part "
+          f"{serial:.1f} s = {100 * serial / s_sec:.1f} %; Amdahl on 2 workers (serial + "
+          f"longest-first schedule) {amdahl:.1f} s = x{s_sec / amdahl:.2f}")
     (m_one, m_sec), s_score = bs.timed(lambda: (score(sc, one, duration),
                                                 score(sc, sec.history, duration)))
     for name, m in (("one tracker", m_one), ("sectored", m_sec)):
@@ -151,20 +223,24 @@ def main(scale=100.0, duration=3600.0, sectors=(3, 3), overlap=30e3,
         cluster, client = bs.start_cluster()
         try:
             dsk, s_dask = bs.timed(lambda: ct.track_sectored(*args_of(rep), sectors=grid,
-                                                             client=client))
+                                                             settings=SETTINGS, client=client))
         finally:
             client.close()
             cluster.close()
         identical = "yes" if bs.same(sec, dsk) else "no"
         print(f"sectored on Dask, 2 workers: {s_dask:.1f} s (x{s_sec / s_dask:.2f} over one "
-              f"process, x{s_one / s_dask:.2f} over one tracker), identical {identical}")
+              f"process, x{s_one / s_dask:.2f} over one tracker; Amdahl's {amdahl:.1f} s "
+              f"plus {s_dask - amdahl:.1f} s of transfer and scheduling), identical "
+              f"{identical}; load average now {os.getloadavg()[0]:.2f}")
 
-    n_rep, secs = [], []
+    n_rep, secs, scaling = [], [], []
     for s in slope_scales:
-        _, r = scene(s, slope_duration)
-        _, sec_s = bs.timed(lambda r=r: trk.track_reports(*args_of(r)))
+        sc_s, r = scene(s, slope_duration)
+        _, sec_s = bs.timed(lambda r=r: trk.track_reports(*args_of(r), settings=SETTINGS))
         n_rep.append(r.time.size)
         secs.append(sec_s)
+        scaling.append((f"{s:g}", int(ct.airborne_count(sc_s, [slope_duration / 2])[0]),
+                        r.time.size, f"{sec_s:.3f}"))
         print(f"  scale {s:>6g}: {r.time.size:>9d} reports over {slope_duration:.0f} s, "
               f"{sec_s:7.2f} s, {1e6 * sec_s / r.time.size:6.1f} us/report")
     b = slope(n_rep, secs)
@@ -175,6 +251,16 @@ def main(scale=100.0, duration=3600.0, sectors=(3, 3), overlap=30e3,
           f"| dask 2 workers {s_dask:.1f} s identical {identical} | slope {b:.2f} "
           f"| GOSPA/aircraft {gospa_per_aircraft(m_one):.0f} m (Swiss {swiss:.0f} m) "
           f"tracks/aircraft {m_one.tracks_per_aircraft:.3f} | sectoring {cost:+.1f} %")
+    if csv_dir is not None:
+        write_csv(csv_dir, [
+            ("aircraft", n_air), ("radars", len(sc.radars)), ("reports", rep.time.size),
+            ("one_core_s", f"{s_one:.2f}"), ("sectored_s", f"{s_sec:.2f}"),
+            ("dask_s", f"{s_dask:.2f}"), ("identical", identical), ("slope", f"{b:.3f}"),
+            ("gospa_per_aircraft_m", f"{gospa_per_aircraft(m_one):.1f}"),
+            ("swiss_gospa_per_aircraft_m", f"{swiss:.1f}"),
+            ("tracks_per_aircraft", f"{m_one.tracks_per_aircraft:.4f}"),
+            ("sectoring_pct", f"{cost:.3f}"), ("load_average", f"{load[0]:.2f}"),
+            ("duration_s", f"{duration:g}")], scaling)
     return 0
 
 
@@ -187,6 +273,11 @@ if __name__ == "__main__":
     p.add_argument("--slope-scales", type=float, nargs="+", default=(1.0, 10.0, 100.0))
     p.add_argument("--slope-duration", type=float, default=600.0)
     p.add_argument("--no-dask", action="store_true")
+    p.add_argument("--csv", metavar="DIR", default=None,
+                   help="write continent_hour.csv and continent_scaling.csv into DIR")
     a = p.parse_args()
+    if len(set(a.slope_scales)) < 2:
+        p.error(f"--slope-scales needs at least two different scales for a slope; "
+                f"received {a.slope_scales}")
     sys.exit(main(a.scale, a.duration, tuple(a.sectors), a.overlap, tuple(a.slope_scales),
-                  a.slope_duration, not a.no_dask))
+                  a.slope_duration, not a.no_dask, a.csv))

@@ -350,3 +350,107 @@ def test_sectors_spaced_by_reports_hold_equal_counts():
                     spacing="reports")
     with pytest.raises(ValueError, match="`spacing` must be 'equal' or 'reports'"):
         sector_grid(p, 2, 2, overlap=0.0, spacing="even")
+
+
+def test_report_counts_per_sector_match_a_direct_count():
+    """The per-sector counts of the grown rectangles (one pass over the reports) equal a
+    direct count, rectangle by rectangle, with reports exactly on grown edges."""
+    g = Sectors([0.0, 3.0, 4.0, 9.0, 10.0], [-2.0, 1.0, 6.0], overlap=0.5)
+    rng = np.random.default_rng(11)
+    p = np.c_[rng.uniform(0.0, 10.0, 400), rng.uniform(-2.0, 6.0, 400)]
+    p[:8] = [[2.5, 0.0], [3.5, 0.5], [4.5, 1.5], [0.0, -2.0], [10.0, 6.0], [8.5, 0.5],
+             [9.5, 6.0], [3.5, 1.5]]                      # on grown edges and corners
+    want = []
+    for j in range(2):
+        for i in range(4):
+            e0, e1 = g.east[i] - 0.5, g.east[i + 1] + 0.5
+            n0, n1 = g.north[j] - 0.5, g.north[j + 1] + 0.5
+            want.append(sum(e0 <= e <= e1 and n0 <= n <= n1 for e, n in p.tolist()))
+    got = g._counts(p)
+    assert min(want) > 0 and got.tolist() == want
+
+
+def test_hand_over_costs_skip_only_pairs_beyond_the_gate():
+    """The hand-over's pair costs leave out pairs of tracks far apart before reading their
+    covariances: the pairs they keep below the gate, and their means, are those of a
+    brute-force mean over every common instant of every pair (correlated covariances
+    whose largest eigenvalue is near their trace, so the bound is tight)."""
+    from radarfusion_ref.continent._sectors_merge import Edge, pair_costs
+
+    rng = np.random.default_rng(7)
+    gamma = 11.34
+    track = np.repeat(np.arange(6), 5)
+    t = np.tile(np.arange(5.0), 6)
+    u = rng.normal(0.0, 1.0, (30, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    P = 4.0 * u[:, :, None] * u[:, None, :] + 0.05 * np.eye(3)   # long along u
+    xa = rng.normal(0.0, 30.0, (6, 3))[track] + rng.normal(0.0, 0.5, (30, 3))
+    # track k of b follows track k of a, off along u by a squared distance of 0.93 to 1.07
+    # gamma (S = 8 u u' + 0.1 I: |d|^2 = 8.1 kappa, 0.976 gamma tr S at kappa = gamma, so
+    # a bound tighter by 10 % leaves every pair out); track 6 of b is far from all
+    r = np.sqrt(rng.uniform(0.93, 1.07, 30) * gamma * 8.1)
+    xb = np.r_[xa + r[:, None] * u, rng.normal(0.0, 30.0, (5, 3))]
+    Pb = np.r_[P, np.tile(np.eye(3), (5, 1, 1))]
+    ha = Edge(track, t, xa, P, np.ones(30, bool), np.trace(P, axis1=1, axis2=2))
+    hb = Edge(np.repeat(np.arange(7), 5), np.tile(np.arange(5.0), 7), xb, Pb,
+              np.ones(35, bool), np.trace(Pb, axis1=1, axis2=2))
+    rows_a, rows_b = np.arange(ha.track.size), np.arange(hb.track.size)
+    ka, kb, kappa = pair_costs(ha, hb, rows_a, rows_b, gamma)
+    want = {}
+    for a in range(6):
+        for b in range(7):
+            d2 = []
+            for m in range(5):
+                i, j = a * 5 + m, b * 5 + m
+                d = ha.state[i] - hb.state[j]
+                d2.append(d @ np.linalg.solve(ha.covariance[i] + hb.covariance[j], d))
+            want[a, b] = np.mean(d2)
+    below = {k: v for k, v in want.items() if v < gamma}
+    assert len(below) == 3 and len(want) == 42
+    assert len(ka) < len(want)                           # some pairs were left out
+    got = {(a, b): v for a, b, v in zip(ka.tolist(), kb.tolist(), kappa.tolist(), strict=True)
+           if v < gamma}
+    assert got.keys() == below.keys()
+    for k, v in below.items():
+        assert got[k] == pytest.approx(v, rel=1e-12)
+
+
+def test_dask_with_more_sectors_than_workers(reports, client):
+    """Six sectors (three without reports) on two workers, the largest first: the same
+    answer bit for bit as in this process."""
+    g = Sectors([-60e3, -20e3, 20e3, 60e3], [-30e3, 30e3, 200e3], overlap=10e3)
+    here = track_sectored(*reports[0], sectors=g)
+    assert here.reports[3:].tolist() == [0, 0, 0] and here.reports[:3].min() > 0
+    assert here.links.shape[0] >= 2
+    _same(track_sectored(*reports[0], sectors=g, client=client), here)
+
+
+def test_reports_lost_with_every_worker_are_scattered_again(client):
+    """Every worker killed while a sector runs: the reports scattered to them are lost
+    and the tasks cancelled; track_sectored scatters the reports to the new workers and
+    submits the tasks again; the answer is the same."""
+    rep, _ = scene(duration=400.0, periods=(2.0, 3.0))
+    ref = track_sectored(*rep, sectors=GRID)
+    before = set(client.nthreads())
+    out, killed = {}, []
+
+    def run():
+        try:
+            out["result"] = track_sectored(*rep, sectors=GRID, client=client)
+        except Exception as exc:                         # shown by the assertion below
+            out["error"] = exc
+
+    worker = threading.Thread(target=run)
+    worker.start()
+    deadline = time.monotonic() + 30
+    while not killed and worker.is_alive() and time.monotonic() < deadline:
+        if any(client.processing().values()):
+            killed.append(True)
+            client.run(os._exit, 1, on_error="ignore")    # every worker dies
+        time.sleep(0.005)
+    worker.join(90)
+    assert killed, "no sector was seen running on a worker"
+    assert "error" not in out, out.get("error")
+    _same(out["result"], ref)
+    client.wait_for_workers(2, timeout=30)
+    assert not before & set(client.nthreads())           # two new workers took over

@@ -29,7 +29,6 @@ import numpy as np
 
 from .. import gating
 from ..engine.montecarlo import as_client
-from ..engine.optional import require
 from ..engine.validation import (
     MEMORY_LIMIT,
     as_covariance,
@@ -39,8 +38,9 @@ from ..engine.validation import (
     check_size,
     describe,
 )
-from ..tracking import MAX_REPORTS, TrackerSettings, TrackHistory, track_reports
-from ._sectors_merge import empty_history, merge_histories
+from ..tracking import MAX_REPORTS, TrackerSettings, TrackHistory
+from ._sectors_merge import Links, merge
+from ._sectors_run import on_cluster, run_sector
 
 __all__ = ["MAX_LOST", "MAX_SECTORS", "REPORT_BYTES", "SectorError", "SectoredTracks", "Sectors",
            "sector_grid", "track_sectored"]
@@ -48,8 +48,8 @@ __all__ = ["MAX_LOST", "MAX_SECTORS", "REPORT_BYTES", "SectorError", "SectoredTr
 #: Most sectors of one grid (one tracker, and on a cluster one task, each).
 MAX_SECTORS = 65_536
 
-#: Times a sector's task may be cancelled because its scattered input was lost with a
-#: worker (it is scattered and submitted again) before the run fails.
+#: Times a sector's task may be cancelled because every worker's copy of the scattered
+#: reports was lost (they are scattered and the task submitted again) before the run fails.
 MAX_LOST = 3
 
 #: Bytes of one report's copy in a sector's inputs (time, position, covariance, radar,
@@ -210,15 +210,26 @@ class Sectors:
         return ((p[:, 0] >= lo_e[i]) & (p[:, 0] <= hi_e[i])
                 & (p[:, 1] >= lo_n[j]) & (p[:, 1] <= hi_n[j]))
 
-    def _copies(self, p):
-        """Kernel: in how many sectors' grown rectangles each position lies (one pass, no
-        per-sector masks)."""
+    def _counts(self, p):
+        """Kernel: how many of the positions `p` (N, >= 2) lie in each sector's grown
+        rectangle, shape (n_sectors,), in one pass (no per-sector masks): each position's
+        columns ``c0 .. c1 - 1`` and rows ``r0 .. r1 - 1`` mark the corners of a 2-D
+        difference array, summed along both axes."""
         lo_e, hi_e, lo_n, hi_n = self._grown_edges()
-        ce = (np.searchsorted(lo_e, p[:, 0], side="right")
-              - np.searchsorted(hi_e, p[:, 0], side="left"))
-        cn = (np.searchsorted(lo_n, p[:, 1], side="right")
-              - np.searchsorted(hi_n, p[:, 1], side="left"))
-        return np.maximum(ce, 0).astype(np.int64) * np.maximum(cn, 0)
+        ne, nn = lo_e.size, lo_n.size
+        c0 = np.searchsorted(hi_e, p[:, 0], side="left")      # first column reaching it
+        c1 = np.searchsorted(lo_e, p[:, 0], side="right")     # one past the last
+        r0 = np.searchsorted(hi_n, p[:, 1], side="left")
+        r1 = np.searchsorted(lo_n, p[:, 1], side="right")
+        ok = (c0 < c1) & (r0 < r1)
+        c0, c1, r0, r1 = c0[ok], c1[ok], r0[ok], r1[ok]
+        w = ne + 1
+        diff = (np.bincount(r0 * w + c0, minlength=(nn + 1) * w)
+                - np.bincount(r0 * w + c1, minlength=(nn + 1) * w)
+                - np.bincount(r1 * w + c0, minlength=(nn + 1) * w)
+                + np.bincount(r1 * w + c1, minlength=(nn + 1) * w))
+        full = diff.reshape(nn + 1, w).cumsum(axis=0).cumsum(axis=1)
+        return full[:nn, :ne].ravel().astype(np.int64)
 
 
 def sector_grid(position, n_east, n_north, *, overlap, spacing="equal") -> Sectors:
@@ -361,7 +372,8 @@ def _reports_iv(time, position, cov, radar, scan):
 
 
 def _coverage_iv(sectors, z):
-    """Refuse reports outside every sector, and per-sector copies beyond the memory limit."""
+    """Refuse reports outside every sector, and per-sector copies beyond the memory limit;
+    the reports in each sector's grown rectangle, counted."""
     e, n = z[:, 0], z[:, 1]
     out = ((e < sectors.east[0]) | (e > sectors.east[-1]) | (n < sectors.north[0])
            | (n > sectors.north[-1]))
@@ -373,25 +385,18 @@ def _coverage_iv(sectors, z):
                          f"{sectors.north[-1]:.6g}]); e.g. report {k} at east {e[k]:.6g}, north "
                          f"{n[k]:.6g}; widen the grid (sector_grid(position, ...) spans the "
                          "reports)")
-    copies = int(sectors._copies(z).sum())
+    counts = sectors._counts(z)
+    copies = int(counts.sum())
     check_size(copies * REPORT_BYTES, MEMORY_LIMIT, name="sectors",
                what=f"bytes of per-sector copies of the reports ({copies} copies in "
                     f"{sectors.n_sectors} sectors, overlap {sectors.overlap:.6g})",
                alternative="a smaller `overlap`, fewer sectors, or consecutive time slices")
+    return counts
 
 
 def _client_iv(client):
     """A running ``distributed.Client`` with at least one worker, and its worker count."""
     return as_client(client, feature="track_sectored(client=...)")[1]
-
-
-def _track_sector(inputs, settings):
-    """One sector's tracker (runs here or on a worker): its history and the warnings."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        h = (track_reports(*inputs, settings=settings) if inputs[0].size
-             else empty_history())
-    return h, [(w.category, str(w.message)) for w in caught]
 
 
 def _describe_sector(sectors, k, n_reports):
@@ -423,12 +428,14 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
         `p_relink` is also the hand-over's gate.
     client : distributed.Client, optional
         None (default): the sectors one after the other in this process. A running
-        ``distributed.Client``: one task per sector on its cluster, each sector's
-        reports scattered to the cluster, the histories gathered, then the same
-        hand-over here. The answer is the same bit for bit. A worker lost mid-run
-        changes nothing: the scheduler reruns its task on another worker, and a sector
-        whose scattered reports were lost with the worker is scattered and submitted
-        again (up to :data:`MAX_LOST` times).
+        ``distributed.Client``: the reports scattered once to every worker, one task
+        per sector (the largest first) that selects its sector's reports there, tracks
+        them and sends back only the sector's owned rows and what the hand-over needs
+        (its tracks' spans and the confirmed rows of its tracks that reach a band
+        along a border); the same hand-over then runs here. The answer is the same bit
+        for bit. A worker lost mid-run changes nothing: the scheduler reruns its task on
+        another worker, and if every copy of the reports was lost they are scattered and
+        the task submitted again (up to :data:`MAX_LOST` times).
 
     Returns
     -------
@@ -520,77 +527,33 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
     if not isinstance(settings, TrackerSettings):
         raise TypeError(f"`settings` must be a TrackerSettings; received {describe(settings)}")
     t, z, R, rad, sc = _reports_iv(time, position, cov, radar, scan)
-    _coverage_iv(sectors, z)
+    counts = _coverage_iv(sectors, z)
     if client is not None:
         _client_iv(client)
-
-    def inputs(k):
-        m = sectors._in_grown(z, k)
-        return t[m], z[m], R[m], rad[m], sc[m]
-
-    S = sectors.n_sectors
-    counts = np.zeros(S, np.int64)
+    reports = (t, z, R, rad, sc)
+    gamma = float(gating.gate_threshold(settings.p_relink, 3))
+    links = Links(sectors, gamma)            # the hand-over's candidates, as sectors finish
     if client is None:
-        results = []
-        for k in range(S):
-            data = inputs(k)
-            counts[k] = data[0].size
+        runs = []
+        for k in range(sectors.n_sectors):
             try:
-                results.append(_track_sector(data, settings))
+                runs.append(run_sector(reports, sectors, k, settings))
             except Exception as exc:
                 raise _failed(sectors, k, counts[k], exc) from exc
+            links.add(k, runs[k][0].edge)
     else:
-        results = _on_cluster(client, sectors, inputs, settings, counts)
-    for k, (_, caught) in enumerate(results):
-        for category, message in caught:
-            warnings.warn(f"{_describe_sector(sectors, k, counts[k])}: {message}", category,
-                          stacklevel=2)
-    histories = [h for h, _ in results]
-    gamma = float(gating.gate_threshold(settings.p_relink, 3))
-    history, links, handovers = merge_histories(sectors, histories, gamma)
-    return SectoredTracks(history, sectors, counts,
-                          np.array([h.n_confirmed for h in histories], np.int64), handovers,
-                          np.stack(links[:4], axis=1).astype(np.int64), links[4])
-
-
-def _on_cluster(client, sectors, inputs, settings, counts):
-    """One task per sector on the cluster; results in sector order, or the lowest failure.
-
-    A task whose worker dies is rerun by the scheduler; a task whose scattered input died
-    with its worker is cancelled by the scheduler, and is scattered and submitted again
-    here (at most :data:`MAX_LOST` times per sector)."""
-    distributed = require("distributed", feature="track_sectored(client=...)")
-    S = sectors.n_sectors
-    data = []
-    for k in range(S):
-        data.append(inputs(k))
-        counts[k] = data[-1][0].size
-    scattered = client.scatter(data, hash=False)
-    futures = [client.submit(_track_sector, f, settings, pure=False) for f in scattered]
-    sector = {f.key: k for k, f in enumerate(futures)}
-    lost = np.zeros(S, np.int64)
-    failed: dict[int, BaseException] = {}
-    try:
-        done = distributed.as_completed(futures)
-        for f in done:
-            k = sector[f.key]
-            if f.status == "finished":
-                continue
-            if f.status == "error":
-                failed[k] = f.exception()
-                continue
-            lost[k] += 1                                 # cancelled: its input was lost
-            if lost[k] > MAX_LOST:
-                failed[k] = RuntimeError(f"its task was cancelled {lost[k]} times (status "
-                                         f"{f.status!r}: workers lost with its input)")
-                continue
-            [scattered[k]] = client.scatter([data[k]], hash=False)
-            futures[k] = client.submit(_track_sector, scattered[k], settings, pure=False)
-            sector[futures[k].key] = k
-            done.add(futures[k])
+        runs, failed = on_cluster(client, reports, sectors, settings, counts, MAX_LOST,
+                                  lambda k, run: links.add(k, run[0].edge))
         if failed:
             k = min(failed)                              # the lowest failing sector
             raise _failed(sectors, k, counts[k], failed[k]) from failed[k]
-        return client.gather(futures)
-    finally:
-        client.cancel(futures + scattered)
+    for k, (_, _, caught) in enumerate(runs):
+        for category, message in caught:
+            warnings.warn(f"{_describe_sector(sectors, k, counts[k])}: {message}", category,
+                          stacklevel=2)
+    summaries = [m for m, _, _ in runs]
+    history, links, handovers = merge(sectors, summaries, [p for _, p, _ in runs], gamma,
+                                      links.result())
+    return SectoredTracks(history, sectors, counts,
+                          np.array([m.n_confirmed for m in summaries], np.int64), handovers,
+                          np.stack(links[:4], axis=1).astype(np.int64), links[4])
