@@ -43,7 +43,7 @@ Printed per run:
    truth sample (its squared error if paired, c^2 / 2 if missed: GOSPA per aircraft without
    the false part) by the same classes, so that the two scenes compare in the same
    conditions.
-6. **Scored on the covered truth only** (continent): ``tune_continent.score_visible``, the
+6. **Scored on the covered truth only** (continent): ``bench_continent.score_visible``, the
    same parts with no instant outside every coverage in the truth, and tracks per aircraft
    and per stretch in coverage.
 
@@ -95,7 +95,6 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_continent as bc  # noqa: E402
-import tune_continent as tc  # noqa: E402
 
 from radarfusion_ref import capstone as cp  # noqa: E402
 from radarfusion_ref import continent as ct  # noqa: E402
@@ -233,7 +232,7 @@ def continent_case(scale, duration, seed, true_biases=False):
             "truth": truth, "valid": valid, "row": per, "att": att, "cov": cov,
             "since": since, "score": lambda h, age: trk.evaluate_tracks(
                 h, tt, tx, tid, c=bc.C_CUT, p=bc.P_ORDER, times=times, max_age=age),
-            "visible": lambda h, age: tc.score_visible(h, (tt, tx, tid), times, max_age=age)}
+            "visible": lambda h, age: bc.score_visible(h, (tt, tx, tid), times, max_age=age)}
 
 
 def swiss_case(duration=3600.0):
@@ -483,7 +482,7 @@ def main(scale, duration, seed, ages, settings, swiss, single=False, true_biases
                 decompose(case, h, m, age)
                 if "visible" in case:
                     mv, per = case["visible"](h, age)
-                    print("  scored on the covered truth only (tune_continent.score_visible):")
+                    print("  scored on the covered truth only (bench_continent.score_visible):")
                     parts(mv, np.sum(mv.track_of >= 0, axis=0)
                           + np.rint(2 * mv.missed / mv.c ** mv.p).astype(int), per)
                     print(f"  tracks per stretch in coverage {mv.tracks_per_aircraft:.3f}")

@@ -13,7 +13,7 @@ unchanged but for the data and the false-track limit:
   scale, rng=2025)`` (the scored hour is seed 2026), the whole hour, ``bench_continent.py``'s
   pipeline (registration from the first five minutes, reports seed 2026, the truth
   ``continent.truth_samples`` every 30 s from 60 s, GOSPA c = 2000 m, p = 2, ``max_age``
-  15 s), scored by :func:`score_visible`: ``tracking.evaluate_tracks`` with one target per
+  15 s), scored by ``bench_continent.score_visible``: ``tracking.evaluate_tracks`` with one target per
   stretch of an aircraft inside coverage, so that no instant outside every radar's
   coverage is scored (``evaluate_tracks`` interpolates a target between its first and last
   sample, across its gaps), and tracks per aircraft counted over the aircraft's stretches.
@@ -72,39 +72,6 @@ def _data(scale):
     return _DATA
 
 
-def visible_stretches(truth_time, truth_id, times):
-    """A new identity for each stretch of an aircraft's samples at consecutive `times`
-    (``truth_samples`` leaves out the instants it is outside every coverage, and
-    ``evaluate_tracks`` interpolates a target between its first and last sample: one
-    identity per stretch keeps its truth set to the aircraft some radar covers)."""
-    ti = np.searchsorted(times, truth_time)
-    order = np.lexsort((ti, truth_id))
-    new = np.ones(truth_id.size, bool)
-    same = truth_id[order][1:] == truth_id[order][:-1]
-    new[1:] = ~same | (np.diff(ti[order]) > 1)
-    stretch = np.empty(truth_id.size, np.int64)
-    stretch[order] = np.cumsum(new) - 1
-    return stretch
-
-
-def score_visible(history, truth, times, *, max_age=15.0):
-    """Score a history against the truth some radar covers at each instant, never
-    interpolated across a coverage gap: ``(metrics, tracks per aircraft)``, the metrics of
-    ``evaluate_tracks`` with one target per stretch in coverage (GOSPA and its parts
-    exact), and the distinct tracks per aircraft over all its stretches."""
-    tt, tx, tid = truth
-    stretch = visible_stretches(tt, tid, times)
-    m = trk.evaluate_tracks(history, tt, tx, stretch, c=bc.C_CUT, p=bc.P_ORDER,
-                            times=times, max_age=max_age)
-    owner = np.zeros(int(stretch.max()) + 1, np.int64)
-    owner[stretch] = tid
-    rows = owner[m.truth_id]
-    a, j = np.nonzero(m.track_of >= 0)
-    pairs = np.unique(np.stack([rows[a], m.track_of[a, j]], -1), axis=0)
-    per = np.unique(pairs[:, 0], return_counts=True)[1]
-    return m, float(per.mean()) if per.size else float("nan")
-
-
 def settings_of(knobs):
     """The search's knobs on the continental design values."""
     return dataclasses.replace(tt.settings_of(TRACKER, knobs), **ct.CONTINENT_DESIGN)
@@ -119,7 +86,7 @@ def _run(job):
         t0 = time.perf_counter()
         h = trk.track_reports(*d["reports"], settings=settings_of(knobs))
         seconds = time.perf_counter() - t0
-        m, per_aircraft = score_visible(h, d["truth"], d["times"])
+        m, per_aircraft = bc.score_visible(h, d["truth"], d["times"])
     except Exception as exc:                                   # recorded, the search goes on
         row.update(status="failed", error=f"{type(exc).__name__}: {exc}"[:300])
         traceback.print_exc()
