@@ -91,15 +91,7 @@ def _run(job):
         row.update(status="failed", error=f"{type(exc).__name__}: {exc}"[:300])
         traceback.print_exc()
         return row
-    parts = [float(np.sqrt(np.mean(v))) for v in (m.localisation, m.missed, m.false)]
-    row.update(seconds=round(seconds, 2), mean_gospa=round(float(m.mean_gospa), 1),
-               localisation=round(parts[0], 1), missed=round(parts[1], 1),
-               false=round(parts[2], 1),
-               tracks_per_aircraft=round(per_aircraft, 4),
-               n_tracks=int(m.n_tracks), switches=int(m.switches),
-               false_tracks_per_hour=round(float(m.false_tracks_per_hour), 2),
-               mean_latency=round(float(m.mean_latency), 2),
-               nees=round(float(m.nees.mean), 3) if m.nees is not None else "")
+    tt.record_scores(row, m, seconds, per_aircraft)
     row["gospa_per_aircraft"] = round(bc.gospa_per_aircraft(m), 1)
     return row
 

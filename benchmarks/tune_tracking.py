@@ -177,17 +177,22 @@ def _run(job):
         row.update(status="failed", error=f"{type(exc).__name__}: {exc}"[:300])
         traceback.print_exc()
         return row
+    record_scores(row, m, seconds, float(m.tracks_per_aircraft))
+    row["feasible"] = int(_feasible(row))
+    return row
+
+
+def record_scores(row, m, seconds, tracks_per_aircraft):
+    """Write a run's scores (``TrackingMetrics`` `m`, its run time, its tracks per aircraft)
+    into its table `row`, rounded as the table keeps them."""
     parts = [float(np.sqrt(np.mean(v))) for v in (m.localisation, m.missed, m.false)]
     row.update(seconds=round(seconds, 2), mean_gospa=round(float(m.mean_gospa), 1),
                localisation=round(parts[0], 1), missed=round(parts[1], 1),
-               false=round(parts[2], 1),
-               tracks_per_aircraft=round(float(m.tracks_per_aircraft), 4),
+               false=round(parts[2], 1), tracks_per_aircraft=round(tracks_per_aircraft, 4),
                n_tracks=int(m.n_tracks), switches=int(m.switches),
                false_tracks_per_hour=round(float(m.false_tracks_per_hour), 2),
                mean_latency=round(float(m.mean_latency), 2),
                nees=round(float(m.nees.mean), 3) if m.nees is not None else "")
-    row["feasible"] = int(_feasible(row))
-    return row
 
 
 def _feasible(row):

@@ -145,6 +145,12 @@ def execute_chapter(path: Path, *, timeout: int = 300, cache_dir: Path | None = 
 WORKERS = int(os.environ.get("RADARFUSION_TEST_WORKERS", min(2, os.cpu_count() or 1)))
 
 
+def selected(request, test_name: str) -> list:
+    """The `docname` parameters of `test_name` in this module that this run selected."""
+    return [item.callspec.params["docname"] for item in request.session.items
+            if item.path == request.path and getattr(item, "originalname", None) == test_name]
+
+
 def _execute_job(job):
     """One chapter in a worker process: ``(notebook, seconds, None)`` or ``(None, 0, error)``."""
     path, kwargs = job

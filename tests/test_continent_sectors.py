@@ -256,12 +256,9 @@ def test_dask_gives_the_same_answer_bit_for_bit(reports, local, client):
         track_sectored(*_failing(reports), sectors=GRID, client=client)
 
 
-def test_a_killed_worker_changes_nothing(client):
-    """A worker killed while it tracks a sector: the nanny restarts it; the scheduler
-    reruns the task, or, its scattered input lost with the worker, track_sectored scatters
-    and submits it again; the answer is the same."""
-    rep, _ = scene(duration=400.0, periods=(2.0, 3.0))    # about a second per sector
-    ref = track_sectored(*rep, sectors=GRID)
+def _sectored_while_killing(client, rep, kill, join=60):
+    """track_sectored on `client` in a thread, and ``kill()`` called as soon as the scheduler
+    shows a sector processing (it returns what it killed); the killed list and the answer."""
     out, killed = {}, []
 
     def run():
@@ -276,14 +273,27 @@ def test_a_killed_worker_changes_nothing(client):
     while not killed and worker.is_alive() and time.monotonic() < deadline:
         busy = sorted(a for a, keys in client.processing().items() if keys)
         if busy:
-            killed.append(busy[0])
-            # the worker dies before it answers
-            client.run(os._exit, 1, workers=busy[:1], on_error="ignore")
+            killed.append(kill(busy))
         time.sleep(0.005)
-    worker.join(60)
+    worker.join(join)
     assert killed, "no sector was seen running on a worker"
     assert "error" not in out, out.get("error")
-    _same(out["result"], ref)
+    return killed, out["result"]
+
+
+def test_a_killed_worker_changes_nothing(client):
+    """A worker killed while it tracks a sector: the nanny restarts it; the scheduler
+    reruns the task, or, its scattered input lost with the worker, track_sectored scatters
+    and submits it again; the answer is the same."""
+    rep, _ = scene(duration=400.0, periods=(2.0, 3.0))    # about a second per sector
+    ref = track_sectored(*rep, sectors=GRID)
+
+    def kill_one(busy):                                  # the worker dies before it answers
+        client.run(os._exit, 1, workers=busy[:1], on_error="ignore")
+        return busy[0]
+
+    killed, result = _sectored_while_killing(client, rep, kill_one)
+    _same(result, ref)
     deadline = time.monotonic() + 30
     while killed[0] in client.nthreads() and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -432,25 +442,12 @@ def test_reports_lost_with_every_worker_are_scattered_again(client):
     rep, _ = scene(duration=400.0, periods=(2.0, 3.0))
     ref = track_sectored(*rep, sectors=GRID)
     before = set(client.nthreads())
-    out, killed = {}, []
 
-    def run():
-        try:
-            out["result"] = track_sectored(*rep, sectors=GRID, client=client)
-        except Exception as exc:                         # shown by the assertion below
-            out["error"] = exc
+    def kill_all(busy):                                  # every worker dies
+        client.run(os._exit, 1, on_error="ignore")
+        return True
 
-    worker = threading.Thread(target=run)
-    worker.start()
-    deadline = time.monotonic() + 30
-    while not killed and worker.is_alive() and time.monotonic() < deadline:
-        if any(client.processing().values()):
-            killed.append(True)
-            client.run(os._exit, 1, on_error="ignore")    # every worker dies
-        time.sleep(0.005)
-    worker.join(90)
-    assert killed, "no sector was seen running on a worker"
-    assert "error" not in out, out.get("error")
-    _same(out["result"], ref)
+    _, result = _sectored_while_killing(client, rep, kill_all, join=90)
+    _same(result, ref)
     client.wait_for_workers(2, timeout=30)
     assert not before & set(client.nthreads())           # two new workers took over

@@ -13,7 +13,7 @@ from __future__ import annotations
 import textwrap
 
 import pytest
-from book_tools import ROOT, execute_chapters
+from book_tools import ROOT, execute_chapters, selected
 
 #: chapter (``page`` or ``page:variant`` for a further mutation of the same page) →
 #: (module, function, wrapper). The wrapper is Python source of a
@@ -492,9 +492,7 @@ def preamble(module: str, name: str, wrap: str) -> str:
 @pytest.fixture(scope="module")
 def mutant_runs(request):
     """The selected mutations' chapters, executed two at a time with their preambles."""
-    chosen = [item.callspec.params["docname"] for item in request.session.items
-              if item.path == request.path and getattr(item, "originalname", None)
-              == "test_a_broken_function_stops_its_chapter_at_a_check"]
+    chosen = selected(request, "test_a_broken_function_stops_its_chapter_at_a_check")
     return execute_chapters({d: (ROOT / f"{d.split(':')[0]}.md",
                                  {"preamble": preamble(*MUTATIONS[d])}) for d in chosen})
 

@@ -19,7 +19,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from book_tools import ROOT, execute_chapters, notebook_docnames
+from book_tools import ROOT, execute_chapters, notebook_docnames, selected
 
 BOOK_ROOT = Path(os.environ.get("RADARFUSION_BOOK_ROOT", ROOT))
 CHAPTERS = notebook_docnames(BOOK_ROOT)
@@ -36,12 +36,6 @@ def chapter_key(docname: str) -> str:
     stem = docname.rsplit("/", 1)[-1]
     match = re.match(r"(\d\d)_", stem)
     return match.group(1) if match else stem
-
-
-def selected(request, test_name: str) -> list:
-    """The `docname` parameters of `test_name` in this module that this run selected."""
-    return [item.callspec.params["docname"] for item in request.session.items
-            if item.path == request.path and getattr(item, "originalname", None) == test_name]
 
 
 @pytest.fixture(scope="module")
