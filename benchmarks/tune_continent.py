@@ -66,7 +66,7 @@ def _data(scale):
         sc = ct.continent_scenario(scale, duration=WINDOW, rng=TUNING_SEED)
         first = ct.simulate_continent(sc, start=0.0, duration=bc.WARMUP, rng=bc.SEED)
         est = ct.register_continent(sc, first).biases
-        rep = ct.simulate_continent(sc, bias_estimate=est, rng=bc.SEED)
+        rep = bc.simulate_pieces(sc, WINDOW, bias_estimate=est, rng=bc.SEED)
         times = np.arange(bc.FIRST, WINDOW, bc.STEP)
         _DATA.update(reports=bc.args_of(rep), times=times, truth=ct.truth_samples(sc, times))
     return _DATA

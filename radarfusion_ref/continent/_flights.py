@@ -24,8 +24,11 @@ CLIMB = (8.0, 15.0)
 DESCENT = (7.0, 9.0)
 #: Cruise level (m): FL300..FL400, uniform.
 CRUISE = (9144.0, 12192.0)
-#: Turn rate (rad/s, uniform): 1.5..3 deg/s.
-TURN_RATE = (np.radians(1.5), np.radians(3.0))
+#: Bank angle of the turn (rad, uniform): 15..25 deg, an airliner's at cruise; the turn
+#: rate is then g tan(bank) / v (about 0.6..1.3 deg/s at 210..250 m/s).
+BANK = (np.radians(15.0), np.radians(25.0))
+#: Standard gravity (m/s^2).
+G0 = 9.80665
 #: Waypoint: at this fraction of the direct line (uniform) ...
 WAYPOINT_AT = (0.3, 0.7)
 #: ... and off it by this fraction of the line's length (uniform, either side).
@@ -120,7 +123,7 @@ def draw(xy, elev, n, gen):
     u, length = _unit(b - a)
     w = a + (at * length)[:, None] * u + (off * length)[:, None] * _left(u)
     speed = gen.uniform(*SPEED, n)
-    turn = gen.uniform(*TURN_RATE, n)
+    turn = G0 * np.tan(gen.uniform(*BANK, n)) / speed
     climb = gen.uniform(*CLIMB, n)
     descent = gen.uniform(*DESCENT, n)
     cruise = gen.uniform(*CRUISE, n)

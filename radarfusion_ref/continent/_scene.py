@@ -10,12 +10,14 @@ import functools
 import io
 import math
 from importlib import resources
+from types import SimpleNamespace
 
 import numpy as np
 
 from ..capstone import Radar
+from ..engine.geodesy import enu_rotation
 from . import _flights, _reports
-from ._frame import frame_of
+from ._frame import ecef, frame_of
 
 #: The committed airports (CSV with a ``#`` header line; see ``data/make_airports.py``).
 AIRPORTS_FILE = resources.files(__package__).joinpath("data", "airports.csv")
@@ -61,22 +63,82 @@ def mean_duration(lat0, lon0) -> float:
     return float(np.mean(f["duration"]))
 
 
-def draw_radars(xyz, n, gen):
-    """`n` radars: sites spread by farthest-point sampling over the airports, then jittered."""
+#: The traffic a radar network is planned for: airborne aircraft of a fixed seeded draw,
+#: each flight at a uniform instant of its flight, flights drawn in proportion to their
+#: duration (so the samples follow the airborne density); and how many radars each sample
+#: should see (double coverage, as en-route airspace is planned); a sample no radar sees
+#: weighs `PLAN_HOLE_WEIGHT` times one that one radar sees (a hole also costs an aircraft
+#: its track's identity when it flies out and back in).
+_PLAN_FLIGHTS, _PLAN_SAMPLES, PLAN_COVERAGE, PLAN_HOLE_WEIGHT = 20_000, 6_000, 2, 3.0
+#: A site's antenna height above its airport in the plan (m): the middle of the drawn 10-300 m.
+_PLAN_MAST = 155.0
+
+
+@functools.lru_cache(maxsize=4)
+def plan_ranges(lat0, lon0):
+    """Slant range (m, float32) from every airport site to every planning sample, inf where
+    the sample is below the site's horizon (elevation < 0): shape (airports, samples)."""
+    xyz = airport_map(lat0, lon0)
+    gen = np.random.default_rng(20260102)
+    f = _flights.draw(xyz[:, :2], xyz[:, 2], _PLAN_FLIGHTS, gen)
+    w = f["duration"] / f["duration"].sum()
+    j = gen.choice(_PLAN_FLIGHTS, _PLAN_SAMPLES, p=w)
+    fl = SimpleNamespace(departure=np.zeros(_PLAN_FLIGHTS), **f)
+    pos = _flights.state(fl, _flights.geometry(fl), j, gen.uniform(0.0, f["duration"][j]))
+    frame = frame_of(lat0, lon0)
+    ap = airports()
+    p = ecef(frame.inverse(pos))                                           # (S, 3)
+    sites = ecef(np.stack([ap["lat"], ap["lon"], ap["elevation"] + _PLAN_MAST], -1))
+    out = np.empty((ap["lat"].size, _PLAN_SAMPLES), np.float32)
+    for i in range(ap["lat"].size):
+        d = p - sites[i]
+        up = d @ enu_rotation(ap["lat"][i], ap["lon"][i])[2]
+        out[i] = np.where(up >= 0.0, np.linalg.norm(d, axis=1), np.inf)
+    return out
+
+
+def planned_sites(max_range, lat0, lon0):
+    """Airport index of each radar's site, chosen greedily in the radars' order: each takes
+    the free airport whose coverage (its own `max_range`) adds the most weight of planning
+    samples still seen by fewer than ``PLAN_COVERAGE`` radars (weight ``PLAN_HOLE_WEIGHT``
+    for a sample no radar sees yet, 1 for the others; ties: the first airport)."""
+    r = plan_ranges(lat0, lon0)
+    count = np.zeros(r.shape[1], np.int64)
+    free = np.ones(r.shape[0], bool)
+    chosen = []
+    for rmax in max_range:
+        cover = r <= np.float32(rmax)
+        weight = np.where(count == 0, PLAN_HOLE_WEIGHT, (count < PLAN_COVERAGE) * 1.0)
+        gain = cover @ weight.astype(np.float32)
+        gain[~free] = -1.0
+        i = int(np.argmax(gain))
+        chosen.append(i)
+        free[i] = False
+        count += cover[i]
+    return chosen
+
+
+def draw_radars(xyz, n, gen, lat0, lon0, siting="planned"):
+    """`n` radars with their drawn parameters, at sites planned for double coverage of the
+    traffic (``siting="planned"``, :func:`planned_sites`) or spread by farthest-point
+    sampling over the airports (``"spread"``), then jittered."""
     ap = airports()
     first = int(gen.integers(ap["lat"].size))
-    chosen = [first]
-    d = np.linalg.norm(xyz[:, :2] - xyz[first, :2], axis=-1)
-    for _ in range(n - 1):
-        nxt = int(np.argmax(d))
-        chosen.append(nxt)
-        d = np.minimum(d, np.linalg.norm(xyz[:, :2] - xyz[nxt, :2], axis=-1))
+    u = {k: gen.uniform(*v, n) for k, v in RADAR_DRAWS.items() if isinstance(v, tuple)}
+    if siting == "planned":
+        chosen = planned_sites(u["max_range"], lat0, lon0)
+    else:
+        chosen = [first]
+        d = np.linalg.norm(xyz[:, :2] - xyz[first, :2], axis=-1)
+        for _ in range(n - 1):
+            nxt = int(np.argmax(d))
+            chosen.append(nxt)
+            d = np.minimum(d, np.linalg.norm(xyz[:, :2] - xyz[nxt, :2], axis=-1))
     idx = np.array(chosen)
     # jitter: up to 0.1 deg of latitude and longitude; mast or hill 10-300 m above the airport
     lat = ap["lat"][idx] + gen.uniform(-0.1, 0.1, n)
     lon = ap["lon"][idx] + gen.uniform(-0.1, 0.1, n)
     height = ap["elevation"][idx] + gen.uniform(10.0, 300.0, n)
-    u = {k: gen.uniform(*v, n) for k, v in RADAR_DRAWS.items() if isinstance(v, tuple)}
     bias = gen.standard_normal((n, 3)) * [RADAR_DRAWS["bias_range"], RADAR_DRAWS["bias_scale"],
                                           RADAR_DRAWS["bias_azimuth"]]
     phase = gen.random(n) * u["period"]

@@ -27,10 +27,9 @@ its covariance through the Jacobian of the whole chain (:func:`polar_to_map`).
 :func:`radarfusion_ref.tracking.track_reports` and :func:`truth_samples` the truth for
 :func:`radarfusion_ref.tracking.evaluate_tracks`, both in map metres.
 
-**Scale.** With the default 36 radars, one hour (seed 2026): scale 1 — 64 flights, 40
-airborne, 0.25 million reports (93 % of them false); scale 10 — 661 flights, 400 airborne,
-0.44 million; scale 100 — 6589 flights, 4000 airborne, 2.19 million reports (11 % false),
-generated in 15–20 s on two shared cores, 0.8 GB at the peak.
+**Scale.** With the default 60 radars, one hour (seed 2026): scale 100 holds about 4000
+aircraft airborne at once and about 5 million reports; its window is simulated in pieces
+(``benchmarks/bench_continent.py`` prints the counts), each under the memory limit.
 """
 
 from __future__ import annotations
@@ -44,6 +43,7 @@ from ..capstone import Radar
 from ..engine.validation import (
     MEMORY_LIMIT,
     as_bool,
+    as_choice,
     as_float,
     as_float_array,
     as_int,
@@ -93,6 +93,8 @@ AIRPORTS_FILE = _scene.AIRPORTS_FILE
 RADAR_DRAWS = _scene.RADAR_DRAWS
 #: Aircraft airborne at once in the Swiss hour of the capstone: ``scale = 1``.
 SWISS_AIRBORNE = 40
+#: Where :func:`continent_scenario` puts the radars (its `siting`).
+SITINGS = ("planned", "spread")
 #: Bytes of :func:`simulate_continent` per report at its peak, counted against the memory
 #: limit: the per-radar pieces (152: time, position, covariance, radar, scan, aircraft,
 #: polar), the sorted output being filled (up to 152), the covariance's joined copy while it
@@ -314,7 +316,8 @@ class Flights:
     horizontal speed :math:`v`; its height :math:`s` seconds after take-off is
     :math:`z(s) = \min(z_A + c\,s,\ z_c,\ z_B + q\,(T - s))`. Drawn (uniformly): the airports
     (great-circle map distance 300–2500 km), the waypoint at 0.3–0.7 of the line and off it
-    by 5–15 % of its length, :math:`v` 210–250 m/s, :math:`\omega` 1.5–3 °/s, :math:`c`
+    by 5–15 % of its length, :math:`v` 210–250 m/s, a bank angle :math:`\phi` of 15–25° (an airliner's at cruise;
+    :math:`\omega = g \tan\phi / v`, about 0.6–1.3 °/s), :math:`c`
     8–15 m/s, :math:`q` 7–9 m/s, :math:`z_c` FL300–FL400 (9144–12192 m), lowered where
     climb and descent would take more than 80 % of the flight (short flights).
 
@@ -396,14 +399,16 @@ class ContinentScenario:
         return SWISS_AIRBORNE * self.scale
 
 
-def _scenario_args_iv(scale, n_radars, duration):
+def _scenario_args_iv(scale, n_radars, duration, siting):
+    siting = as_choice(siting, "siting", SITINGS)
     scale = as_float(as_positive(scale, "scale"), "scale")
     duration = as_float(as_positive(duration, "duration"), "duration")
     n_radars = as_int(n_radars, "n_radars", minimum=1, maximum=_scene.airports()["lat"].size)
-    return scale, n_radars, duration
+    return scale, n_radars, duration, siting
 
 
-def continent_scenario(scale=1.0, *, n_radars=36, duration=3600.0, rng=None):
+def continent_scenario(scale=1.0, *, n_radars=60, duration=3600.0, siting="planned",
+                       rng=None):
     r"""A continental scene: ``40 * scale`` aircraft airborne at once, `n_radars` radars.
 
     Parameters
@@ -413,10 +418,14 @@ def continent_scenario(scale=1.0, *, n_radars=36, duration=3600.0, rng=None):
         aircraft airborne at any instant of the window is ``SWISS_AIRBORNE * scale``
         (1 → 40, 10 → 400, 100 → 4000).
     n_radars : int, optional
-        Number of radars (1 to the number of airports, default 36).
+        Number of radars (1 to the number of airports, default 60).
     duration : float, optional
         The window ``[0, duration)`` over which the traffic is steady (s, > 0, default
         3600).
+    siting : {"planned", "spread"}, optional
+        Where the radars stand: ``"planned"`` (default), the sites a network planner
+        would choose for double coverage of the traffic; ``"spread"``, spread evenly over
+        the airports (see Notes).
     rng : None, int or numpy.random.Generator, optional
         Randomness (SPEC 7). Draw order: the radars, the number of departures, their
         instants, the flights.
@@ -446,21 +455,34 @@ def continent_scenario(scale=1.0, *, n_radars=36, duration=3600.0, rng=None):
     fixed draw of 200 000 flights (standard error about 0.1 %). Airports are drawn
     uniformly (no airport is busier than another).
 
-    **Radars** (:class:`radarfusion_ref.capstone.Radar`): sites by farthest-point sampling
-    over the airports (the first one drawn), so they spread over the continent's land,
-    moved by up to 0.1° and raised 10–300 m above the airport; each draws (uniformly)
-    its scan period 4–12 s, phase, coverage 250–400 km (above 0° elevation), range noise
-    30–80 m, azimuth noise 0.05–0.12°, elevation noise 0.08–0.2°, detection probability
-    0.8–0.95 and 5–20 false reports per scan, and its biases (normal): range offset
-    (80 m), range scale error (1e-4) and azimuth offset (0.1°).
+    **Radars** (:class:`radarfusion_ref.capstone.Radar`): each draws (uniformly) its scan
+    period 4–12 s, phase, coverage 250–400 km (above 0° elevation), range noise 30–80 m,
+    azimuth noise 0.05–0.12°, elevation noise 0.08–0.2°, detection probability 0.8–0.95
+    and 5–20 false reports per scan, and its biases (normal): range offset (80 m), range
+    scale error (1e-4) and azimuth offset (0.1°). Its site is an airport, moved by up to
+    0.1° and raised 10–300 m:
+
+    * ``siting="planned"``: as an en-route network is planned, for double coverage of
+      the traffic. The plan's traffic is a fixed seeded draw of 6000 airborne aircraft
+      (flights drawn in proportion to their duration, each at a uniform instant of it);
+      the radars, in their drawn order, each take the free airport whose coverage (its
+      own range, above the horizon of a mast 155 m high) adds the most weight of planning
+      aircraft seen by fewer than two radars so far, an aircraft no radar sees yet
+      weighing three times one that one radar sees (a hole in the coverage also breaks
+      the track of an aircraft that flies out and back in). With 60 radars about four in
+      five airborne aircraft are seen by two or more.
+    * ``siting="spread"``: farthest-point sampling over the airports (the first one
+      drawn), so the radars spread evenly over the continent's land, whatever the
+      traffic; with 36 such radars about half the airborne aircraft are seen by one
+      radar only.
 
     Examples
     --------
     >>> sc = continent_scenario(1.0, rng=1)
     >>> len(sc.radars), sc.expected_airborne
-    (36, 40.0)
+    (60, 40.0)
     """
-    scale, n_radars, duration = _scenario_args_iv(scale, n_radars, duration)
+    scale, n_radars, duration, siting = _scenario_args_iv(scale, n_radars, duration, siting)
     gen = as_rng(rng)
     lat0, lon0 = ORIGIN
     rate = SWISS_AIRBORNE * scale / _scene.mean_duration(lat0, lon0)
@@ -472,7 +494,7 @@ def continent_scenario(scale=1.0, *, n_radars=36, duration=3600.0, rng=None):
                what=f"bytes of flights (about {mean_n:.0f} departures over {span:.0f} s)",
                alternative="a smaller `scale` or a shorter `duration`", name="scale")
     xyz = _scene.airport_map(lat0, lon0)
-    radars = _scene.draw_radars(xyz, n_radars, gen)
+    radars = _scene.draw_radars(xyz, n_radars, gen, lat0, lon0, siting)
     n = int(gen.poisson(mean_n))
     departure = np.sort(gen.uniform(-_flights.T_MAX, duration, n))
     f = _flights.draw(xyz[:, :2], xyz[:, 2], n, gen)
@@ -969,7 +991,7 @@ def register_continent(scenario, reports) -> ContinentBiases:
     >>> sc = continent_scenario(5.0, rng=1)
     >>> rep = simulate_continent(sc, start=0.0, duration=120.0, rng=2)
     >>> register_continent(sc, rep).biases.shape
-    (36, 3)
+    (60, 3)
     """
     sc = _scenario_iv(scenario)
     if not isinstance(reports, ContinentReports):
