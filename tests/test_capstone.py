@@ -700,3 +700,70 @@ def test_simulate_reports_refuses_a_clutter_rate_beyond_memory_before_drawing(sh
     with pytest.raises(ValueError, match=r"`radars\[0\]\.clutter_rate`.*refused: .* bytes of "
                                          r"false reports.*limit of 1073741824.*shorter `duration`"):
         cp.simulate_reports(truth, heavy, rng=1)
+
+
+# ----------------------------------------------------------------------------- scopes, scenes
+def _gospa_square(x, y, c):
+    """GOSPA (p = 2) as one square assignment with a private miss / false slot each."""
+    from scipy.optimize import linear_sum_assignment
+
+    n, k = len(x), len(y)
+    cost = np.full((n + k, k + n), 1e18)
+    cost[:n, :k] = np.sum((x[:, None] - y[None]) ** 2, axis=-1)
+    cost[np.arange(n), k + np.arange(n)] = c**2 / 2
+    cost[n + np.arange(k), np.arange(k)] = c**2 / 2
+    cost[n:, k:] = 0.0
+    rows, cols = linear_sum_assignment(cost)
+    return math.sqrt(cost[rows, cols].sum())
+
+
+def test_scope_detected_scores_the_aircraft_two_radars_reported(short, short_runs):
+    """scope="detected": per scan, the aircraft with reports of >= 2 distinct radars, counted
+    report by report in plain Python, scored by a square assignment."""
+    truth, _, rep = short
+    res = short_runs[0]
+    ev = cp.evaluate(res, truth, c=2000.0, scope="detected")
+    radars_of = {}
+    for s, a, i in zip(rep.scan.tolist(), rep.source.tolist(), rep.radar.tolist(), strict=True):
+        if a >= 0:
+            radars_of.setdefault((s, a), set()).add(i)
+    kept = 0
+    for s in range(truth.n_scans):
+        rows = np.flatnonzero(truth.scan == s)
+        keep = [r for r in rows if len(radars_of.get((s, int(truth.aircraft[r])), ())) >= 2]
+        kept += len(keep)
+        ref = _gospa_square(truth.position[keep], res.position[res.scan == s], 2000.0)
+        assert ev.gospa[s] == pytest.approx(ref, rel=1e-9, abs=1e-6)
+    # some aircraft are covered but not detected twice, so the scopes differ, in that order
+    cov = cp.evaluate(res, truth, c=2000.0, scope="covered")
+    everyone = cp.evaluate(res, truth, c=2000.0, scope="all")
+    n_cov = int(np.sum(cp.coverage_count(truth.position, res.radars) >= 2))
+    assert 0 < kept < n_cov <= truth.scan.size
+    assert np.sum(ev.missed) < np.sum(cov.missed) <= np.sum(everyone.missed)
+    np.testing.assert_array_equal(ev.false, cov.false)
+
+
+def test_hard_scene_definition(traffic):
+    sc = cp.hard_scene()
+    assert [r.name for r in sc.radars] == list(cp.FAR_SITES)
+    base = cp.default_radars()
+    for r, b in zip(sc.radars, base, strict=True):
+        assert (r.lat, r.lon, r.height) == cp.FAR_SITES[r.name]
+        assert r.sigma_beta == pytest.approx(math.radians(0.8), rel=1e-12)
+        assert (r.bias_range, r.bias_azimuth, r.p_detect) == (b.bias_range, b.bias_azimuth,
+                                                              b.p_detect)
+        assert r.clutter_rate == 200.0 and r.max_range == 400e3
+    # the window opens the chapter's: the busiest ten minutes on a 5-minute grid, by brute force
+    hour = cp.truth_scans(traffic, duration=3600.0)
+    load = {t0: int(np.sum((hour.times[hour.scan] >= t0) & (hour.times[hour.scan] < t0 + 600)))
+            for t0 in range(0, 3001, 300)}
+    assert max(load, key=load.get) == sc.start
+    truth = sc.truth(traffic)
+    assert truth.n_scans == 12 and truth.times[0] == sc.start
+    assert sc.settings.warmup == truth.n_scans
+    with pytest.raises(ValueError, match="`scope`"):
+        dataclasses.replace(sc, scope="seen")
+    with pytest.raises(TypeError, match="`settings`"):
+        dataclasses.replace(sc, settings={"debias": True})
+    with pytest.raises(TypeError, match="`traffic`"):
+        sc.truth("traffic")

@@ -24,9 +24,11 @@ module per concept:
   (:func:`run_pipeline`, configured by a frozen :class:`PipelineSettings`), each step
   calling the function its chapter teaches;
 * :mod:`~radarfusion_ref.capstone.evaluation` — scores against the truth
-  (:func:`evaluate`) with the engine's metrics
+  (:func:`evaluate`, over the truth sets :data:`SCOPES`) with the engine's metrics
   (:mod:`radarfusion_ref.engine.metrics`: GOSPA, NEES, purity); :func:`gospa_parameters`
-  checks an evaluation's GOSPA cut-off and order at GOSPA's own door.
+  checks an evaluation's GOSPA cut-off and order at GOSPA's own door;
+* :mod:`~radarfusion_ref.capstone.scenes` — named experiments (:class:`Scene`: radars,
+  window, settings, scoring), among them :func:`hard_scene`, where every stage matters.
 
 .. rubric:: References
 
@@ -45,7 +47,7 @@ from .detections import (
     simulate_detections,
     to_common,
 )
-from .evaluation import Evaluation, evaluate, gospa_parameters
+from .evaluation import SCOPES, Evaluation, evaluate, gospa_parameters
 from .pipeline import (
     MIN_REGISTRATION_GROUPS,
     SPEED_TYPE_MEANS,
@@ -66,6 +68,7 @@ from .radars import (
     realistic_radars,
     simulate_reports,
 )
+from .scenes import FAR_SITES, Scene, hard_scene
 from .traffic import (
     COLUMNS,
     DATA_FILE,
@@ -85,6 +88,7 @@ from .traffic import (
 __all__ = [
     "COLUMNS",
     "DATA_FILE",
+    "FAR_SITES",
     "FRESH_BAND",
     "HOURS",
     "MIN_REGISTRATION_GROUPS",
@@ -92,6 +96,7 @@ __all__ = [
     "ORIGIN",
     "RADAR_SITES",
     "REALISTIC_TIMING",
+    "SCOPES",
     "SPEED_BOUNDS",
     "SPEED_CLASSES",
     "SPEED_TYPE_MEANS",
@@ -104,6 +109,7 @@ __all__ = [
     "PipelineSettings",
     "Radar",
     "Reports",
+    "Scene",
     "Traffic",
     "TruthScans",
     "as_radars",
@@ -111,6 +117,7 @@ __all__ = [
     "default_radars",
     "evaluate",
     "gospa_parameters",
+    "hard_scene",
     "load_traffic",
     "local_rotation",
     "realistic_radars",
