@@ -8,7 +8,8 @@ module per concept:
 * :mod:`~radarfusion_ref.capstone.traffic` — loads the hour (:func:`load_traffic`, read
   with :mod:`importlib.resources`) and interpolates the aircraft at the scan times in
   the east-north-up frame about :data:`ORIGIN` (:func:`truth_scans`; the WGS-84
-  projection is :func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`);
+  projection is :func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`); the country
+  borders for maps (:func:`border_lines`);
 * :mod:`~radarfusion_ref.capstone.radars` — three radars at stated sites
   (:data:`RADAR_SITES`, :func:`default_radars`) reporting range, azimuth, elevation and
   a speed feature, with noise, systematic biases, missed detections, clutter and
@@ -70,6 +71,7 @@ from .radars import (
 )
 from .scenes import FAR_SITES, Scene, hard_scene
 from .traffic import (
+    BORDERS_FILE,
     COLUMNS,
     DATA_FILE,
     FRESH_BAND,
@@ -80,12 +82,14 @@ from .traffic import (
     TUNING_FILE,
     Traffic,
     TruthScans,
+    border_lines,
     load_traffic,
     truth_at,
     truth_scans,
 )
 
 __all__ = [
+    "BORDERS_FILE",
     "COLUMNS",
     "DATA_FILE",
     "FAR_SITES",
@@ -118,6 +122,7 @@ __all__ = [
     "evaluate",
     "gospa_parameters",
     "hard_scene",
+    "border_lines",
     "load_traffic",
     "local_rotation",
     "realistic_radars",
