@@ -767,3 +767,26 @@ def test_hard_scene_definition(traffic):
         dataclasses.replace(sc, settings={"debias": True})
     with pytest.raises(TypeError, match="`traffic`"):
         sc.truth("traffic")
+
+
+def test_border_lines_are_the_file_s_polylines_in_the_plane():
+    """Each border point against the orthographic projection on a sphere (within 1 % of
+    300 km, for the points less than 300 km from the origin)."""
+    import json
+
+    raw = json.loads(cp.BORDERS_FILE.read_text(encoding="utf-8"))["lines"]
+    lines = cp.border_lines()
+    assert len(lines) == len(raw) == 16
+    lat0, lon0 = np.radians(cp.ORIGIN[:2])
+    checked = 0
+    for xy, line in zip(lines, raw, strict=True):
+        lonlat = np.radians(np.asarray(line["lonlat"]))
+        assert xy.shape == (len(lonlat), 2)
+        lat, dlon = lonlat[:, 1], lonlat[:, 0] - lon0            # orthographic, on a sphere
+        east = 6.371e6 * np.cos(lat) * np.sin(dlon)
+        north = 6.371e6 * (np.sin(lat) * np.cos(lat0) - np.cos(lat) * np.sin(lat0) * np.cos(dlon))
+        near = np.hypot(east, north) < 300e3
+        checked += int(near.sum())
+        np.testing.assert_allclose(xy[near], np.column_stack([east, north])[near], rtol=0,
+                                   atol=0.01 * 300e3)
+    assert checked > 500
