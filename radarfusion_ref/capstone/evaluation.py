@@ -222,6 +222,20 @@ def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
     -----
     GOSPA compares the truth positions of each scan with the declared objects. NEES uses
     the pure objects: :math:`(\hat x - x)^T P^{-1} (\hat x - x)`, 3 degrees of freedom.
+    With ``scope="detected"`` an aircraft counts in a scan when reports of at least
+    ``result.settings.min_reports`` distinct radars come from it (``reports.source``).
+
+    Examples
+    --------
+    >>> from radarfusion_ref.capstone import (default_radars, load_traffic, run_pipeline,
+    ...                                       simulate_reports, truth_scans)
+    >>> from radarfusion_ref.capstone import PipelineSettings
+    >>> truth = truth_scans(load_traffic(), start=600.0, duration=60.0)
+    >>> rep = simulate_reports(truth, default_radars(), rng=1)
+    >>> res = run_pipeline(rep, default_radars(), PipelineSettings(warmup=6))
+    >>> ev = evaluate(res, truth, scope="detected")
+    >>> ev.gospa.shape, bool(np.all(ev.missed <= evaluate(res, truth).missed))
+    ((6,), True)
     """
     c, p, scope = _evaluate_iv(result, truth, c, p, scope)
     t0 = time.perf_counter()
