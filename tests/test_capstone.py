@@ -790,3 +790,20 @@ def test_border_lines_are_the_file_s_polylines_in_the_plane():
         np.testing.assert_allclose(xy[near], np.column_stack([east, north])[near], rtol=0,
                                    atol=0.01 * 300e3)
     assert checked > 500
+
+
+def test_hard_scene_needs_debiasing_and_features(traffic):
+    """One draw of the hard scene: the linearized covariance is too small (NEES well above
+    the debiased run's) and grouping on position alone groups fewer aircraft right."""
+    sc = cp.hard_scene()
+    truth = sc.truth(traffic)
+    rep = cp.simulate_reports(truth, sc.radars, rng=0)
+
+    def score(**switch):
+        run = cp.run_pipeline(rep, sc.radars, dataclasses.replace(sc.settings, **switch))
+        return cp.evaluate(run, truth, c=sc.c, scope=sc.scope)
+
+    full, lin, pos = score(), score(debias=False), score(use_features=False)
+    assert full.nees.low < full.nees.mean < full.nees.high * 1.1
+    assert lin.nees.mean > 1.25 * full.nees.mean
+    assert pos.completeness.high < full.completeness.low
