@@ -700,3 +700,110 @@ def test_simulate_reports_refuses_a_clutter_rate_beyond_memory_before_drawing(sh
     with pytest.raises(ValueError, match=r"`radars\[0\]\.clutter_rate`.*refused: .* bytes of "
                                          r"false reports.*limit of 1073741824.*shorter `duration`"):
         cp.simulate_reports(truth, heavy, rng=1)
+
+
+# ----------------------------------------------------------------------------- scopes, scenes
+def _gospa_square(x, y, c):
+    """GOSPA (p = 2) as one square assignment with a private miss / false slot each."""
+    from scipy.optimize import linear_sum_assignment
+
+    n, k = len(x), len(y)
+    cost = np.full((n + k, k + n), 1e18)
+    cost[:n, :k] = np.sum((x[:, None] - y[None]) ** 2, axis=-1)
+    cost[np.arange(n), k + np.arange(n)] = c**2 / 2
+    cost[n + np.arange(k), np.arange(k)] = c**2 / 2
+    cost[n:, k:] = 0.0
+    rows, cols = linear_sum_assignment(cost)
+    return math.sqrt(cost[rows, cols].sum())
+
+
+def test_scope_detected_scores_the_aircraft_two_radars_reported(short, short_runs):
+    """scope="detected": per scan, the aircraft with reports of >= 2 distinct radars, counted
+    report by report in plain Python, scored by a square assignment."""
+    truth, _, rep = short
+    res = short_runs[0]
+    ev = cp.evaluate(res, truth, c=2000.0, scope="detected")
+    radars_of = {}
+    for s, a, i in zip(rep.scan.tolist(), rep.source.tolist(), rep.radar.tolist(), strict=True):
+        if a >= 0:
+            radars_of.setdefault((s, a), set()).add(i)
+    kept = 0
+    for s in range(truth.n_scans):
+        rows = np.flatnonzero(truth.scan == s)
+        keep = [r for r in rows if len(radars_of.get((s, int(truth.aircraft[r])), ())) >= 2]
+        kept += len(keep)
+        ref = _gospa_square(truth.position[keep], res.position[res.scan == s], 2000.0)
+        assert ev.gospa[s] == pytest.approx(ref, rel=1e-9, abs=1e-6)
+    # some aircraft are covered but not detected twice, so the scopes differ, in that order
+    cov = cp.evaluate(res, truth, c=2000.0, scope="covered")
+    everyone = cp.evaluate(res, truth, c=2000.0, scope="all")
+    n_cov = int(np.sum(cp.coverage_count(truth.position, res.radars) >= 2))
+    assert 0 < kept < n_cov <= truth.scan.size
+    assert np.sum(ev.missed) < np.sum(cov.missed) <= np.sum(everyone.missed)
+    np.testing.assert_array_equal(ev.false, cov.false)
+
+
+def test_hard_scene_definition(traffic):
+    sc = cp.hard_scene()
+    assert [r.name for r in sc.radars] == list(cp.FAR_SITES)
+    base = cp.default_radars()
+    for r, b in zip(sc.radars, base, strict=True):
+        assert (r.lat, r.lon, r.height) == cp.FAR_SITES[r.name]
+        assert r.sigma_beta == pytest.approx(math.radians(0.8), rel=1e-12)
+        assert (r.bias_range, r.bias_azimuth, r.p_detect) == (b.bias_range, b.bias_azimuth,
+                                                              b.p_detect)
+        assert r.clutter_rate == 200.0 and r.max_range == 400e3
+    # the window opens the chapter's: the busiest ten minutes on a 5-minute grid, by brute force
+    hour = cp.truth_scans(traffic, duration=3600.0)
+    load = {t0: int(np.sum((hour.times[hour.scan] >= t0) & (hour.times[hour.scan] < t0 + 600)))
+            for t0 in range(0, 3001, 300)}
+    assert max(load, key=load.get) == sc.start
+    truth = sc.truth(traffic)
+    assert truth.n_scans == 12 and truth.times[0] == sc.start
+    assert sc.settings.warmup == truth.n_scans
+    with pytest.raises(ValueError, match="`scope`"):
+        dataclasses.replace(sc, scope="seen")
+    with pytest.raises(TypeError, match="`settings`"):
+        dataclasses.replace(sc, settings={"debias": True})
+    with pytest.raises(TypeError, match="`traffic`"):
+        sc.truth("traffic")
+
+
+def test_border_lines_are_the_file_s_polylines_in_the_plane():
+    """Each border point against the orthographic projection on a sphere (within 1 % of
+    300 km, for the points less than 300 km from the origin)."""
+    import json
+
+    raw = json.loads(cp.BORDERS_FILE.read_text(encoding="utf-8"))["lines"]
+    lines = cp.border_lines()
+    assert len(lines) == len(raw) == 16
+    lat0, lon0 = np.radians(cp.ORIGIN[:2])
+    checked = 0
+    for xy, line in zip(lines, raw, strict=True):
+        lonlat = np.radians(np.asarray(line["lonlat"]))
+        assert xy.shape == (len(lonlat), 2)
+        lat, dlon = lonlat[:, 1], lonlat[:, 0] - lon0            # orthographic, on a sphere
+        east = 6.371e6 * np.cos(lat) * np.sin(dlon)
+        north = 6.371e6 * (np.sin(lat) * np.cos(lat0) - np.cos(lat) * np.sin(lat0) * np.cos(dlon))
+        near = np.hypot(east, north) < 300e3
+        checked += int(near.sum())
+        np.testing.assert_allclose(xy[near], np.column_stack([east, north])[near], rtol=0,
+                                   atol=0.01 * 300e3)
+    assert checked > 500
+
+
+def test_hard_scene_needs_debiasing_and_features(traffic):
+    """One draw of the hard scene: the linearized covariance is too small (NEES well above
+    the debiased run's) and grouping on position alone groups fewer aircraft right."""
+    sc = cp.hard_scene()
+    truth = sc.truth(traffic)
+    rep = cp.simulate_reports(truth, sc.radars, rng=0)
+
+    def score(**switch):
+        run = cp.run_pipeline(rep, sc.radars, dataclasses.replace(sc.settings, **switch))
+        return cp.evaluate(run, truth, c=sc.c, scope=sc.scope)
+
+    full, lin, pos = score(), score(debias=False), score(use_features=False)
+    assert full.nees.low < full.nees.mean < full.nees.high * 1.1
+    assert lin.nees.mean > 1.25 * full.nees.mean
+    assert pos.completeness.high < full.completeness.low

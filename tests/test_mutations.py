@@ -426,6 +426,25 @@ MUTATIONS = {
                     high=float(stats.chi2.ppf((1 + level) / 2, k) / r.count))
             return g
         """),
+    # the pipeline page: the registration's correction adds the offsets instead of removing them
+    "book/11_capstone_pipeline:registration-sign": (
+        "radarfusion_ref.registration", "remove_biases", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(r_hat, beta_hat, biases):
+                return f(r_hat, beta_hat, np.asarray(biases, float) * [-1.0, 1.0, -1.0])
+            return g
+        """),
+    # the pipeline page: the converted covariance filled in one triangle only
+    "book/11_capstone_pipeline:conversion-cov-one-triangle": (
+        "radarfusion_ref.conversion", "spherical_to_cartesian", """
+        def wrap(f):
+            @functools.wraps(f)
+            def g(*a, **k):
+                r = f(*a, **k)
+                return dataclasses.replace(r, cov=np.triu(r.cov))
+            return g
+        """),
     # chapter 12: the piecewise-constant (discrete) process noise where the continuous
     # white-noise acceleration is derived
     "book/12_tracking": ("radarfusion_ref.engine.tracker", "kalman_predict", """

@@ -8,7 +8,8 @@ module per concept:
 * :mod:`~radarfusion_ref.capstone.traffic` — loads the hour (:func:`load_traffic`, read
   with :mod:`importlib.resources`) and interpolates the aircraft at the scan times in
   the east-north-up frame about :data:`ORIGIN` (:func:`truth_scans`; the WGS-84
-  projection is :func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`);
+  projection is :func:`radarfusion_ref.engine.geodesy.geodetic_to_enu`); the country
+  borders for maps (:func:`border_lines`);
 * :mod:`~radarfusion_ref.capstone.radars` — three radars at stated sites
   (:data:`RADAR_SITES`, :func:`default_radars`) reporting range, azimuth, elevation and
   a speed feature, with noise, systematic biases, missed detections, clutter and
@@ -24,9 +25,11 @@ module per concept:
   (:func:`run_pipeline`, configured by a frozen :class:`PipelineSettings`), each step
   calling the function its chapter teaches;
 * :mod:`~radarfusion_ref.capstone.evaluation` — scores against the truth
-  (:func:`evaluate`) with the engine's metrics
+  (:func:`evaluate`, over the truth sets :data:`SCOPES`) with the engine's metrics
   (:mod:`radarfusion_ref.engine.metrics`: GOSPA, NEES, purity); :func:`gospa_parameters`
-  checks an evaluation's GOSPA cut-off and order at GOSPA's own door.
+  checks an evaluation's GOSPA cut-off and order at GOSPA's own door;
+* :mod:`~radarfusion_ref.capstone.scenes` — named experiments (:class:`Scene`: radars,
+  window, settings, scoring), among them :func:`hard_scene`, where every stage matters.
 
 .. rubric:: References
 
@@ -45,7 +48,7 @@ from .detections import (
     simulate_detections,
     to_common,
 )
-from .evaluation import Evaluation, evaluate, gospa_parameters
+from .evaluation import SCOPES, Evaluation, evaluate, gospa_parameters
 from .pipeline import (
     MIN_REGISTRATION_GROUPS,
     SPEED_TYPE_MEANS,
@@ -66,7 +69,9 @@ from .radars import (
     realistic_radars,
     simulate_reports,
 )
+from .scenes import FAR_SITES, Scene, hard_scene
 from .traffic import (
+    BORDERS_FILE,
     COLUMNS,
     DATA_FILE,
     FRESH_BAND,
@@ -77,14 +82,17 @@ from .traffic import (
     TUNING_FILE,
     Traffic,
     TruthScans,
+    border_lines,
     load_traffic,
     truth_at,
     truth_scans,
 )
 
 __all__ = [
+    "BORDERS_FILE",
     "COLUMNS",
     "DATA_FILE",
+    "FAR_SITES",
     "FRESH_BAND",
     "HOURS",
     "MIN_REGISTRATION_GROUPS",
@@ -92,6 +100,7 @@ __all__ = [
     "ORIGIN",
     "RADAR_SITES",
     "REALISTIC_TIMING",
+    "SCOPES",
     "SPEED_BOUNDS",
     "SPEED_CLASSES",
     "SPEED_TYPE_MEANS",
@@ -104,6 +113,7 @@ __all__ = [
     "PipelineSettings",
     "Radar",
     "Reports",
+    "Scene",
     "Traffic",
     "TruthScans",
     "as_radars",
@@ -111,6 +121,8 @@ __all__ = [
     "default_radars",
     "evaluate",
     "gospa_parameters",
+    "hard_scene",
+    "border_lines",
     "load_traffic",
     "local_rotation",
     "realistic_radars",

@@ -21,7 +21,10 @@ from .pipeline import PipelineResult
 from .radars import _coverage_count
 from .traffic import TruthScans
 
-__all__ = ["Evaluation", "evaluate", "gospa_parameters"]
+__all__ = ["SCOPES", "Evaluation", "evaluate", "gospa_parameters"]
+
+#: Truth sets GOSPA can score against (:func:`evaluate`'s `scope`).
+SCOPES = ("covered", "detected", "all")
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,19 @@ def _truth_rows(truth, scan, aircraft):
     base = len(truth.icao24) + 1
     tkey = truth.scan.astype(np.int64) * base + truth.aircraft
     return np.searchsorted(tkey, np.asarray(scan, dtype=np.int64) * base + aircraft)
+
+
+def _detected_count(truth, reports):
+    """Number of distinct radars with a report of each truth row's aircraft in its scan."""
+    real = reports.source >= 0
+    base = len(truth.icao24) + 1
+    key = reports.scan[real].astype(np.int64) * base + reports.source[real]
+    pair = np.unique(key * (int(reports.radar.max(initial=0)) + 1) + reports.radar[real])
+    key = pair // (int(reports.radar.max(initial=0)) + 1)
+    tkey = truth.scan.astype(np.int64) * base + truth.aircraft
+    at = np.searchsorted(tkey, key)
+    ok = (at < tkey.size) & (tkey[np.minimum(at, tkey.size - 1)] == key)
+    return np.bincount(at[ok], minlength=tkey.size)
 
 
 def _gospa_per_scan(truth, keep, scan, position, c, p):
@@ -164,7 +180,7 @@ def _evaluate_iv(result, truth, c, p, scope):
         raise TypeError(f"`truth` must be a TruthScans (from truth_scans); received "
                         f"{describe(truth)}")
     c, p = gospa_parameters(c, p)
-    scope = as_choice(scope, "scope", ("covered", "all"))
+    scope = as_choice(scope, "scope", SCOPES)
     if truth.n_scans != result.reports.n_scans:
         raise ValueError(f"`truth` has {truth.n_scans} scans but the result's reports "
                          f"{result.reports.n_scans}")
@@ -184,10 +200,12 @@ def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
         is false).
     p : float, optional
         GOSPA order (default 2); α = 2.
-    scope : {"covered", "all"}, optional
-        Truth set of GOSPA: the aircraft inside the coverage (range and elevation limits)
-        of at least ``min_reports`` radars — those the fusion centre can declare
-        (default) — or every aircraft of the window.
+    scope : {"covered", "detected", "all"}, optional
+        Truth set of GOSPA in each scan: the aircraft inside the coverage (range and
+        elevation limits) of at least ``min_reports`` radars (default); the aircraft that
+        at least ``min_reports`` distinct radars actually reported in that scan (their
+        detections, not clutter), those the centre can declare, so a miss it could not
+        avoid leaves the score; or every aircraft of the window.
 
     Returns
     -------
@@ -204,12 +222,28 @@ def evaluate(result, truth, *, c=2000.0, p=2.0, scope="covered") -> Evaluation:
     -----
     GOSPA compares the truth positions of each scan with the declared objects. NEES uses
     the pure objects: :math:`(\hat x - x)^T P^{-1} (\hat x - x)`, 3 degrees of freedom.
+    With ``scope="detected"`` an aircraft counts in a scan when reports of at least
+    ``result.settings.min_reports`` distinct radars come from it (``reports.source``).
+
+    Examples
+    --------
+    >>> from radarfusion_ref.capstone import (default_radars, load_traffic, run_pipeline,
+    ...                                       simulate_reports, truth_scans)
+    >>> from radarfusion_ref.capstone import PipelineSettings
+    >>> truth = truth_scans(load_traffic(), start=600.0, duration=60.0)
+    >>> rep = simulate_reports(truth, default_radars(), rng=1)
+    >>> res = run_pipeline(rep, default_radars(), PipelineSettings(warmup=6))
+    >>> ev = evaluate(res, truth, scope="detected")
+    >>> ev.gospa.shape, bool(np.all(ev.missed <= evaluate(res, truth).missed))
+    ((6,), True)
     """
     c, p, scope = _evaluate_iv(result, truth, c, p, scope)
     t0 = time.perf_counter()
     keep = np.ones(truth.scan.size, dtype=bool)
     if scope == "covered":
         keep = _coverage_count(truth.position, result.radars) >= result.settings.min_reports
+    elif scope == "detected":
+        keep = _detected_count(truth, result.reports) >= result.settings.min_reports
     parts = _gospa_per_scan(truth, keep, result.scan, result.position, c, p)
     mem = result.members
     pur = purity(np.where(mem >= 0, result.reports.source[np.maximum(mem, 0)], -1), mem >= 0)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import csv
 import gzip
 import io
+import json
 import math
 import zlib
 from dataclasses import dataclass
@@ -43,7 +44,9 @@ __all__ = [
     "SPEED_CLASSES",
     "TUNING_FILE",
     "Traffic",
+    "BORDERS_FILE",
     "TruthScans",
+    "border_lines",
     "load_traffic",
     "truth_at",
     "truth_scans",
@@ -58,6 +61,9 @@ DATA_FILE = resources.files(__package__).joinpath("data", "switzerland_busiest_h
 TUNING_FILE = resources.files(__package__).joinpath("data", "switzerland_tuning_hour.csv.gz")
 #: The committed hours of :func:`load_traffic`.
 HOURS = {"scored": DATA_FILE, "tuning": TUNING_FILE}
+#: Country borders around Switzerland (Natural Earth, public domain; ``data/borders_README.md``
+#: beside it), read by :func:`border_lines`.
+BORDERS_FILE = resources.files(__package__).joinpath("data", "borders.json")
 
 #: Header of a traffic file (integers, except the two names).
 COLUMNS = ("t_s", "icao24", "callsign", "lat_e5", "lon_e5", "alt_ft", "gs_kt", "track_deg")
@@ -222,6 +228,32 @@ def load_traffic(path=None, *, hour="scored") -> Traffic:
         lat=num["lat_e5"][order] * 1e-5, lon=num["lon_e5"][order] * 1e-5,
         alt=num["alt_ft"][order] * _FT, speed=num["gs_kt"][order].astype(float),
         track=num["track_deg"][order].astype(float))
+
+
+def border_lines() -> list[np.ndarray]:
+    """The country borders around Switzerland in the common frame, for maps.
+
+    Every border of Switzerland, France, Germany, Italy, Austria and Liechtenstein inside
+    3.5–13.0° E, 44.5–49.2° N (:data:`BORDERS_FILE`, Natural Earth), projected at height
+    0 with :func:`radarfusion_ref.engine.geodesy.geodetic_to_enu` about :data:`ORIGIN`.
+
+    Returns
+    -------
+    list of numpy.ndarray, shape (k, 2)
+        One polyline per border: east and north (m).
+
+    Examples
+    --------
+    >>> lines = border_lines()
+    >>> len(lines), lines[0].shape[1]
+    (16, 2)
+    """
+    data = json.loads(BORDERS_FILE.read_text(encoding="utf-8"))
+    out = []
+    for line in data["lines"]:
+        lonlat = np.asarray(line["lonlat"], dtype=float)
+        out.append(geodetic_to_enu(lonlat[:, 1], lonlat[:, 0], 0.0, origin=ORIGIN)[:, :2])
+    return out
 
 
 # ----------------------------------------------------------------------------- truth
