@@ -11,8 +11,11 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import subprocess
+import sys
 import tracemalloc
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -552,3 +555,20 @@ def test_compiled_route_switch_and_missing_numba(monkeypatch):
     monkeypatch.setattr(linalg.importlib, "import_module", no_numba)
     assert linalg._compiled_kernels() is None and linalg._COMPILED == [None]
     assert np.array_equal(linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2), fast)
+
+
+def test_without_numba_the_kernels_module_imports_and_the_numpy_route_runs():
+    """numba blocked (importing it raises): the kernels' module still imports (doctests and
+    tools walk every module), says so, and the function answers by the numpy route."""
+    code = ("import sys\n"
+            "sys.modules['numba'] = None\n"
+            "import numpy as np\n"
+            "from radarfusion_ref.engine import _compiled, linalg\n"
+            "eye = np.eye(2)\n"
+            "k = linalg.mahalanobis_sq_pairwise([[0.0, 0.0], [1.0, 0.0]], [[2.0, 0.0]],\n"
+            "                                   [eye, 3 * eye], eye)\n"
+            "print(_compiled.AVAILABLE, linalg._compiled_kernels(), k.ravel().tolist())\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=Path(__file__).resolve().parents[1], timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False", "None", "[2.0,", "0.25]"]

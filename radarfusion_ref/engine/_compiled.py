@@ -32,12 +32,19 @@ if a covariance breaks the rule (the result is then incomplete); 2 if some
 from __future__ import annotations
 
 import importlib
+from types import ModuleType
 
 import numpy as np
 
 from .validation import _SYMMETRY_RTOL, MAX_MAGNITUDE, SINGULAR_RTOL
 
-numba = importlib.import_module("numba")       # ImportError without the `fast` extra
+numba: ModuleType | None
+try:
+    numba = importlib.import_module("numba")
+except ImportError:                             # without the `fast` extra: not used, but this
+    numba = None                                # module still imports (its doctests, tools)
+#: Whether numba is installed: :mod:`~radarfusion_ref.engine.linalg` uses the kernels only then.
+AVAILABLE = numba is not None
 
 #: Trials per block of the trial-last kernels: a block's reports stay in the L1 cache.
 TRIAL_BLOCK = 128
@@ -58,6 +65,8 @@ def _jit(func):
     occur on accepted input) instead of a Python exception, which would keep the loops
     from being vectorised.
     """
+    if numba is None:
+        return func
     try:
         return numba.njit(cache=True, error_model="numpy", nogil=True)(func)
     except RuntimeError:                    # numba: no writable cache folder for this file

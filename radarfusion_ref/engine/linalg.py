@@ -20,7 +20,9 @@ kernel that trusts them):
 * :func:`mahalanobis_sq` — pointwise, batched over leading axes;
 * :func:`mahalanobis_sq_pairwise` — every pair of two report sets, each report
   with its own covariance, batched over leading (trial) axes, in chunks (the
-  same factorisation as in-place ufuncs over preallocated buffers);
+  same factorisation as in-place ufuncs over preallocated buffers), or, for 2-D
+  and 3-D reports with numba installed (the ``fast`` extra), by compiled kernels
+  that give the same bits;
 * :func:`is_positive_definite` — the package's one positive-definiteness rule;
 * :func:`cholesky` — a validated Cholesky factor.
 
@@ -455,9 +457,10 @@ def _compiled_kernels() -> ModuleType | None:
         return None
     if not _COMPILED:
         try:
-            _COMPILED.append(importlib.import_module("._compiled", __package__))
-        except ImportError:                     # numba (the `fast` extra) is not installed
-            _COMPILED.append(None)
+            kernels = importlib.import_module("._compiled", __package__)
+        except ImportError:                     # the kernels' module itself failed to import
+            kernels = None
+        _COMPILED.append(kernels if kernels is not None and kernels.AVAILABLE else None)
     return _COMPILED[0]
 
 
@@ -634,9 +637,9 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
     numpy.ndarray, shape (..., n1, n2)
         :math:`\kappa_{ij}`, the leading axes the broadcast of the four
         arguments'; with ``return_logdet=True`` a tuple ``(kappa, logdet)``. The
-        result may be a view of an array stored in another axis order: trial
-        axis last when neither report axis exceeds 64 and the batch is longer,
-        else the longer report axis last; the values are the same.
+        result may be a view of an array stored in another axis order (the trial
+        axis last for many trials of few reports, else the longer report axis
+        last); the values are the same.
 
     Raises
     ------
@@ -674,6 +677,26 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
     once per block, not per pair, leaving nine (:math:`k = 2`) or seventeen
     (:math:`k = 3`) per pair. Every pair goes through the same operations whatever
     the chunk, loop order or sharing, so the result is the same to the bit.
+
+    .. rubric:: The compiled route
+
+    With numba installed (the ``fast`` extra), 2-D and 3-D reports without
+    `return_logdet` take compiled kernels instead, chosen automatically (set the
+    environment variable ``RADARFUSION_NO_COMPILED=1`` for the numpy route). They
+    run the same operations in the same order per pair (no fast-math: no
+    reassociation, no fused multiply-add; IEEE division and square root), so the
+    result is the numpy route's **to the bit**, in every layout and chunking
+    (`chunk_size` only sizes the numpy route's buffers). The door's checks run in
+    the same pass, trial block by trial block: the coordinates' domain and the
+    covariance rule, whose positive-definiteness part first tries a division-free
+    sufficient test on the covariance (both pivots of the correlation matrix
+    above 1e-3, with the rounding of both routes bounded) and computes the
+    rule's own pivots only for a block where that test fails, so exactly the
+    same matrices are accepted. Input that breaks a rule goes through the numpy
+    door, which raises its message. The kernels compile on their first call
+    (a few seconds) and are cached on disk (next to the package, else numba's
+    user cache or ``NUMBA_CACHE_DIR``; where no folder is writable they compile
+    once per process).
 
     Examples
     --------
