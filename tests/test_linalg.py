@@ -481,6 +481,11 @@ def test_compiled_rule_is_the_covariance_rule(k):
             accepted = False
         assert accepted == got[i], i
     assert rule(c[want].reshape(-1, k * k)) and not rule(c.reshape(-1, k * k))
+    for bad in (np.nan, np.inf, -np.inf):                   # a non-finite entry anywhere
+        for i in range(k * k):
+            m = np.eye(k).reshape(1, k * k)
+            m[0, i] = bad
+            assert not rule(m), (bad, i)
 
 
 @needs_numba

@@ -143,8 +143,10 @@ def rule2(c):
     ok = sure = True
     for m in range(c.shape[0]):
         a00, a01, a10, a11 = c[m, 0], c[m, 1], c[m, 2], c[m, 3]
+        # finite, entry by entry (NaN fails each comparison; max() may drop a NaN)
+        good = (abs(a00) <= _FMAX) & (abs(a01) <= _FMAX) & (abs(a10) <= _FMAX)
+        good &= abs(a11) <= _FMAX
         scale = max(max(abs(a00), abs(a01)), max(abs(a10), abs(a11)))
-        good = scale <= _FMAX                                   # finite (NaN fails)
         good &= abs(a10 - a01) <= _SYM * max(scale, _TINY)      # symmetric
         good &= (a00 >= _LO) & (a00 <= _HI) & (a11 >= _LO) & (a11 <= _HI)
         ok &= good
@@ -164,11 +166,14 @@ def rule3(c):
         a00, a01, a02 = c[m, 0], c[m, 1], c[m, 2]
         a10, a11, a12 = c[m, 3], c[m, 4], c[m, 5]
         a20, a21, a22 = c[m, 6], c[m, 7], c[m, 8]
+        # finite, entry by entry (NaN fails each comparison; max() may drop a NaN)
+        good = (abs(a00) <= _FMAX) & (abs(a01) <= _FMAX) & (abs(a02) <= _FMAX)
+        good &= (abs(a10) <= _FMAX) & (abs(a11) <= _FMAX) & (abs(a12) <= _FMAX)
+        good &= (abs(a20) <= _FMAX) & (abs(a21) <= _FMAX) & (abs(a22) <= _FMAX)
         scale = max(max(max(abs(a00), abs(a01)), max(abs(a02), abs(a10))),
                     max(max(abs(a11), abs(a12)), max(abs(a20), max(abs(a21), abs(a22)))))
         asym = max(abs(a10 - a01), max(abs(a20 - a02), abs(a21 - a12)))
-        good = scale <= _FMAX
-        good &= asym <= _SYM * max(scale, _TINY)
+        good &= asym <= _SYM * max(scale, _TINY)                # symmetric
         good &= (a00 >= _LO) & (a00 <= _HI) & (a11 >= _LO) & (a11 <= _HI)
         good &= (a22 >= _LO) & (a22 <= _HI)
         ok &= good
