@@ -133,7 +133,7 @@ def _pd3(c):
 
 
 @_jit
-def rule2(c):
+def _rule2_full(c):
     """The covariance rule on every row of `c` ``(R, 4)`` (2x2 matrices, flat): all pass.
 
     As ``validation.as_covariance``: finite; symmetric to 1e-9 of the largest entry
@@ -156,10 +156,10 @@ def rule2(c):
 
 
 @_jit
-def rule3(c):
+def _rule3_full(c):
     """The covariance rule on every row of `c` ``(R, 9)`` (3x3 matrices, flat): all pass.
 
-    As :func:`rule2`, for 3x3 matrices.
+    As :func:`_rule2_full`, for 3x3 matrices.
     """
     ok = sure = True
     for m in range(c.shape[0]):
@@ -185,6 +185,47 @@ def rule3(c):
         sure &= ((p - a10 * a10 >= _SURE * p) & (a20 * a20 <= a00 * a22)
                  & (a21 * a21 <= a11 * a22) & (det3 >= _SURE * (p * a22)))
     return ok and (sure or _pd3(c))
+
+
+# The rule's first pass takes the largest variance for the largest entry: an entry-wise
+# symmetric test against it implies the rule's (the largest entry is at least as large),
+# and it refuses a non-finite entry (the variances are checked against the domain, so the
+# bound is finite; an infinite or NaN off-diagonal entry makes its difference inf or NaN).
+# A stack in which some matrix fails this pass or the positive-definiteness test goes
+# through the rule's own operations (_rule2_full, _rule3_full).
+@_jit
+def rule2(c):
+    """The covariance rule on every row of `c` ``(R, 4)`` (2x2 matrices, flat): all pass."""
+    sure = True
+    for m in range(c.shape[0]):
+        a00, a01, a10, a11 = c[m, 0], c[m, 1], c[m, 2], c[m, 3]
+        good = (a00 >= _LO) & (a00 <= _HI) & (a11 >= _LO) & (a11 <= _HI)
+        good &= abs(a10 - a01) <= _SYM * max(a00, a11)
+        p = a00 * a11
+        sure &= good & (p - a10 * a10 >= _SURE * p)
+    return sure or _rule2_full(c)
+
+
+@_jit
+def rule3(c):
+    """The covariance rule on every row of `c` ``(R, 9)`` (3x3 matrices, flat): all pass."""
+    sure = True
+    for m in range(c.shape[0]):
+        a00, a01, a02 = c[m, 0], c[m, 1], c[m, 2]
+        a10, a11, a12 = c[m, 3], c[m, 4], c[m, 5]
+        a20, a21, a22 = c[m, 6], c[m, 7], c[m, 8]
+        good = (a00 >= _LO) & (a00 <= _HI) & (a11 >= _LO) & (a11 <= _HI)
+        good &= (a22 >= _LO) & (a22 <= _HI)
+        tol = _SYM * max(a00, max(a11, a22))
+        good &= (abs(a10 - a01) <= tol) & (abs(a20 - a02) <= tol) & (abs(a21 - a12) <= tol)
+        p = a00 * a11
+        m0 = a11 * a22 - a21 * a21                              # cofactors of column 0
+        m1 = a10 * a22 - a21 * a20
+        m2 = a10 * a21 - a11 * a20
+        det3 = a00 * m0 - a10 * m1 + a20 * m2
+        sure &= good & ((p - a10 * a10 >= _SURE * p) & (a20 * a20 <= a00 * a22)
+                        & (a21 * a21 <= a11 * a22) & (det3 >= _SURE * (p * a22)))
+    return sure or _rule3_full(c)
 
 
 # --------------------------------------------------------------------------- one pair
