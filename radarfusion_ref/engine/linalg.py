@@ -688,10 +688,10 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
     result is the numpy route's **to the bit**, in every layout and chunking
     (`chunk_size` only sizes the numpy route's buffers). The door's checks run in
     the same pass, trial block by trial block: the coordinates' domain and the
-    covariance rule, whose positive-definiteness part first tries a division-free
-    sufficient test on the covariance (both pivots of the correlation matrix
-    above 1e-3, with the rounding of both routes bounded) and computes the
-    rule's own pivots only for a block where that test fails, so exactly the
+    covariance rule, first as a cheaper sufficient test (symmetry against the
+    largest variance; both pivots of the correlation matrix above 1e-3 by a
+    division-free test, with the rounding of both routes bounded), then by the
+    rule's own operations for a block where that test fails, so exactly the
     same matrices are accepted. Input that breaks a rule goes through the numpy
     door, which raises its message. The kernels compile on their first call
     (a few seconds) and are cached on disk (next to the package, else numba's
