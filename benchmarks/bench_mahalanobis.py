@@ -129,7 +129,6 @@ def main(argv=None):
     route("compiled")
     routes = ["compiled", "numpy"] if linalg._compiled_kernels() is not None else ["numpy"]
     if "compiled" in routes:
-        x1, x2, c1, c2 = scene(np.random.default_rng(1), 3, 4, 2)
         t0 = time.perf_counter()
         for k in (2, 3):                        # compiles, or loads numba's cache
             x1, x2, c1, c2 = scene(np.random.default_rng(1), 300, 2, k)
