@@ -9,8 +9,13 @@ function under test. No timed assertions: the speed claim lives in
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
+import subprocess
+import sys
 import tracemalloc
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -350,3 +355,225 @@ def test_pairwise_shared_covariances_give_the_bits_of_per_report_copies(k, trial
         by_solve, _ = _pairs_by_solve(x1[:2], x2[:2], full1[:2], full2[:2])
         np.testing.assert_allclose(got[:2], by_solve, rtol=1e-9)
         assert np.array_equal(linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2, chunk_size=7), got)
+
+
+# ---------------------------------------------------------------- the compiled route (numba)
+needs_numba = pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None,
+    reason="numba (the `fast` extra) is not installed: no compiled route to test")
+
+
+@pytest.fixture
+def routes(monkeypatch):
+    """Call mahalanobis_sq_pairwise by both routes: returns (compiled, numpy) results.
+
+    Fails if the compiled route did not compute the result itself (fell back to numpy).
+    """
+    calls = []
+    real = linalg._compiled_pairs
+
+    def spy(*args, **kwargs):
+        out = real(*args, **kwargs)
+        calls.append(out is not None)
+        return out
+
+    monkeypatch.setattr(linalg, "_compiled_pairs", spy)
+
+    def both(*args, **kwargs):
+        monkeypatch.delenv(linalg.NO_COMPILED_ENV, raising=False)
+        calls.clear()
+        fast = linalg.mahalanobis_sq_pairwise(*args, **kwargs)
+        assert calls[-1:] == [True], "the compiled route did not run"
+        monkeypatch.setenv(linalg.NO_COMPILED_ENV, "1")
+        calls.clear()
+        slow = linalg.mahalanobis_sq_pairwise(*args, **kwargs)
+        assert not calls, "the numpy route called the compiled kernels"
+        monkeypatch.delenv(linalg.NO_COMPILED_ENV)
+        return fast, slow
+
+    return both
+
+
+@needs_numba
+@pytest.mark.parametrize("k", [2, 3])
+@pytest.mark.parametrize(("trials", "n1", "n2"),
+                         [(400, 2, 2), (300, 3, 2), (200, 1, 3), (150, 10, 10), (3, 40, 70),
+                          (1, 120, 90), (2, 90, 5)])
+def test_compiled_route_gives_the_numpy_bits(routes, k, trials, n1, n2):
+    """Every layout (trials innermost, either report axis innermost), per-report, per-trial
+    and shared covariances with condition numbers up to 1e8: the same bits as the numpy
+    route, whatever the chunk, and close to np.linalg.solve."""
+    rng = np.random.default_rng(1000 * k + 10 * n1 + n2)
+    x1, x2 = rng.normal(size=(trials, n1, k)) * 10, rng.normal(size=(trials, n2, k)) * 10
+    per_report = (_spd(rng, k, (trials, n1), 1e8), _spd(rng, k, (trials, n2), 1e8))
+    for c1, c2 in [per_report,
+                   (_spd(rng, k, (), 1e3), _spd(rng, k, (), 1e3)),                  # per radar
+                   (_spd(rng, k, (trials, 1), 1e3), per_report[1]),                 # per trial
+                   (per_report[0], _spd(rng, k, (1, n2), 1e3))]:                    # per report
+        fast, slow = routes(x1, x2, c1, c2)
+        assert fast.shape == (trials, n1, n2) and np.array_equal(fast, slow)
+        fast7, _ = routes(x1, x2, c1, c2, chunk_size=7)
+        assert np.array_equal(fast7, fast)
+    ref, s = _pairs_by_solve(x1[:2], x2[:2], *(c[:2] for c in per_report))
+    got = routes(x1[:2], x2[:2], *(c[:2] for c in per_report))[0]
+    assert np.all(np.abs(got - ref) <= 64 * k * 2.2e-16 * np.linalg.cond(s) * ref)
+
+
+@needs_numba
+def test_compiled_route_other_forms_of_input(routes):
+    """Lists, float32, non-contiguous views and partly broadcast trial axes: the same bits."""
+    rng = np.random.default_rng(5)
+    x1, x2 = rng.normal(size=(2, 1, 4, 3)), rng.normal(size=(1, 3, 5, 3))
+    c1, c2 = _spd(rng, 3, (2, 1, 4), 1e4), _spd(rng, 3, (3, 5), 1e4)
+    fast, slow = routes(x1, x2, c1, c2)
+    assert fast.shape == (2, 3, 4, 5) and np.array_equal(fast, slow)
+    for args in [(x1.tolist(), x2, c1, c2.tolist()),
+                 (x1.astype(np.float32), x2, c1, c2),
+                 (np.asfortranarray(x1), x2[..., ::-1][..., ::-1], c1.swapaxes(-1, -2), c2)]:
+        fast, slow = routes(*args)
+        assert np.array_equal(fast, slow)
+    single = routes(x1[0, 0], x2[0, 0], c1[0, 0], c2[0])     # one trial, no leading axes
+    assert single[0].shape == (4, 5) and np.array_equal(*single)
+
+
+@needs_numba
+@pytest.mark.parametrize("k", [2, 3])
+def test_compiled_rule_is_the_covariance_rule(k):
+    """The compiled covariance check accepts exactly the matrices as_covariance accepts:
+    pivots of the correlation matrix on both sides of 1e-12 and of the kernels' 2e-3 short
+    cut, asymmetry on both sides of 1e-9, variances at the ends of the domain, NaN, inf."""
+    from radarfusion_ref.engine import _compiled, validation
+    rng = np.random.default_rng(k)
+    n = 3000
+    # smallest eigenvalue 10**u: pivots around the rule's 1e-12 and the kernels' 2e-3
+    q, _ = np.linalg.qr(rng.normal(size=(n, k, k)))
+    lam = np.ones((n, k))
+    lam[:, 0] = 10.0 ** np.concatenate([rng.uniform(-14.5, -11.5, n // 2),
+                                        rng.uniform(-4, 0, n - n // 2)])
+    c = q * lam[:, None, :] @ q.swapaxes(-1, -2)
+    c = 0.5 * (c + c.swapaxes(-1, -2))
+    r = rng.normal(size=(n, k))
+    c *= np.exp(r[:, :, None] + r[:, None, :])                 # any scale per coordinate
+    c[:200, 1, 0] += c[:200, 0, 0] * 10.0 ** rng.uniform(-10, -8, 200)     # near asymmetry
+    c[200:300] *= 2.0 ** rng.choice([-150.5, -149.5, 149.5, 150.5], (100, 1, 1)) / np.max(
+        np.diagonal(c[200:300], axis1=-2, axis2=-1), axis=-1)[:, None, None]
+    # correlations whose first pivot 1 - r^2 lies within 0.1 % of 1e-12
+    r = np.sqrt(1.0 - 1e-12 * (1.0 + rng.uniform(-1e-3, 1e-3, 400)))
+    c[2600:] = np.eye(k)
+    c[2600:, 1, 0] = c[2600:, 0, 1] = r * 3.0
+    c[2600:, 0, 0], c[2600:, 1, 1] = 9.0, 1.0
+    c[300, 0, 0], c[301, 1, 0], c[302, 0, 1], c[303, 1, 1] = np.nan, np.inf, 1e300, -1.0
+    c[304, 1, 0] = c[304, 0, 1] = 1e200
+    rule = _compiled.rule2 if k == 2 else _compiled.rule3
+    got = np.array([rule(m.reshape(1, k * k)) for m in c])
+    var = np.diagonal(c, axis1=-2, axis2=-1)
+    with np.errstate(invalid="ignore"):
+        want = (np.all(np.isfinite(c), axis=(-2, -1)) & validation._symmetric_mask(c)
+                & validation._pd_mask(c) & np.all((var >= 2.0**-150) & (var <= 2.0**150), -1))
+    assert 500 < np.count_nonzero(want) < n - 500          # both answers well represented
+    assert 50 < np.count_nonzero(want[2600:]) < 350
+    assert np.array_equal(got, want)
+    for i in range(0, n, 97):                               # and as_covariance itself
+        try:
+            validation.as_covariance(c[i], "c")
+            accepted = True
+        except ValueError:
+            accepted = False
+        assert accepted == got[i], i
+    assert rule(c[want].reshape(-1, k * k)) and not rule(c.reshape(-1, k * k))
+    for bad in (np.nan, np.inf, -np.inf):                   # a non-finite entry anywhere
+        for i in range(k * k):
+            m = np.eye(k).reshape(1, k * k)
+            m[0, i] = bad
+            assert not rule(m), (bad, i)
+
+
+@needs_numba
+def test_compiled_route_refuses_bad_input_with_the_numpy_message(monkeypatch):
+    rng = np.random.default_rng(3)
+    trials, n = 400, 2                                      # several blocks of trials
+    x = rng.normal(size=(trials, n, 3))
+    c = _spd(rng, 3, (trials, n), 1e3)
+
+    def bad(where, value):
+        out = c.copy()
+        out[where] = value
+        return out
+
+    sym = bad((350, 1, 0, 2), c[350, 1, 0, 2] + 1e-6 * c[350, 1, 0, 0])
+    cases = [dict(cov1=sym), dict(cov2=bad((399, 0), -np.eye(3))),
+             dict(cov2=bad((0, 1, 1, 1), np.nan)), dict(cov1=bad((5, 0), 1e-50 * np.eye(3))),
+             dict(cov1=np.ones((3, 3))), dict(cov2=np.diag([1.0, 1.0, 0.0])),
+             dict(cov2=c[:, :1].copy() * [1, 1, -1]), dict(x1=bad_x(x, (200, 1, 2), np.inf)),
+             dict(x2=bad_x(x, (399, 0, 0), 1e46)), dict(cov1=c[..., :2, :2]),
+             dict(cov2=c[:, :1].repeat(3, axis=1)), dict(x1=x[:3]),
+             dict(chunk_size=0), dict(chunk_size=1.5)]
+    for kw in cases:
+        args = dict(x1=x, x2=x, cov1=c, cov2=c) | kw
+        messages = []
+        for env in ("0", "1"):
+            monkeypatch.setenv(linalg.NO_COMPILED_ENV, env)
+            with pytest.raises((ValueError, TypeError)) as err:
+                linalg.mahalanobis_sq_pairwise(**args)
+            messages.append((type(err.value), str(err.value)))
+        assert messages[0] == messages[1], kw
+        assert "`" in messages[0][1]
+
+
+def bad_x(x, where, value):
+    out = x.copy()
+    out[where] = value
+    return out
+
+
+@needs_numba
+def test_compiled_route_switch_and_missing_numba(monkeypatch):
+    """RADARFUSION_NO_COMPILED=1 selects the numpy route; without numba the numpy route
+    runs; both give the compiled route's values."""
+    rng = np.random.default_rng(8)
+    x1, x2 = rng.normal(size=(50, 3, 2)), rng.normal(size=(50, 4, 2))
+    c1, c2 = _spd(rng, 2, (50, 3), 10.0), _spd(rng, 2, (50, 4), 10.0)
+    monkeypatch.delenv(linalg.NO_COMPILED_ENV, raising=False)
+    assert linalg._compiled_kernels() is not None
+    fast = linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the compiled kernels were called")
+
+    monkeypatch.setattr(linalg, "_compiled_pairs", refuse)
+    for value in ("1", " 1 ", "yes"):
+        monkeypatch.setenv(linalg.NO_COMPILED_ENV, value)
+        assert linalg._compiled_kernels() is None
+        assert np.array_equal(linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2), fast)
+    monkeypatch.setenv(linalg.NO_COMPILED_ENV, "0")
+    with pytest.raises(AssertionError, match="compiled kernels were called"):
+        linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2)
+    # numba missing: the import fails once, the numpy route runs from then on
+    monkeypatch.setattr(linalg, "_COMPILED", [])
+    real_import = importlib.import_module
+
+    def no_numba(name, package=None):
+        if name.endswith("_compiled"):
+            raise ImportError("No module named 'numba'", name="numba")
+        return real_import(name, package)
+
+    monkeypatch.setattr(linalg.importlib, "import_module", no_numba)
+    assert linalg._compiled_kernels() is None and linalg._COMPILED == [None]
+    assert np.array_equal(linalg.mahalanobis_sq_pairwise(x1, x2, c1, c2), fast)
+
+
+def test_without_numba_the_kernels_module_imports_and_the_numpy_route_runs():
+    """numba blocked (importing it raises): the kernels' module still imports (doctests and
+    tools walk every module), says so, and the function answers by the numpy route."""
+    code = ("import sys\n"
+            "sys.modules['numba'] = None\n"
+            "import numpy as np\n"
+            "from radarfusion_ref.engine import _compiled, linalg\n"
+            "eye = np.eye(2)\n"
+            "k = linalg.mahalanobis_sq_pairwise([[0.0, 0.0], [1.0, 0.0]], [[2.0, 0.0]],\n"
+            "                                   [eye, 3 * eye], eye)\n"
+            "print(_compiled.AVAILABLE, linalg._compiled_kernels(), k.ravel().tolist())\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=Path(__file__).resolve().parents[1], timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False", "None", "[2.0,", "0.25]"]

@@ -20,7 +20,9 @@ kernel that trusts them):
 * :func:`mahalanobis_sq` — pointwise, batched over leading axes;
 * :func:`mahalanobis_sq_pairwise` — every pair of two report sets, each report
   with its own covariance, batched over leading (trial) axes, in chunks (the
-  same factorisation as in-place ufuncs over preallocated buffers);
+  same factorisation as in-place ufuncs over preallocated buffers), or, for 2-D
+  and 3-D reports with numba installed (the ``fast`` extra), by compiled kernels
+  that give the same bits;
 * :func:`is_positive_definite` — the package's one positive-definiteness rule;
 * :func:`cholesky` — a validated Cholesky factor.
 
@@ -59,7 +61,11 @@ coordinates in any unit from micrometres to light years lie well inside.
 
 from __future__ import annotations
 
+import importlib
 import math
+import numbers
+import os
+from types import ModuleType
 
 import numpy as np
 
@@ -97,6 +103,13 @@ _TRIAL_LAST_REPORTS = 64
 _VALIDATE_RUN = 32768
 #: Shortest inner run of a block, when the chunk allows it.
 _MIN_RUN = 4096
+#: Set to 1, this environment variable makes :func:`mahalanobis_sq_pairwise` take the numpy
+#: route even when numba is installed (read at each call).
+NO_COMPILED_ENV = "RADARFUSION_NO_COMPILED"
+#: Reports per set at or below which the compiled route runs the trials innermost.
+_COMPILED_TRIAL_LAST = 3
+#: The compiled kernels once imported (None without numba), or nothing before the first use.
+_COMPILED: list[ModuleType | None] = []
 
 
 # --------------------------------------------------------------------------- door checks
@@ -187,15 +200,20 @@ def _pairwise_iv(x1, x2, cov1, cov2, chunk_size, out_bytes):
     chunk = min(as_int(chunk_size, "chunk_size", minimum=1), _MAX_CHUNK)
     n_lead, n1, n2 = math.prod(lead), a.shape[-2], b.shape[-2]
     n_pairs = n_lead * n1 * n2
-    parts = k + k * (k + 1) // 2
-    planned = (n_pairs * out_bytes                            # the result
-               + 2 * parts * 8 * n_lead * (n1 + n2)           # per-report component copies
-               + (k * k + k + 3 + 2 * parts) * 8 * min(chunk, n_pairs))   # work, gathers
-    check_size(planned, MEMORY_LIMIT,
+    check_size(_planned_bytes(k, n_lead, n1, n2, chunk, out_bytes), MEMORY_LIMIT,
                what=f"bytes for {n_pairs} pairs of `x1` x `x2` (result, per-report copies "
                     "and work buffers)",
                alternative="smaller batches of trials (split the leading axes of `x1`, `x2`)")
     return a, b, c1, c2, lead, chunk
+
+
+def _planned_bytes(k, n_lead, n1, n2, chunk, out_bytes):
+    """The memory :func:`mahalanobis_sq_pairwise` plans for (either route stays within it)."""
+    n_pairs = n_lead * n1 * n2
+    parts = k + k * (k + 1) // 2
+    return (n_pairs * out_bytes                             # the result
+            + 2 * parts * 8 * n_lead * (n1 + n2)            # per-report component copies
+            + (k * k + k + 3 + 2 * parts) * 8 * min(chunk, n_pairs))    # work, gathers
 
 
 # --------------------------------------------------------------------------- kernels
@@ -429,6 +447,112 @@ def _pairwise(a, b, c1, c2, lead, chunk, want_logdet=False):
     return back(kappa), back(logdet)
 
 
+# --------------------------------------------------------------------------- the compiled route
+def _compiled_kernels() -> ModuleType | None:
+    """The compiled kernels (:mod:`radarfusion_ref.engine._compiled`), imported on first use.
+
+    None when numba is not installed or :data:`NO_COMPILED_ENV` is set to 1.
+    """
+    if os.environ.get(NO_COMPILED_ENV, "0").strip() not in ("", "0"):
+        return None
+    if not _COMPILED:
+        try:
+            kernels = importlib.import_module("._compiled", __package__)
+        except ImportError:                     # the kernels' module itself failed to import
+            kernels = None
+        _COMPILED.append(kernels if kernels is not None and kernels.AVAILABLE else None)
+    return _COMPILED[0]
+
+
+def _per_trial(v, lead, n, width):
+    """One side's array as the kernels take it: C-contiguous, read-only ``(1 or T, n, width)``.
+
+    A size-1 trial axis stays shared (one copy for every trial); leading axes that only
+    partly broadcast are copied per trial (within the memory the door planned).
+    """
+    n_lead = math.prod(lead)
+    if all(d == 1 for d in v.shape[:-2]):
+        out = v.reshape(1, n, width)
+    elif v.shape[:-2] == lead:
+        out = v.reshape(n_lead, n, width)
+    else:
+        out = np.broadcast_to(v, (*lead, n, width)).reshape(n_lead, n, width)
+    out = np.ascontiguousarray(out).view()
+    out.flags.writeable = False                 # one compiled signature for every input
+    return out
+
+
+def _compiled_pairs(kernels, a, b, c1, c2, lead, check):
+    """kappa of every pair by the compiled kernels (k = 2 or 3); None if `check` finds bad input.
+
+    `a`, `b`, `c1`, `c2` as :func:`_pairwise` takes them; with `check`, the coordinates'
+    domain and the covariance rule are checked here (the covariances that vary from trial
+    to trial inside the kernels, block by block), None meaning that some argument breaks
+    a rule: the numpy door then names it.
+    """
+    k, n1, n2 = a.shape[-1], a.shape[-2], b.shape[-2]
+    n_lead = math.prod(lead)
+    kk = k * k
+    xs = [_per_trial(a, lead, n1, k), _per_trial(b, lead, n2, k)]
+    cs = [_per_trial(c.reshape(*c.shape[:-2], kk), lead, c.shape[-3], kk) for c in (c1, c2)]
+    rule = kernels.rule2 if k == 2 else kernels.rule3
+    if check and not (all(kernels.in_domain(x) for x in xs)
+                      and all(rule(c.reshape(-1, kk)) for c in cs if c.shape[0] == 1)):
+        return None
+    inside = [check and c.shape[0] > 1 for c in cs]
+    if max(n1, n2) <= _COMPILED_TRIAL_LAST and n_lead > 1:
+        out = np.empty((n1, n2, n_lead))
+        code = (kernels.trials2 if k == 2 else kernels.trials3)(*xs, *cs, out, *inside)
+        kappa = np.moveaxis(out, -1, 0)
+    elif n1 > n2:                               # the longer report axis innermost: the
+        out = np.empty((n_lead, n2, n1))        # differences change sign exactly, same bits
+        code = (kernels.rows2 if k == 2 else kernels.rows3)(xs[1], xs[0], cs[1], cs[0], out,
+                                                            inside[1], inside[0])
+        kappa = out.swapaxes(-1, -2)
+    else:
+        out = np.empty((n_lead, n1, n2))
+        code = (kernels.rows2 if k == 2 else kernels.rows3)(*xs, *cs, out, *inside)
+        kappa = out
+    if code == 1:
+        return None
+    kappa = kappa.reshape(*lead, n1, n2)
+    if code == 2:
+        _refuse_overflow(kappa, "`x1`, `x2`")
+    return kappa
+
+
+def _compiled_route(kernels, x1, x2, cov1, cov2, chunk_size):
+    """The door and kernels of the compiled route in one pass, or None.
+
+    For float64 arrays with k = 2 or 3 and every shape, size and chunk valid, the checks
+    of :func:`_pairwise_iv` (as the compiled rule) and the pairs; None for any other
+    input or when a check fails: the numpy door then raises its message, or validates
+    input of another form for :func:`_compiled_pairs`.
+    """
+    if not all(isinstance(v, np.ndarray) and v.dtype == np.float64 and v.ndim >= 2
+               for v in (x1, x2, cov1, cov2)):
+        return None
+    k, n1, n2 = x1.shape[-1], x1.shape[-2], x2.shape[-2]
+    if k not in (2, 3) or x2.shape[-1] != k or cov1.shape[-2:] != (k, k) \
+            or cov2.shape[-2:] != (k, k):
+        return None
+    c1, c2 = (c[None] if c.ndim == 2 else c for c in (cov1, cov2))
+    if c1.shape[-3] not in (1, n1) or c2.shape[-3] not in (1, n2):
+        return None
+    try:
+        lead = np.broadcast_shapes(x1.shape[:-2], x2.shape[:-2], c1.shape[:-3], c2.shape[:-3])
+    except ValueError:
+        return None
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, numbers.Integral) \
+            or chunk_size < 1:
+        return None
+    n_lead = math.prod(lead)
+    if n_lead * n1 * n2 == 0 or _planned_bytes(
+            k, n_lead, n1, n2, min(int(chunk_size), _MAX_CHUNK), 8) > MEMORY_LIMIT:
+        return None
+    return _compiled_pairs(kernels, x1, x2, c1, c2, lead, check=True)
+
+
 # --------------------------------------------------------------------------- public functions
 def mahalanobis_sq(d, cov, *, return_logdet=False):
     r"""Squared Mahalanobis distance :math:`\kappa = d^T C^{-1} d`, batched over leading axes.
@@ -513,9 +637,9 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
     numpy.ndarray, shape (..., n1, n2)
         :math:`\kappa_{ij}`, the leading axes the broadcast of the four
         arguments'; with ``return_logdet=True`` a tuple ``(kappa, logdet)``. The
-        result may be a view of an array stored in another axis order: trial
-        axis last when neither report axis exceeds 64 and the batch is longer,
-        else the longer report axis last; the values are the same.
+        result may be a view of an array stored in another axis order (the trial
+        axis last for many trials of few reports, else the longer report axis
+        last); the values are the same.
 
     Raises
     ------
@@ -554,6 +678,26 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
     (:math:`k = 3`) per pair. Every pair goes through the same operations whatever
     the chunk, loop order or sharing, so the result is the same to the bit.
 
+    .. rubric:: The compiled route
+
+    With numba installed (the ``fast`` extra), 2-D and 3-D reports without
+    `return_logdet` take compiled kernels instead, chosen automatically (set the
+    environment variable ``RADARFUSION_NO_COMPILED=1`` for the numpy route). They
+    run the same operations in the same order per pair (no fast-math: no
+    reassociation, no fused multiply-add; IEEE division and square root), so the
+    result is the numpy route's **to the bit**, in every layout and chunking
+    (`chunk_size` only sizes the numpy route's buffers). The door's checks run in
+    the same pass, trial block by trial block: the coordinates' domain and the
+    covariance rule, first as a cheaper sufficient test (symmetry against the
+    largest variance; both pivots of the correlation matrix above 1e-3 by a
+    division-free test, with the rounding of both routes bounded), then by the
+    rule's own operations for a block where that test fails, so exactly the
+    same matrices are accepted. Input that breaks a rule goes through the numpy
+    door, which raises its message. The kernels compile on their first call
+    (a few seconds) and are cached on disk (next to the package, else numba's
+    user cache or ``NUMBA_CACHE_DIR``; where no folder is writable they compile
+    once per process).
+
     Examples
     --------
     >>> eye = np.eye(2)
@@ -563,8 +707,15 @@ def mahalanobis_sq_pairwise(x1, x2, cov1, cov2, *, return_logdet=False,
     """
     if not isinstance(return_logdet, (bool, np.bool_)):
         raise TypeError(f"`return_logdet` must be a bool; received {describe(return_logdet)}")
+    kernels = None if return_logdet else _compiled_kernels()
+    if kernels is not None:
+        kappa = _compiled_route(kernels, x1, x2, cov1, cov2, chunk_size)
+        if kappa is not None:
+            return kappa
     a, b, c1, c2, lead, chunk = _pairwise_iv(x1, x2, cov1, cov2, chunk_size,
                                              16 if return_logdet else 8)
+    if kernels is not None and a.shape[-1] in (2, 3) and math.prod(lead) * a.shape[-2] * b.shape[-2]:
+        return _compiled_pairs(kernels, a, b, c1, c2, lead, check=False)
     with np.errstate(under="ignore"):
         kappa, logdet = _pairwise(a, b, c1, c2, lead, chunk, bool(return_logdet))
     _refuse_overflow(kappa, "`x1`, `x2`")
