@@ -2,7 +2,7 @@
 
 ``pyproject.toml`` declares the lowest version of each dependency it accepts. This module reads
 those floors (the core dependencies and :data:`FLOOR_EXTRAS`: the kit's, the progress bar's,
-Dask's, Stone Soup's and the sliders'), builds a virtual environment with each pinned exactly at its floor, plus the
+Dask's, Stone Soup's, the sliders' and the compiled route's), builds a virtual environment with each pinned exactly at its floor, plus the
 pytest and hypothesis of this environment, installs this checkout into it plainly (a
 non-editable install without dependencies, as ``tests/test_packaging.py`` makes it) and runs
 :data:`FLOOR_TESTS` and the package's doctests there, from a folder with no checkout in it.
@@ -38,10 +38,11 @@ from packaging.version import Version
 tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
 
 #: Extras whose floors the floors environment installs: the kit's (sympy, matplotlib), the
-#: progress bar's (tqdm), Dask's, Stone Soup's and the sliders' (ipywidgets). The tools that
-#: build the book are not installed: the tests that need them skip there.
+#: progress bar's (tqdm), Dask's, Stone Soup's, the sliders' (ipywidgets) and the compiled
+#: route's (numba). The tools that build the book are not installed: the tests that need them
+#: skip there.
 FLOOR_EXTRAS = {"book": ("sympy", "matplotlib"), "progress": ("tqdm",), "dask": ("dask",),
-                "stonesoup": ("stonesoup",), "widgets": ("ipywidgets",)}
+                "stonesoup": ("stonesoup",), "widgets": ("ipywidgets",), "fast": ("numba",)}
 
 #: Test files run at the floors: every numerical path of the engine and the chapter modules
 #: whose answer a NumPy or scipy release could change (batched solves, sparse solvers, HiGHS,

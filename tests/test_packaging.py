@@ -92,7 +92,7 @@ def test_installed_copy_loads_the_capstone_traffic(installed):
 
 #: Optional packages: the extras of pyproject.toml (README "Use the package").
 OPTIONAL = ("sympy", "matplotlib", "tqdm", "dask", "distributed", "stonesoup", "ipywidgets",
-            "IPython")
+            "IPython", "numba")
 
 
 def test_plain_install_imports_engine_and_chapter_modules_without_any_extra(installed):
@@ -137,7 +137,7 @@ def test_every_optional_package_names_a_declared_extra_that_installs_it():
         names = [re.split(r"[<>=,;\s]", s, maxsplit=1)[0] for s in extras[extra]]
         names += [n.split("[")[0] for n in names]                   # dask[distributed] is dask
         assert brings.get(top, top) in names, (top, extra, names)
-    assert {"book", "dask", "progress", "stonesoup", "widgets"} <= set(extras)
-    assert extras["all"] == ["radarfusion-ref[book,dask,progress,stonesoup,widgets]"]
+    assert {"book", "dask", "fast", "progress", "stonesoup", "widgets"} <= set(extras)
+    assert extras["all"] == ["radarfusion-ref[book,dask,fast,progress,stonesoup,widgets]"]
     assert {re.split(r"[<>=\[]", s, maxsplit=1)[0] for s in project["dependencies"]} == \
         {"numpy", "scipy"}

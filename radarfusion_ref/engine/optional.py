@@ -31,6 +31,7 @@ EXTRAS = {
     "IPython": "book",                  # with Jupyter (ipykernel); ipywidgets brings it too
     "sympy": "book",
     "matplotlib": "book",
+    "numba": "fast",                    # the compiled pairwise Mahalanobis route (automatic)
 }
 
 
@@ -54,7 +55,7 @@ def require(module: str, *, feature: str) -> ModuleType:
     >>> require("numpy", feature="this example").__name__
     Traceback (most recent call last):
     ...
-    ValueError: `module` must be an optional package of radarfusion-ref, one of 'tqdm', 'dask', 'distributed', 'stonesoup', 'ipywidgets', 'IPython', 'sympy', 'matplotlib' (or a submodule); received 'numpy'
+    ValueError: `module` must be an optional package of radarfusion-ref, one of 'tqdm', 'dask', 'distributed', 'stonesoup', 'ipywidgets', 'IPython', 'sympy', 'matplotlib', 'numba' (or a submodule); received 'numpy'
     """
     top = _module_iv(module, feature)
     try:
