@@ -112,7 +112,7 @@ def test_floors_are_read_from_pyproject():
     core = {_requirement(s)[0] for s in project["dependencies"]}
     assert core == {"numpy", "scipy"}, "core: only what the engine and chapter modules import"
     assert set(pins) == core | {"sympy", "matplotlib", "tqdm", "dask[distributed]", "stonesoup",
-                                "ipywidgets"}
+                                "ipywidgets", "numba"}
     assert all(re.fullmatch(r"[0-9]+(\.[0-9]+)+", v) for v in pins.values()), pins
     with pytest.raises(AssertionError, match="declares no floor"):
         _requirement("numpy")
