@@ -27,9 +27,8 @@ its covariance through the Jacobian of the whole chain (:func:`polar_to_map`).
 :func:`radarfusion_ref.tracking.track_reports` and :func:`truth_samples` the truth for
 :func:`radarfusion_ref.tracking.evaluate_tracks`, both in map metres.
 
-**Scale.** With the default 60 radars, one hour (seed 2026): scale 100 holds about 4000
-aircraft airborne at once and about 5 million reports; its window is simulated in pieces
-(``benchmarks/bench_continent.py`` prints the counts), each under the memory limit.
+**Scale.** With the default 60 radars, an hour at scale 100 holds about 4000 aircraft
+airborne at once and 5 million reports, simulated in windows under the memory limit.
 """
 
 from __future__ import annotations
@@ -93,8 +92,7 @@ AIRPORTS_FILE = _scene.AIRPORTS_FILE
 RADAR_DRAWS = _scene.RADAR_DRAWS
 #: Aircraft airborne at once in the Swiss hour of the capstone: ``scale = 1``.
 SWISS_AIRBORNE = 40
-#: Where :func:`continent_scenario` puts the radars (its `siting`).
-SITINGS = ("planned", "spread")
+SITINGS = ("planned", "spread")  #: Where :func:`continent_scenario` puts the radars.
 #: Bytes of :func:`simulate_continent` per report at its peak, counted against the memory
 #: limit: the per-radar pieces (152: time, position, covariance, radar, scan, aircraft,
 #: polar), the sorted output being filled (up to 152), the covariance's joined copy while it
@@ -316,10 +314,10 @@ class Flights:
     horizontal speed :math:`v`; its height :math:`s` seconds after take-off is
     :math:`z(s) = \min(z_A + c\,s,\ z_c,\ z_B + q\,(T - s))`. Drawn (uniformly): the airports
     (great-circle map distance 300–2500 km), the waypoint at 0.3–0.7 of the line and off it
-    by 5–15 % of its length, :math:`v` 210–250 m/s, a bank angle :math:`\phi` of 15–25° (an airliner's at cruise;
-    :math:`\omega = g \tan\phi / v`, about 0.6–1.3 °/s), :math:`c`
-    8–15 m/s, :math:`q` 7–9 m/s, :math:`z_c` FL300–FL400 (9144–12192 m), lowered where
-    climb and descent would take more than 80 % of the flight (short flights).
+    by 5–15 % of its length, :math:`v` 210–250 m/s, a bank :math:`\phi` of 15–25°
+    (:math:`\omega = g \tan\phi / v`, 0.6–1.3 °/s), :math:`c` 8–15 m/s, :math:`q` 7–9 m/s,
+    :math:`z_c` FL300–FL400 (9144–12192 m), lowered where climb and descent would take more
+    than 80 % of the flight (short flights).
 
     Attributes
     ----------
@@ -423,9 +421,7 @@ def continent_scenario(scale=1.0, *, n_radars=60, duration=3600.0, siting="plann
         The window ``[0, duration)`` over which the traffic is steady (s, > 0, default
         3600).
     siting : {"planned", "spread"}, optional
-        Where the radars stand: ``"planned"`` (default), the sites a network planner
-        would choose for double coverage of the traffic; ``"spread"``, spread evenly over
-        the airports (see Notes).
+        Where the radars stand (default ``"planned"``; see Notes).
     rng : None, int or numpy.random.Generator, optional
         Randomness (SPEC 7). Draw order: the radars, the number of departures, their
         instants, the flights.
@@ -438,7 +434,8 @@ def continent_scenario(scale=1.0, *, n_radars=60, duration=3600.0, siting="plann
     ------
     ValueError
         `scale` or `duration` not a positive finite number, `n_radars` not in
-        ``[1, len(load_airports())]``, or flights whose arrays would pass
+        ``[1, len(load_airports())]``, `siting` not in :data:`SITINGS`, or flights whose
+        arrays would pass
         :data:`~radarfusion_ref.engine.validation.MEMORY_LIMIT` (named `scale`, refused
         before any draw: a smaller `scale` or a shorter `duration`).
     TypeError
@@ -446,14 +443,12 @@ def continent_scenario(scale=1.0, *, n_radars=60, duration=3600.0, siting="plann
 
     Notes
     -----
-    **Schedule.** Departures are a Poisson process of rate
-    :math:`\lambda = 40\,\mathrm{scale} / E[T]` from :math:`-T_{\max}` (the longest
-    possible flight, so every flight airborne in the window is drawn) to the window's
-    end; the number airborne at any instant :math:`t` of the window is then Poisson with
-    mean :math:`\lambda E[T] = 40\,\mathrm{scale}` (a steady count). :math:`E[T]` is the
-    mean flight time of the flight distribution (:class:`Flights`), computed once from a
-    fixed draw of 200 000 flights (standard error about 0.1 %). Airports are drawn
-    uniformly (no airport is busier than another).
+    **Schedule.** Departures are a Poisson process of rate :math:`\lambda = 40\,\mathrm{scale}
+    / E[T]` from :math:`-T_{\max}` (the longest flight, so every flight airborne in the window
+    is drawn) to the window's end; the number airborne at any instant of the window is then
+    Poisson with mean :math:`\lambda E[T] = 40\,\mathrm{scale}`. :math:`E[T]`, the mean flight
+    time (:class:`Flights`), comes from a fixed draw of 200 000 flights (standard error about
+    0.1 %). Airports are drawn uniformly (no airport is busier than another).
 
     **Radars** (:class:`radarfusion_ref.capstone.Radar`): each draws (uniformly) its scan
     period 4–12 s, phase, coverage 250–400 km (above 0° elevation), range noise 30–80 m,
@@ -462,18 +457,14 @@ def continent_scenario(scale=1.0, *, n_radars=60, duration=3600.0, siting="plann
     scale error (1e-4) and azimuth offset (0.1°). Its site is an airport, moved by up to
     0.1° and raised 10–300 m:
 
-    * ``siting="planned"``: as an en-route network is planned, for double coverage of
-      the traffic. The plan's traffic is a fixed seeded draw of 6000 airborne aircraft
-      (flights drawn in proportion to their duration, each at a uniform instant of it);
-      the radars, in their drawn order, each take the free airport whose coverage (its
-      own range, above the horizon of a mast 155 m high) adds the most weight of planning
-      aircraft seen by fewer than two radars so far, an aircraft no radar sees yet
-      weighing three times one that one radar sees (a hole in the coverage also breaks
-      the track of an aircraft that flies out and back in). With 60 radars about four in
-      five airborne aircraft are seen by two or more.
-    * ``siting="spread"``: farthest-point sampling over the airports (the first one
-      drawn), so the radars spread evenly over the continent's land, whatever the
-      traffic; with 36 such radars about half the airborne aircraft are seen by one
+    * ``"planned"``: for double coverage of the traffic, as en-route networks are. On a
+      fixed draw of 6000 airborne aircraft, each radar in turn takes the free airport
+      whose coverage (its range, above a 155 m mast's horizon) adds the most aircraft
+      seen by fewer than two radars, one no radar sees weighing three (a hole also
+      breaks the track of an aircraft that flies out and back in). With 60 radars about
+      four in five aircraft are seen by two or more.
+    * ``"spread"``: farthest-point sampling over the airports (the first one drawn),
+      whatever the traffic; with 36 such radars about half the aircraft are seen by one
       radar only.
 
     Examples
