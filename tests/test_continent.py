@@ -14,7 +14,6 @@ import hashlib
 import inspect
 import math
 import tracemalloc
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -22,7 +21,7 @@ from scipy import stats
 
 from radarfusion_ref import continent as ct
 from radarfusion_ref.capstone import Radar
-from radarfusion_ref.continent import _flights, _reports, _scene
+from radarfusion_ref.continent import _reports, _scene
 from radarfusion_ref.continent._frame import frame_of
 from radarfusion_ref.engine.geodesy import WGS84_A, WGS84_F, geodetic_to_enu
 from radarfusion_ref.engine.validation import MEMORY_LIMIT
@@ -352,7 +351,7 @@ def test_planned_sites_are_the_greedy_choice_by_brute_force():
     # the plan's ranges against the reports' route, for random airport-sample pairs
     gen = np.random.default_rng(5)
     i, j = gen.integers(r.shape[0], size=40), gen.integers(r.shape[1], size=40)
-    xyz = _plan_points()
+    xyz = _scene.plan_points(*ct.ORIGIN)
     frame = frame_of(*ct.ORIGIN)
     for a, b in zip(i, j, strict=True):
         site = Radar(name="x", lat=float(ap["lat"][a]), lon=float(ap["lon"][a]),
@@ -370,18 +369,6 @@ def test_planned_sites_are_the_greedy_choice_by_brute_force():
         assert gains[chosen[k]] == max(gains), k
         count += r[chosen[k]] <= rmax
     assert len(set(chosen)) == 3
-
-
-def _plan_points():
-    """The plan's sample points, redrawn here the documented way (fixed seed, flights in
-    proportion to their duration, a uniform instant of each)."""
-    xyz = _scene.airport_map(*ct.ORIGIN)
-    gen = np.random.default_rng(20260102)
-    f = _flights.draw(xyz[:, :2], xyz[:, 2], _scene._PLAN_FLIGHTS, gen)
-    j = gen.choice(_scene._PLAN_FLIGHTS, _scene._PLAN_SAMPLES,
-                   p=f["duration"] / f["duration"].sum())
-    fl = SimpleNamespace(departure=np.zeros(_scene._PLAN_FLIGHTS), **f)
-    return _flights.state(fl, _flights.geometry(fl), j, gen.uniform(0.0, f["duration"][j]))
 
 
 # -------------------------------------------------------------------------------- reports

@@ -40,6 +40,18 @@ def to_local(frame, rad, xyz):
     return np.einsum("ni,ji->nj", d, enu_rotation(rad.lat, rad.lon))          # R d, row-wise
 
 
+def sees(frame, rad, xyz):
+    """Boolean (n,): map points (n, 3) within `rad`'s range and above its elevation floor."""
+    site = frame.forward(rad.lat, rad.lon, rad.height)
+    out = np.zeros(xyz.shape[0], dtype=bool)
+    near = np.flatnonzero(np.hypot(xyz[:, 0] - site[0], xyz[:, 1] - site[1])
+                          <= REACH[0] * rad.max_range + REACH[1])
+    if near.size:
+        p = polar(to_local(frame, rad, xyz[near]))
+        out[near] = (p[:, 0] <= rad.max_range) & (p[:, 2] >= rad.min_elevation)
+    return out
+
+
 def scan_times(rad, start, duration):
     k0 = math.ceil((start - rad.phase) / rad.period - 1e-9)
     k1 = math.ceil((start + duration - rad.phase) / rad.period - 1e-9)

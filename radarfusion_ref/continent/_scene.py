@@ -75,16 +75,24 @@ _PLAN_MAST = 155.0
 
 
 @functools.lru_cache(maxsize=4)
-def plan_ranges(lat0, lon0):
-    """Slant range (m, float32) from every airport site to every planning sample, inf where
-    the sample is below the site's horizon (elevation < 0): shape (airports, samples)."""
+def plan_points(lat0, lon0):
+    """The plan's traffic: map positions (m) of ``_PLAN_SAMPLES`` airborne aircraft, each
+    flight of a fixed seeded draw taken in proportion to its duration and placed at a
+    uniform instant of it (so the samples follow the airborne density); shape (S, 3)."""
     xyz = airport_map(lat0, lon0)
     gen = np.random.default_rng(20260102)
     f = _flights.draw(xyz[:, :2], xyz[:, 2], _PLAN_FLIGHTS, gen)
-    w = f["duration"] / f["duration"].sum()
-    j = gen.choice(_PLAN_FLIGHTS, _PLAN_SAMPLES, p=w)
+    j = gen.choice(_PLAN_FLIGHTS, _PLAN_SAMPLES, p=f["duration"] / f["duration"].sum())
     fl = SimpleNamespace(departure=np.zeros(_PLAN_FLIGHTS), **f)
-    pos = _flights.state(fl, _flights.geometry(fl), j, gen.uniform(0.0, f["duration"][j]))
+    return _flights.state(fl, _flights.geometry(fl), j, gen.uniform(0.0, f["duration"][j]))
+
+
+@functools.lru_cache(maxsize=4)
+def plan_ranges(lat0, lon0):
+    """Slant range (m, float32) from every airport site to every planning sample
+    (:func:`plan_points`), inf where the sample is below the site's horizon (elevation
+    < 0): shape (airports, samples)."""
+    pos = plan_points(lat0, lon0)
     frame = frame_of(lat0, lon0)
     ap = airports()
     p = ecef(frame.inverse(pos))                                           # (S, 3)
@@ -123,6 +131,8 @@ def draw_radars(xyz, n, gen, lat0, lon0, siting="planned"):
     traffic (``siting="planned"``, :func:`planned_sites`) or spread by farthest-point
     sampling over the airports (``"spread"``), then jittered."""
     ap = airports()
+    # the spread siting's first site, drawn for either siting: one order of draws, so the
+    # parameters below are the same for both sitings of a seed
     first = int(gen.integers(ap["lat"].size))
     u = {k: gen.uniform(*v, n) for k, v in RADAR_DRAWS.items() if isinstance(v, tuple)}
     if siting == "planned":
@@ -172,12 +182,7 @@ def covered(sc, pos):
     frame = frame_of(*sc.origin)
     out = np.zeros(pos.shape[0], dtype=bool)
     for rad in sc.radars:
-        site = frame.forward(rad.lat, rad.lon, rad.height)
-        near = np.flatnonzero(np.hypot(pos[:, 0] - site[0], pos[:, 1] - site[1])
-                              <= _reports.REACH[0] * rad.max_range + _reports.REACH[1])
-        if near.size:
-            p = _reports.polar(_reports.to_local(frame, rad, pos[near]))
-            out[near[(p[:, 0] <= rad.max_range) & (p[:, 2] >= rad.min_elevation)]] = True
+        out |= _reports.sees(frame, rad, pos)
     return out
 
 
@@ -187,15 +192,11 @@ def expected(sc, start, duration):
     of aircraft in its coverage at five instants), one instant at a time (little memory)."""
     frame = frame_of(*sc.origin)
     seen = np.zeros(len(sc.radars))
-    sites = [frame.forward(r.lat, r.lon, r.height) for r in sc.radars]
     for t in start + duration * (np.arange(5) + 0.5) / 5:             # five instants
         j, _ = airborne_pairs(sc.flights, np.array([t]))
         pos = _flights.state(sc.flights, _flights.geometry(sc.flights), j, np.full(j.size, t))
         for i, rad in enumerate(sc.radars):
-            near = np.flatnonzero(np.hypot(pos[:, 0] - sites[i][0], pos[:, 1] - sites[i][1])
-                                  <= _reports.REACH[0] * rad.max_range + _reports.REACH[1])
-            p = _reports.polar(_reports.to_local(frame, rad, pos[near]))
-            seen[i] += np.sum((p[:, 0] <= rad.max_range) & (p[:, 2] >= rad.min_elevation)) / 5
+            seen[i] += np.count_nonzero(_reports.sees(frame, rad, pos)) / 5
     total = 0.0
     for i, rad in enumerate(sc.radars):
         n_scans = _reports.scan_times(rad, start, duration)[0].size
