@@ -27,11 +27,31 @@ def _clutter_density():
     return lam / (a * b) / (math.pi * (CLUTTER_UP[1] - CLUTTER_UP[0]))
 
 
+#: A chance run of missed detections this rare must not end a confirmed track: the
+#: probability of its misses in a row at the weakest radar's detection probability.
+CHANCE_MISSES = 1e-4
+
+
+def _max_coast():
+    r"""Seconds a confirmed track coasts without a report: half a revisit past :math:`k`
+    missed scans of the slowest radar, :math:`k` the fewest misses in a row whose
+    probability at the weakest radar's detection probability is at most
+    :data:`CHANCE_MISSES`: :math:`(1 - P_{D,\min})^k \le` ``CHANCE_MISSES``. A
+    continental aircraft is often seen by one radar alone, so such a run breaks its track
+    unless the coast outlasts it."""
+    k = math.ceil(math.log(CHANCE_MISSES) / math.log(1.0 - RADAR_DRAWS["p_detect"][0]))
+    return (k + 0.5) * RADAR_DRAWS["period"][1]
+
+
 #: What the tracker is told of the continental radars: the mean clutter density of their
 #: draws (about 2.8e-15 per m³ per scan: 5-20 false reports per scan over a 250-400 km
-#: disk, 1-15 km up) and their mean detection probability (0.875).
+#: disk, 1-15 km up), their mean detection probability (0.875), and how long a confirmed
+#: track coasts (``_max_coast``: 6.5 revisits of the slowest radar, 78 s); a tentative
+#: track keeps the tracker's default coast (40 s).
 CONTINENT_DESIGN = {"clutter_density": _clutter_density(),
-                    "p_detection": sum(RADAR_DRAWS["p_detect"]) / 2}
+                    "p_detection": sum(RADAR_DRAWS["p_detect"]) / 2,
+                    "max_coast": _max_coast(),
+                    "max_coast_tentative": TrackerSettings().max_coast}
 
 #: The tracker's settings for the continental scene: :data:`CONTINENT_DESIGN` and the
 #: knobs chosen on the continental tuning hour (scale 100, seed 2025, never the scored seed

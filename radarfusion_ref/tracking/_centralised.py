@@ -545,7 +545,10 @@ class _Tracker:
             promote = tent & (ones >= st.m)
             drop = (tent & (ones + (st.n - window) < st.m)) | (
                 lv.confirmed & (window >= st.n) & (ones == 0))
-        drop |= (t - lv.t_hit) > st.max_coast
+        coast = t - lv.t_hit
+        drop |= coast > st.max_coast
+        if st.max_coast_tentative is not None:
+            drop |= tent & (coast > st.max_coast_tentative)
         promote &= ~drop
         if st.relink and promote.any():
             dup = self._duplicates(promote)

@@ -85,6 +85,13 @@ class TrackerSettings:
         Standard deviation of each velocity component of a new track (m/s, default 250).
     max_coast : float
         Seconds without an update after which a track is deleted (s, default 40, > 0).
+    max_coast_tentative : float or None
+        Seconds without an update after which a *tentative* track is deleted (s, > 0);
+        None (default): `max_coast`. A confirmed track may coast longer than the tracks
+        clutter starts: a radar network whose aircraft are often seen by one slow radar
+        alone needs a long coast for its confirmed tracks, and its tentative tracks of
+        clutter, which no radar scores once its `miss_scans` scans have passed, would
+        otherwise all live that long.
     miss_scans : int
         A radar's missed detection lowers a track's score only while that radar has
         reported the track within its last `miss_scans` scans (default 3, ≥ 1): a radar
@@ -160,6 +167,7 @@ class TrackerSettings:
     max_events: int = 5000
     speed_max: float = 250.0
     max_coast: float = 40.0
+    max_coast_tentative: float | None = None
     miss_scans: int = 3
     relink: bool = True
     p_relink: float = 1e-20
@@ -196,6 +204,10 @@ class TrackerSettings:
         put("max_events", as_int(self.max_events, "max_events", minimum=1))
         put("miss_scans", as_int(self.miss_scans, "miss_scans", minimum=1))
         put("relink", as_bool(self.relink, "relink"))
+        if self.max_coast_tentative is not None:
+            put("max_coast_tentative", as_float(as_positive(self.max_coast_tentative,
+                                                            "max_coast_tentative"),
+                                                "max_coast_tentative"))
         self._motion_iv(put)
         put("lower", sprt.lower)
         put("upper", sprt.upper)
