@@ -25,6 +25,7 @@ from radarfusion_ref.continent import _reports, _scene
 from radarfusion_ref.continent._frame import frame_of
 from radarfusion_ref.engine.geodesy import WGS84_A, WGS84_F, geodetic_to_enu
 from radarfusion_ref.engine.validation import MEMORY_LIMIT
+from radarfusion_ref.tracking import TrackerSettings
 
 E2 = WGS84_F * (2 - WGS84_F)
 AIRPORTS_SHA256 = "30d6c138136cc852b268bd1868db48774bc55c46d377229dd0df7a817e9cae6c"
@@ -615,6 +616,22 @@ def test_continent_design_is_the_mean_of_the_drawn_radars():
     s = ct.CONTINENT_SETTINGS
     assert (s.clutter_density, s.p_detection) == (ct.CONTINENT_DESIGN["clutter_density"],
                                                    ct.CONTINENT_DESIGN["p_detection"])
+
+
+def test_continent_coast_outlasts_a_chance_run_of_misses():
+    """A confirmed track coasts half a revisit past k missed scans of the slowest radar
+    (12 s), k the fewest misses in a row at the weakest detection probability (0.8) with
+    probability at most 1e-4, found by counting (k = 6: 0.2^6 = 6.4e-5, 0.2^5 = 3.2e-4);
+    a tentative track keeps the tracker's default coast."""
+    p_min, period = ct.RADAR_DRAWS["p_detect"][0], ct.RADAR_DRAWS["period"][1]
+    k = 1
+    while (1.0 - p_min) ** k > 1e-4:
+        k += 1
+    assert k == 6
+    assert ct.CONTINENT_DESIGN["max_coast"] == (k + 0.5) * period
+    s = ct.CONTINENT_SETTINGS
+    assert s.max_coast == ct.CONTINENT_DESIGN["max_coast"]
+    assert s.max_coast_tentative == TrackerSettings().max_coast < s.max_coast
 
 
 def test_continent_settings_are_the_tuning_tables_choice():

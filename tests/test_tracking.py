@@ -69,6 +69,7 @@ def _labels(h, inputs, truth):
     ("p_false_reject", 1.0), ("k", 0), ("m", 0), ("n", 0), ("max_coast", 0.0),
     ("q", -1.0), ("clutter_density", 0.0), ("speed_max", np.inf), ("miss_scans", 0),
     ("association", "nn"), ("confirmation", "both"), ("max_events", 0),
+    ("max_coast_tentative", 0.0), ("max_coast_tentative", np.nan),
 ])
 def test_settings_refuse_each_field_by_name(field, value):
     with pytest.raises(ValueError, match=f"`{field}`"):
@@ -300,6 +301,38 @@ def test_relinking_bridges_a_gap_longer_than_the_deletion():
     # the same gap beyond max_coast: the old track is forgotten, the identity is new
     late = track_reports(*args, settings=TrackerSettings(p_false_confirm=0.01, max_coast=15.0))
     assert ids(late)[0].size == 2
+
+
+def test_a_tentative_track_has_its_own_coast():
+    """Radar 0 reports an aircraft, with no scans in the gaps (so no misses: only the
+    coast deletes); radar 1 scans in the gaps with one far false report each, so the
+    coast is checked there. A tentative track (its two reports cannot confirm at alpha
+    1e-12) coasting 30 s takes the next report with the default coast (40 s), and is
+    deleted at radar 1's scan with a tentative coast of 20 s, so that report starts a
+    track of its own; a confirmed track coasting 50 s keeps its identity with max_coast
+    60 s whatever the tentative coast, and loses it with 40 s."""
+    R1 = np.diag(SIGMA**2)
+
+    def run(t, gap_scans, settings):
+        far = np.c_[-4e4 * (1 + np.arange(gap_scans.size)), np.full(gap_scans.size, 4e4),
+                    np.full(gap_scans.size, 5000.0)]         # each far from all the others
+        z = np.r_[_straight(t), far]
+        tt = np.r_[t, gap_scans]
+        radar = np.r_[np.zeros(t.size, int), np.ones(gap_scans.size, int)]
+        h = track_reports(tt, z, np.broadcast_to(R1, (tt.size, 3, 3)), radar,
+                          np.r_[np.arange(t.size), np.arange(gap_scans.size)],
+                          settings=settings)
+        return h.initiated - gap_scans.size          # the tracks the aircraft started
+
+    t, gap = np.array([0.0, 5.0, 35.0]), np.array([27.0])
+    strict = {"p_false_confirm": 1e-12, "relink": False}
+    assert run(t, gap, TrackerSettings(**strict)) == 1
+    assert run(t, gap, TrackerSettings(**strict, max_coast_tentative=20.0)) == 2
+    t, gap = np.r_[np.arange(7) * 5.0, 80.0, 85.0], np.array([50.0, 60.0, 75.0])
+    for tentative in (None, 20.0):
+        assert run(t, gap, TrackerSettings(max_coast=60.0, max_coast_tentative=tentative,
+                                           relink=False)) == 1
+    assert run(t, gap, TrackerSettings(max_coast=40.0, relink=False)) == 2
 
 
 def test_a_duplicate_of_a_confirmed_track_is_not_confirmed():

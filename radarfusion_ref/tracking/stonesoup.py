@@ -159,7 +159,8 @@ def stonesoup_track(time, position, cov, radar, scan, *, tracker="gnn",
         a number > 0, the time capped at `settings.max_coast`. None (default):
         ``HOLD_DEFAULT`` (1.5) revisits. With `settings.m` (the initiator's ``min_points``),
         `settings.max_coast` (the deleter) and `settings.p_false_reject` (the missed
-        distance, the gate) it is what a Stone Soup user tunes of track management.
+        distance, the gate) it is what a Stone Soup user tunes of track management;
+        it plays the part of `settings.max_coast_tentative`, which is not read here.
 
     Returns
     -------
