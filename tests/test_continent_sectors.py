@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import threading
 import time
@@ -15,6 +16,7 @@ from radarfusion_ref.continent import (
     SectorError,
     Sectors,
     sector_grid,
+    sector_settings,
     track_sectored,
 )
 from radarfusion_ref.engine.validation import MEMORY_LIMIT
@@ -98,7 +100,7 @@ def test_far_from_borders_the_single_trackers_tracks(reports, local):
     """B and C never come within 40 km of the border: their merged rows are the single
     tracker's (one tracker over the whole area) rows, bit for bit."""
     rep, truth = reports
-    single = trk.track_reports(*rep)
+    single = trk.track_reports(*rep, settings=sector_settings())
     for which in (1, 2):
         mine, ref = _rows_near(local.history, truth, which), _rows_near(single, truth, which)
         assert ref.size > 100 and mine.size == ref.size
@@ -106,13 +108,27 @@ def test_far_from_borders_the_single_trackers_tracks(reports, local):
             assert np.array_equal(getattr(local.history, f)[mine], getattr(single, f)[ref])
 
 
+def test_sector_settings_turn_relinking_off_and_nothing_else():
+    """Every field but ``relink`` is the caller's; settings that do not relink come back
+    as they are; anything but TrackerSettings is refused by name."""
+    s = trk.TrackerSettings(q=7.0, max_coast=60.0, p_relink=1e-10)
+    inner = sector_settings(s)
+    assert s.relink and not inner.relink
+    assert dataclasses.replace(inner, relink=True) == s
+    off = trk.TrackerSettings(relink=False)
+    assert sector_settings(off) is off
+    with pytest.raises(TypeError, match="`settings`"):
+        sector_settings({"relink": True})
+
+
 def test_link_cost_is_the_documented_mean_distance(reports, local):
     """The hand-over's mean squared distance, recomputed from each sector's own tracker
     run on its own reports, by a loop over the common instants."""
     rep, _ = reports
     z = rep[1]
-    west = trk.track_reports(*(a[z[:, 0] <= 10e3] for a in rep))
-    east = trk.track_reports(*(a[z[:, 0] >= -10e3] for a in rep))
+    inner = sector_settings()                 # each sector's tracker: no relinking
+    west = trk.track_reports(*(a[z[:, 0] <= 10e3] for a in rep), settings=inner)
+    east = trk.track_reports(*(a[z[:, 0] >= -10e3] for a in rep), settings=inner)
     for (sa, a, sb, b), cost in zip(local.links, local.link_cost, strict=True):
         assert (sa, sb) == (0, 1)
         ra = np.flatnonzero((west.track == a) & west.confirmed

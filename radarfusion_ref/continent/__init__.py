@@ -41,6 +41,7 @@ from .sectors import (
     SectorError,
     Sectors,
     sector_grid,
+    sector_settings,
     track_sectored,
 )
 
@@ -78,5 +79,6 @@ __all__ = [
     "SectorError",
     "Sectors",
     "sector_grid",
+    "sector_settings",
     "track_sectored",
 ]

@@ -6,7 +6,8 @@ hands a track over when its aircraft crosses a border. Here:
 * :class:`Sectors` — a grid of rectangles in the common frame's east and north, with an
   overlap: each sector's tracker sees the reports inside its rectangle grown by the
   overlap; :func:`sector_grid` builds one from the reports' extent and the counts;
-* :func:`track_sectored` — one :func:`~radarfusion_ref.tracking.track_reports` per sector,
+* :func:`track_sectored` — one :func:`~radarfusion_ref.tracking.track_reports` per sector
+  (with :func:`sector_settings`),
   in this process or one task per sector on a Dask cluster (the same answer, bit for bit),
   then the hand-over: one merged :class:`~radarfusion_ref.tracking.TrackHistory` over the
   whole airspace in which an aircraft that crosses a border keeps its identity;
@@ -22,6 +23,7 @@ and the run times.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass
 
@@ -43,7 +45,7 @@ from ._sectors_merge import Links, merge
 from ._sectors_run import on_cluster, run_sector
 
 __all__ = ["MAX_LOST", "MAX_SECTORS", "REPORT_BYTES", "SectorError", "SectoredTracks", "Sectors",
-           "sector_grid", "track_sectored"]
+           "sector_grid", "sector_settings", "track_sectored"]
 
 #: Most sectors of one grid (one tracker, and on a cluster one task, each).
 MAX_SECTORS = 65_536
@@ -410,6 +412,41 @@ def _failed(sectors, k, n_reports, exc):
                        f"{type(exc).__name__}: {exc}")
 
 
+def sector_settings(settings=None) -> TrackerSettings:
+    """The settings each sector's tracker of :func:`track_sectored` runs with: `settings`
+    without relinking.
+
+    At a sector's edge every aircraft that leaves the sector is a track its tracker has
+    lost, and relinking would continue such a track with the next aircraft that enters
+    nearby, in dense traffic often another one. Across the borders the hand-over joins the
+    identities instead, with `settings.p_relink` as its gate.
+
+    Parameters
+    ----------
+    settings : TrackerSettings, optional
+        The tracker's settings (defaults if None).
+
+    Returns
+    -------
+    TrackerSettings
+        `settings` with ``relink=False`` (`settings` itself if it does not relink).
+
+    Raises
+    ------
+    TypeError
+        `settings` not a :class:`~radarfusion_ref.tracking.TrackerSettings`.
+
+    Examples
+    --------
+    >>> sector_settings().relink, TrackerSettings().relink
+    (False, True)
+    """
+    settings = TrackerSettings() if settings is None else settings
+    if not isinstance(settings, TrackerSettings):
+        raise TypeError(f"`settings` must be a TrackerSettings; received {describe(settings)}")
+    return dataclasses.replace(settings, relink=False) if settings.relink else settings
+
+
 def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
                    client=None) -> SectoredTracks:
     r"""Track by sectors, one tracker each, and hand tracks over across borders.
@@ -424,8 +461,9 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
         The grid (:func:`sector_grid`), in the positions' unit. Every report must lie
         inside it.
     settings : TrackerSettings, optional
-        Every sector's tracker's settings (defaults if None); its relinking gate
-        `p_relink` is also the hand-over's gate.
+        The tracker's settings (defaults if None): every sector's tracker runs with them
+        but without relinking (:func:`sector_settings`), and their relinking gate
+        `p_relink` is the hand-over's gate.
     client : distributed.Client, optional
         None (default): the sectors one after the other in this process. A running
         ``distributed.Client``: the reports scattered once to every worker, one task
@@ -531,18 +569,19 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
     if client is not None:
         _client_iv(client)
     reports = (t, z, R, rad, sc)
+    inner = sector_settings(settings)
     gamma = float(gating.gate_threshold(settings.p_relink, 3))
     links = Links(sectors, gamma)            # the hand-over's candidates, as sectors finish
     if client is None:
         runs = []
         for k in range(sectors.n_sectors):
             try:
-                runs.append(run_sector(reports, sectors, k, settings))
+                runs.append(run_sector(reports, sectors, k, inner))
             except Exception as exc:
                 raise _failed(sectors, k, counts[k], exc) from exc
             links.add(k, runs[k][0].edge)
     else:
-        runs, failed = on_cluster(client, reports, sectors, settings, counts, MAX_LOST,
+        runs, failed = on_cluster(client, reports, sectors, inner, counts, MAX_LOST,
                                   lambda k, run: links.add(k, run[0].edge))
         if failed:
             k = min(failed)                              # the lowest failing sector
