@@ -76,6 +76,12 @@ def test_settings_refuse_each_field_by_name(field, value):
         TrackerSettings(**{field: value})
 
 
+def test_settings_refuse_a_tentative_coast_longer_than_the_coast():
+    with pytest.raises(ValueError, match=r"`max_coast_tentative` must be <= `max_coast`"):
+        TrackerSettings(max_coast=40.0, max_coast_tentative=41.0)
+    assert TrackerSettings(max_coast=40.0, max_coast_tentative=40.0).max_coast_tentative == 40
+
+
 def test_settings_thresholds_in_order():
     with pytest.raises(ValueError, match=r"`p_false_confirm` \+ `p_false_delete`"):
         TrackerSettings(p_false_confirm=0.6, p_false_delete=0.5)

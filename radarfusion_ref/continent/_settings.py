@@ -46,8 +46,7 @@ def _max_coast():
 #: What the tracker is told of the continental radars: the mean clutter density of their
 #: draws (about 2.8e-15 per m³ per scan: 5-20 false reports per scan over a 250-400 km
 #: disk, 1-15 km up), their mean detection probability (0.875), and how long a confirmed
-#: track coasts (``_max_coast``: 6.5 revisits of the slowest radar, 78 s); a tentative
-#: track keeps the tracker's default coast (40 s).
+#: track coasts (``_max_coast``); a tentative track keeps the tracker's default coast.
 CONTINENT_DESIGN = {"clutter_density": _clutter_density(),
                     "p_detection": sum(RADAR_DRAWS["p_detect"]) / 2,
                     "max_coast": _max_coast(),

@@ -562,14 +562,12 @@ def track_sectored(time, position, cov, radar, scan, *, sectors, settings=None,
         raise TypeError(f"`sectors` must be a Sectors (see sector_grid); received "
                         f"{describe(sectors)}")
     settings = TrackerSettings() if settings is None else settings
-    if not isinstance(settings, TrackerSettings):
-        raise TypeError(f"`settings` must be a TrackerSettings; received {describe(settings)}")
+    inner = sector_settings(settings)            # refuses anything but a TrackerSettings
     t, z, R, rad, sc = _reports_iv(time, position, cov, radar, scan)
     counts = _coverage_iv(sectors, z)
     if client is not None:
         _client_iv(client)
     reports = (t, z, R, rad, sc)
-    inner = sector_settings(settings)
     gamma = float(gating.gate_threshold(settings.p_relink, 3))
     links = Links(sectors, gamma)            # the hand-over's candidates, as sectors finish
     if client is None:

@@ -292,9 +292,10 @@ def track_reports(time, position, cov, radar, scan, *,
     that same width below its peak. With ``"m_of_n"`` a track is confirmed when `m` of its
     last `n` scored scans were hits, and deleted (tentative) when it can no longer be or
     (confirmed) after `n` scored misses in a row. Any track is deleted after `max_coast`
-    seconds without a hit (a tentative one after `max_coast_tentative`, if set). With `settings.relink`, a track about to be confirmed that
-    duplicates a confirmed track is deleted, and a newly confirmed track may continue the
-    identity of one that lost its reports (see :class:`TrackerSettings`).
+    seconds without a hit (a tentative one after `max_coast_tentative`, if set). With
+    `settings.relink`, a track about to be confirmed that duplicates a confirmed track is
+    deleted, and a newly confirmed track may continue the identity of one that lost its
+    reports (see :class:`TrackerSettings`).
 
     With ``motion="imm"`` each track carries the interacting multiple model's modes
     (:func:`radarfusion_ref.engine.tracker.imm_predict` and ``imm_update``'s kernels): the

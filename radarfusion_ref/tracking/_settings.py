@@ -86,8 +86,8 @@ class TrackerSettings:
     max_coast : float
         Seconds without an update after which a track is deleted (s, default 40, > 0).
     max_coast_tentative : float or None
-        Seconds without an update after which a *tentative* track is deleted (s, > 0);
-        None (default): `max_coast`. A confirmed track may coast longer than the tracks
+        Seconds without an update after which a *tentative* track is deleted (s, > 0 and
+        at most `max_coast`); None (default): `max_coast`. A confirmed track may coast longer than the tracks
         clutter starts: a radar network whose aircraft are often seen by one slow radar
         alone needs a long coast for its confirmed tracks, and its tentative tracks of
         clutter, which no radar scores once its `miss_scans` scans have passed, would
@@ -208,6 +208,10 @@ class TrackerSettings:
             put("max_coast_tentative", as_float(as_positive(self.max_coast_tentative,
                                                             "max_coast_tentative"),
                                                 "max_coast_tentative"))
+            if self.max_coast_tentative > self.max_coast:   # the longer limit would not act
+                raise ValueError(f"`max_coast_tentative` must be <= `max_coast` "
+                                 f"({self.max_coast!r} s); received "
+                                 f"{self.max_coast_tentative!r}")
         self._motion_iv(put)
         put("lower", sprt.lower)
         put("upper", sprt.upper)
