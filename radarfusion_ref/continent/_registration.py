@@ -82,6 +82,7 @@ def register(frame, radars, rep):
     prior = np.diag(np.tile(1.0 / np.asarray(PRIOR) ** 2, m))
     for _ in range(_PASSES):
         # residual = B_j b_j - B_i b_i + noise, weight S^-1
+        used = keep
         wt = np.linalg.inv(s[keep])
         info, rhs = prior.copy(), np.zeros(3 * m)
         for (u, bu, su), (v, bv, sv) in (((j_idx, b_j, 1), (j_idx, b_j, 1)),
@@ -100,4 +101,35 @@ def register(frame, radars, rep):
         nees = np.einsum("ni,ni->n", r, np.linalg.solve(s, r[..., None])[..., 0])
         keep = nees <= stats.chi2.ppf(_OUTLIER_P, 3)
     counts = np.bincount(i_idx[keep], minlength=m) + np.bincount(j_idx[keep], minlength=m)
-    return e, np.linalg.inv(info), int(keep.sum()), counts
+    bread = np.linalg.inv(info)
+    meat = _shared_noise(m, used, j_row, a, b, w[:, 0], j_idx, i_idx, b_j, b_i, wt, cov)
+    return e, bread @ meat @ bread, int(keep.sum()), counts
+
+
+def _shared_noise(m, keep, j_row, a, b, w, j_idx, i_idx, b_j, b_i, wt, cov):
+    r"""Covariance (3m, 3m) of the normal equations' right-hand side when pairs share
+    reports: :math:`\sum_r U_r C_r U_r^\mathsf T` over the reports :math:`r` (covariance
+    :math:`C_r`), with :math:`U_r = \sum_n c_{nr} H_n^\mathsf T S_n^{-1}` summed over the
+    pairs :math:`n` that use report :math:`r`: :math:`c` is 1 for radar j's report,
+    :math:`-(1-w)` and :math:`-w` for radar i's two, and :math:`H_n` holds :math:`B_j` at
+    radar j's place and :math:`-B_i` at radar i's."""
+    n = int(keep.sum())
+    pair = np.tile(np.arange(n), 3)                      # each pair's three reports
+    rep = np.concatenate([j_row[keep], a[keep], b[keep]])
+    c = np.concatenate([np.ones(n), -(1 - w[keep]), -w[keep]])
+    hw = np.concatenate([_sym(b_j[keep]), -_sym(b_i[keep])]) @ np.r_[wt, wt]
+    # one entry per (report, radar) it informs: U_r's block at that radar
+    key = np.r_[rep, rep] * m + np.r_[j_idx[keep][pair], i_idx[keep][pair]]
+    uk, inv = np.unique(key, return_inverse=True)
+    u = np.zeros((uk.size, 3, 3))
+    np.add.at(u, inv.reshape(-1), np.r_[c, c][:, None, None] * hw[np.r_[pair, pair + n]])
+    urep, ublk = uk // m, uk % m                         # sorted by report, then radar
+    first = np.flatnonzero(np.r_[True, urep[1:] != urep[:-1]])
+    size = np.diff(np.r_[first, urep.size])
+    out = np.zeros((m, m, 3, 3))
+    for k in range(int(size.max())):
+        for kk in range(int(size.max())):
+            p = first[size > max(k, kk)]
+            p, q = p + k, p + kk
+            np.add.at(out, (ublk[p], ublk[q]), u[p] @ cov[urep[p]] @ _sym(u[q]))
+    return out.transpose(0, 2, 1, 3).reshape(3 * m, 3 * m)

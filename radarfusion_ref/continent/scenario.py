@@ -925,10 +925,9 @@ class ContinentBiases:
     Attributes
     ----------
     biases : numpy.ndarray, shape (m, 3)
-        Range offset (m), range scale, azimuth offset (rad) per radar: the layout of
-        ``bias_estimate`` in :func:`simulate_continent` and :func:`polar_to_map`.
+        Range offset (m), range scale, azimuth offset (rad) per radar (``bias_estimate``).
     covariance : numpy.ndarray, shape (3m, 3m)
-        Their covariance (radar-major), the weak prior included.
+        Their covariance (radar-major), the weak prior and shared reports included.
     pairs : numpy.ndarray of int, shape (m,)
         Report pairs that informed each radar (0: its estimate is the prior's zero).
     """
@@ -973,9 +972,10 @@ def register_continent(scenario, reports) -> ContinentBiases:
     :math:`\operatorname{Cov} e` the reports' covariances. Weighted least squares over
     all pairs with a weak prior (2 km, 0.01, 2° standard deviations, so a radar overlapping
     no other stays at zero), three passes dropping pairs beyond the 0.999 quantile of
-    :math:`\chi^2_3` (an aircraft turning between the bracketing reports). Range offset
-    and scale are nearly confounded over one radar's ranges; the azimuth offset is the
-    best determined.
+    :math:`\chi^2_3` (an aircraft turning between the bracketing reports). Pairs share
+    reports: the covariance is :math:`I^{-1} M I^{-1}`, :math:`M` summing each report's
+    covariance through every pair using it. Range offset and scale are nearly confounded
+    over one radar's ranges; the azimuth offset is the best determined.
 
     Examples
     --------
