@@ -108,6 +108,19 @@ def test_far_from_borders_the_single_trackers_tracks(reports, local):
             assert np.array_equal(getattr(local.history, f)[mine], getattr(single, f)[ref])
 
 
+def test_imm_sectors_keep_the_mode_probabilities(reports):
+    """With the IMM the merged rows of B and C (far from the borders) carry the single
+    tracker's mode probabilities, bit for bit, like their states."""
+    rep, truth = reports
+    st = sector_settings(dataclasses.replace(sector_settings(), motion="imm"))
+    merged = track_sectored(*rep, sectors=GRID, settings=st).history
+    single = trk.track_reports(*rep, settings=st)
+    for which in (1, 2):
+        mine, ref = _rows_near(merged, truth, which), _rows_near(single, truth, which)
+        assert ref.size > 100 and mine.size == ref.size
+        assert np.array_equal(merged.mode_probability[mine], single.mode_probability[ref])
+
+
 def test_sector_settings_turn_relinking_off_and_nothing_else():
     """Every field but ``relink`` is the caller's; settings that do not relink come back
     as they are; anything but TrackerSettings is refused by name."""

@@ -7,6 +7,7 @@ tolerance for the false-confirmation rate in pure clutter, tracemalloc for memor
 
 from __future__ import annotations
 
+import dataclasses
 import tracemalloc
 
 import numpy as np
@@ -608,6 +609,30 @@ def test_imm_follows_a_turn_and_stays_quiet_in_straight_flight():
     assert m["imm"][1] < 0.9 * m["loud"][1]           # the loud filter is noisy when straight
 
 
+def test_imm_rows_carry_the_mode_probabilities():
+    """With the IMM each row holds its mode probabilities (rows summing to 1, through the
+    unit change and ``to_dict``); in the turn of the turn scene the manoeuvre mode is the
+    likelier one more often than in straight flight. Without the IMM there are none."""
+    inputs, _ = _turn_scene(0)
+    base = dict(p_false_confirm=0.01, q_vertical=1.0, speed_max_vertical=10.0)
+    s = TrackerSettings(motion="imm", imm_q=(2.0, 400.0), **base)
+    h = track_reports(*inputs, settings=s)
+    mu = h.mode_probability
+    assert mu.shape == (len(h), 2) and np.all(mu >= 0)
+    np.testing.assert_allclose(mu.sum(axis=1), 1.0, rtol=0, atol=1e-12)
+    turn = (h.time >= 200) & (h.time < 270)                   # the scene's turn
+    calm = ((h.time >= 60) & (h.time < 190)) | (h.time >= 330)
+    assert np.mean(mu[turn, 1]) > np.mean(mu[calm, 1]) + 0.3
+    t, z, R, radar, scan = inputs
+    km = track_reports(t, z / 1000.0, R / 1e6, radar, scan,
+                       settings=dataclasses.replace(s, length_unit=1000.0))
+    np.testing.assert_allclose(km.mode_probability, mu, rtol=0, atol=1e-9)
+    d = h.to_dict()
+    np.testing.assert_array_equal(np.c_[d["mode_0"], d["mode_1"]], mu)
+    cv = track_reports(*inputs, settings=TrackerSettings(**base))
+    assert cv.mode_probability is None and "mode_0" not in cv.to_dict()
+
+
 def test_imm_runs_in_the_other_architectures():
     inputs, _ = _scene(n_targets=2, scans=30, radars=3, clutter=1, seed=7, p_detect=0.9)
     s = TrackerSettings(p_false_confirm=1e-5, clutter_density=1 / (1e5 * 1e5 * 1.2e4), motion="imm")
@@ -673,6 +698,7 @@ def test_imm_jpda_on_one_target_is_the_mixture_over_event_and_mode_by_hand():
         betas.append(beta)
         np.testing.assert_allclose(h.state[k], c.state, rtol=1e-9, atol=1e-6)
         np.testing.assert_allclose(h.covariance[k], c.covariance, rtol=1e-7, atol=1e-6)
+        np.testing.assert_allclose(h.mode_probability[k], mu, rtol=1e-9, atol=1e-12)
     assert min(betas) < 0.9 and abs(mu[0] - 0.7) > 1e-3
 
 
@@ -701,3 +727,5 @@ def test_imm_gnn_on_one_target_is_the_engine_s_imm_cycle_by_hand():
         c = imm_combine(mu, xm, Pm)
         np.testing.assert_allclose(h.state[k], c.state, rtol=1e-9, atol=1e-6)
         np.testing.assert_allclose(h.covariance[k], c.covariance, rtol=1e-7, atol=1e-6)
+        np.testing.assert_allclose(h.mode_probability[k], mu, rtol=1e-9, atol=1e-12)
+    assert h.mode_probability[0].tolist() == [0.7, 0.3]        # the first report: the prior

@@ -61,13 +61,15 @@ class Summary:
 
 @dataclass(frozen=True, eq=False)
 class Part:
-    """The rows one sector owns: local track ids, instants, states, covariances, flags."""
+    """The rows one sector owns: local track ids, instants, states, covariances, flags,
+    and the IMM's mode probabilities (None without the IMM)."""
 
     track: np.ndarray
     time: np.ndarray
     state: np.ndarray
     covariance: np.ndarray
     confirmed: np.ndarray
+    mode_probability: np.ndarray | None = None
 
 
 def neighbour_pairs(sectors):
@@ -124,8 +126,9 @@ def summarise(sectors, k, history):
                 P, c[rows], P[:, 0, 0] + P[:, 1, 1] + P[:, 2, 2])
     ids, first, last = _spans(history)
     own = np.flatnonzero(sectors._owner(x[:, :2]) == k)
+    mu = history.mode_probability
     part = Part(history.track[own], history.time[own], x[own], history.covariance[own],
-                c[own])
+                c[own], None if mu is None else mu[own])
     return Summary(int(history.initiated), history.n_confirmed, ids, first, last, edge), part
 
 
@@ -366,12 +369,16 @@ def assemble(parts, identity, offset, initiated):
     local = keep - np.r_[0, np.cumsum(sizes)[:-1]][sec]   # row within its sector's part
     n = keep.size
     state, cov, conf = np.empty((n, 6)), np.empty((n, 6, 6)), np.empty(n, bool)
+    imm = bool(parts) and all(p.mode_probability is not None for p in parts)
+    mu = np.empty((n, parts[0].mode_probability.shape[1])) if imm else None
     for k, p in enumerate(parts):                        # one copy of the large arrays
         at = np.flatnonzero(sec == k)
         if at.size:
             src = local[at]
             state[at], cov[at], conf[at] = p.state[src], p.covariance[src], p.confirmed[src]
-    return TrackHistory(ids[mine], t[mine], state, cov, conf, int(initiated))
+            if imm:
+                mu[at] = p.mode_probability[src]
+    return TrackHistory(ids[mine], t[mine], state, cov, conf, int(initiated), mu)
 
 
 def merge(sectors, summaries, parts, gamma, links=None):

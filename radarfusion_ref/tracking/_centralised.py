@@ -97,8 +97,8 @@ class _Rows:
     MIN_BATCH = 4096
 
     def __init__(self):
-        self.out = []          # (ids, time, state, cov, confirmed, seq, place) chunks
-        self.pending = []      # (ids, time, state, cov, confirmed, place) of tentative tracks
+        self.out = []          # (ids, time, state, cov, confirmed, mu, seq, place) chunks
+        self.pending = []      # (ids, time, state, cov, confirmed, mu, place) of tentatives
         self.n_chunks = 0      # chunks written (the next seq)
         self.n_pending = 0     # pending rows added so far (the next place)
         self.n_sorted = 0      # pending rows left at the last sorting
@@ -111,10 +111,11 @@ class _Rows:
         self.out.append((*chunk, np.full(n, self.n_chunks), np.arange(n)))
         self.n_chunks += 1
 
-    def add(self, ids, t, x, P, confirmed):
+    def add(self, ids, t, x, P, confirmed, mu):
         if not ids.size:
             return
-        chunk = (ids.copy(), np.full(ids.size, t), x.copy(), P.copy(), confirmed.copy())
+        chunk = (ids.copy(), np.full(ids.size, t), x.copy(), P.copy(), confirmed.copy(),
+                 mu.copy())
         if confirmed.all():
             self._write(chunk)
             return
@@ -153,7 +154,7 @@ class _Rows:
             if up.any():
                 o = np.argsort(pid)
                 seq = pseq[o][np.searchsorted(pid[o], ids[up])]
-                self.out.append((*(c[up] for c in cols[:5]), seq, cols[5][up]))
+                self.out.append((*(c[up] for c in cols[:6]), seq, cols[6][up]))
                 rest &= ~up
         if self.dropped:
             rest &= ~np.isin(ids, np.concatenate(self.dropped))
@@ -161,12 +162,14 @@ class _Rows:
         self.pending = [tuple(c[rest] for c in cols)] if rest.any() else []
         self.n_sorted = int(rest.sum())
 
-    def history(self, initiated, alias=None):
+    def history(self, initiated, alias=None, modes=0):
         self._sort_out()
+        mu0 = np.zeros((0, modes)) if modes else None
         if not self.out:
             return TrackHistory(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
-                                np.zeros((0, 6, 6)), np.zeros(0, bool), initiated)
-        ids, t, x, P, c, seq, place = (np.concatenate(v) for v in zip(*self.out, strict=True))
+                                np.zeros((0, 6, 6)), np.zeros(0, bool), initiated, mu0)
+        ids, t, x, P, c, mu, seq, place = (np.concatenate(v)
+                                           for v in zip(*self.out, strict=True))
         if alias:                                        # a relinked track takes its old id
             u, inv = np.unique(ids, return_inverse=True)
             for n, i in enumerate(u):
@@ -175,7 +178,8 @@ class _Rows:
                 u[n] = i
             ids = u[inv]
         o = np.lexsort((place, seq, ids, t))
-        return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated)
+        return TrackHistory(ids[o], t[o], x[o], P[o], c[o], initiated,
+                            mu[o] if modes else None)
 
 
 def _reports_iv(time, position, cov, radar, scan, settings):
@@ -321,7 +325,7 @@ def track_reports(time, position, cov, radar, scan, *,
     settings = TrackerSettings() if settings is None else settings
     t, z, R, radar, scan = _reports_iv(time, position, cov, radar, scan, settings)
     if not t.size:
-        return _Rows().history(0)
+        return _Rows().history(0, modes=_modes(settings))
     u = settings.length_unit
     z, R = z * u, R * u**2                                   # metres, as the settings
     _warn_scale(R)
@@ -334,7 +338,12 @@ def track_reports(time, position, cov, radar, scan, *,
     state = _Tracker(settings)
     for a, b in zip(starts, ends, strict=True):
         state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
-    return _in_unit(state.rows.history(state.next_id, state.alias), u)
+    return _in_unit(state.rows.history(state.next_id, state.alias, _modes(settings)), u)
+
+
+def _modes(settings):
+    """Modes whose probabilities the rows carry: the IMM's, none for one filter."""
+    return len(settings.imm_q) if settings.motion == "imm" else 0
 
 
 #: Plausible standard deviations of a report (m): outside, the unit was likely not stated.
@@ -558,7 +567,7 @@ class _Tracker:
         lv.confirmed |= promote
         lv.peak = np.where(lv.confirmed, np.maximum(lv.peak, lv.score), lv.score)
         rec = hit & ~drop
-        self.rows.add(lv.ids[rec], t, lv.x[rec], lv.P[rec], lv.confirmed[rec])
+        self.rows.add(lv.ids[rec], t, lv.x[rec], lv.P[rec], lv.confirmed[rec], lv.mu[rec])
         self.rows.settle(lv.ids[promote], lv.ids[drop & ~lv.confirmed])
         if self.s.relink:
             merged = self._relink(t, promote, drop) if promote.any() else []
@@ -648,13 +657,13 @@ class _Tracker:
         recent[:, -1] = True                                  # the report that started it
         self.next_id += n
         M = self.live.mu.shape[1]
+        mu = np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1))
         self.live.extend(kept, x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
                          recent=recent, scored=np.ones(n, np.int64), key=ids.copy(),
-                         born=np.full(n, t),
-                         mu=np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1)),
+                         born=np.full(n, t), mu=mu,
                          xm=np.repeat(x[:, None], M, 1), Pm=np.repeat(P[:, None], M, 1))
-        self.rows.add(ids, t, x, P, np.zeros(n, bool))
+        self.rows.add(ids, t, x, P, np.zeros(n, bool), mu)
         return ids
 
 

@@ -263,6 +263,10 @@ class TrackHistory:
         rows of a tentative track are kept only if it is confirmed later).
     initiated : int
         Tracks started, confirmed or not.
+    mode_probability : numpy.ndarray, shape (K, M), or None
+        With the interacting multiple model (``motion="imm"``): each row's mode
+        probabilities after its update (the columns in the order of ``imm_q``); the row
+        of a track's first report holds the prior ``imm_probability``. None otherwise.
 
     Notes
     -----
@@ -276,6 +280,7 @@ class TrackHistory:
     covariance: np.ndarray
     confirmed: np.ndarray
     initiated: int = 0
+    mode_probability: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.track.size)
@@ -299,8 +304,9 @@ class TrackHistory:
         dict of str to numpy.ndarray
             ``track``, ``time``, ``confirmed``, the state ``x``, ``y``, ``z``, ``vx``,
             ``vy``, ``vz``, and the covariance's upper triangle ``cov_<a>_<b>`` (21
-            columns, ``cov_x_x`` to ``cov_vz_vz``): ready for ``pandas.DataFrame``, which
-            this package does not need.
+            columns, ``cov_x_x`` to ``cov_vz_vz``), and with the IMM ``mode_0``,
+            ``mode_1``, ... (`mode_probability`'s columns): ready for
+            ``pandas.DataFrame``, which this package does not need.
 
         Examples
         --------
@@ -316,6 +322,9 @@ class TrackHistory:
             out[name] = self.state[:, i].copy()
         for i, j in zip(*np.triu_indices(6), strict=True):
             out[f"cov_{STATE_NAMES[i]}_{STATE_NAMES[j]}"] = self.covariance[:, i, j].copy()
+        if self.mode_probability is not None:
+            for j in range(self.mode_probability.shape[1]):
+                out[f"mode_{j}"] = self.mode_probability[:, j].copy()
         return out
 
 
@@ -324,7 +333,8 @@ def _in_unit(history, unit):
     if unit == 1.0:
         return history
     return TrackHistory(history.track, history.time, history.state / unit,
-                        history.covariance / unit**2, history.confirmed, history.initiated)
+                        history.covariance / unit**2, history.confirmed, history.initiated,
+                        history.mode_probability)
 
 
 #: Ours with the interacting multiple model, tuned on the tuning hour
