@@ -113,16 +113,16 @@ def _shared_noise(m, keep, j_row, a, b, w, j_idx, i_idx, b_j, b_i, wt, cov):
     pairs :math:`n` that use report :math:`r`: :math:`c` is 1 for radar j's report,
     :math:`-(1-w)` and :math:`-w` for radar i's two, and :math:`H_n` holds :math:`B_j` at
     radar j's place and :math:`-B_i` at radar i's."""
-    n = int(keep.sum())
-    pair = np.tile(np.arange(n), 3)                      # each pair's three reports
-    rep = np.concatenate([j_row[keep], a[keep], b[keep]])
-    c = np.concatenate([np.ones(n), -(1 - w[keep]), -w[keep]])
-    hw = np.concatenate([_sym(b_j[keep]), -_sym(b_i[keep])]) @ np.r_[wt, wt]
-    # one entry per (report, radar) it informs: U_r's block at that radar
-    key = np.r_[rep, rep] * m + np.r_[j_idx[keep][pair], i_idx[keep][pair]]
+    reports = (j_row[keep], a[keep], b[keep])
+    weights = (np.ones(int(keep.sum())), -(1 - w[keep]), -w[keep])
+    blocks = ((j_idx[keep], _sym(b_j[keep]) @ wt), (i_idx[keep], -_sym(b_i[keep]) @ wt))
+    # one entry per (report, radar it informs): U_r's block at that radar
+    key = np.concatenate([rep * m + blk for rep in reports for blk, _ in blocks])
     uk, inv = np.unique(key, return_inverse=True)
+    inv = inv.reshape(len(reports) * len(blocks), -1)
     u = np.zeros((uk.size, 3, 3))
-    np.add.at(u, inv.reshape(-1), np.r_[c, c][:, None, None] * hw[np.r_[pair, pair + n]])
+    for n, (c, (_, hw)) in enumerate((c, bl) for c in weights for bl in blocks):
+        np.add.at(u, inv[n], c[:, None, None] * hw)
     urep, ublk = uk // m, uk % m                         # sorted by report, then radar
     first = np.flatnonzero(np.r_[True, urep[1:] != urep[:-1]])
     size = np.diff(np.r_[first, urep.size])
