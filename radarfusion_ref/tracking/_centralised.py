@@ -31,6 +31,7 @@ from ..engine.validation import (
     check_size,
     describe,
 )
+from . import _feature
 from ._motion import (
     axis_q,
     imm_gnn_update,
@@ -51,7 +52,7 @@ class _Live:
     """The live tracks, as parallel arrays (one row per track)."""
 
     FIELDS = ("x", "P", "t", "t_hit", "score", "peak", "confirmed", "ids", "recent", "scored",
-              "key", "born", "mu", "xm", "Pm")
+              "key", "born", "mu", "xm", "Pm", "f", "Pf")
 
     def __init__(self, n_window, modes=0):
         self.x = np.zeros((0, 6))
@@ -69,6 +70,8 @@ class _Live:
         self.mu = np.zeros((0, modes))               # IMM: mode probabilities, states, covs
         self.xm = np.zeros((0, modes, 6))
         self.Pm = np.zeros((0, modes, 6, 6))
+        self.f = np.zeros(0)                         # the feature's estimate and variance
+        self.Pf = np.zeros(0)
 
     def keep(self, mask):
         for f in self.FIELDS:
@@ -217,7 +220,7 @@ def _reports_iv(time, position, cov, radar, scan, settings):
     return t, z, R, out[0], out[1]
 
 
-def track_reports(time, position, cov, radar, scan, *,
+def track_reports(time, position, cov, radar, scan, *, feature=None, feature_var=None,
                   settings=None) -> TrackHistory:
     r"""Architecture (a): every report, in time order, updates one tracker.
 
@@ -238,6 +241,11 @@ def track_reports(time, position, cov, radar, scan, *,
     scan : array_like of int, shape (N,)
         The radar's own scan number of each report: the reports of one radar at one
         instant form a scan, processed together.
+    feature, feature_var : array_like, shape (N,), optional
+        A scalar feature of each report (e.g. the capstone's speed feature, kt) and its
+        error variance (> 0, that unit squared); with them a pair's score increment
+        gains the feature's log-likelihood ratio (Notes). None (default, both): position
+        only.
     settings : TrackerSettings, optional
         Defaults if None.
 
@@ -301,6 +309,14 @@ def track_reports(time, position, cov, radar, scan, *,
     deleted, and a newly confirmed track may continue the identity of one that lost its
     reports (see :class:`TrackerSettings`).
 
+    With `feature`, each track also estimates its target's feature (a random walk of
+    intensity `settings.q_feature`, started at its first report, updated by a scalar
+    Kalman filter), and each gated pair's increment gains
+    :math:`\ln\mathcal N(f_j;\hat f,P_f+\sigma_j^2) - \ln\lambda_f`
+    (:math:`\lambda_f` = `settings.feature_density`): reports whose features disagree with
+    the track's are less likely to be taken, and a run of false reports with scattered
+    features is less likely to be confirmed.
+
     With ``motion="imm"`` each track carries the interacting multiple model's modes
     (:func:`radarfusion_ref.engine.tracker.imm_predict` and ``imm_update``'s kernels): the
     gate is on the combined prediction, a pair's increment is
@@ -324,6 +340,7 @@ def track_reports(time, position, cov, radar, scan, *,
     """
     settings = TrackerSettings() if settings is None else settings
     t, z, R, radar, scan = _reports_iv(time, position, cov, radar, scan, settings)
+    f, fv = _feature.features_iv(feature, feature_var, t.size)
     if not t.size:
         return _Rows().history(0, modes=_modes(settings))
     u = settings.length_unit
@@ -332,12 +349,15 @@ def track_reports(time, position, cov, radar, scan, *,
     radar = np.unique(radar, return_inverse=True)[1].reshape(-1)    # ids 0..n_radars-1
     order = np.lexsort((z[:, 2], z[:, 1], z[:, 0], radar, t))   # time, radar, then position
     t, z, R, radar, scan = t[order], z[order], R[order], radar[order], scan[order]
+    if f is not None:
+        f, fv = f[order], fv[order]
     new_group = np.r_[True, (np.diff(t) != 0) | (np.diff(radar) != 0)]
     starts = np.flatnonzero(new_group)
     ends = np.r_[starts[1:], t.size]
     state = _Tracker(settings)
     for a, b in zip(starts, ends, strict=True):
-        state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b])
+        state.scan(float(t[a]), int(radar[a]), int(scan[a]), z[a:b], R[a:b],
+                   None if f is None else (f[a:b], fv[a:b]))
     return _in_unit(state.rows.history(state.next_id, state.alias, _modes(settings)), u)
 
 
@@ -383,6 +403,7 @@ class _Tracker:
         self.p_gate = 1.0 - s.p_false_reject
         self.miss_inc = math.log(1.0 - s.p_detection)
         self.alias: dict[int, int] = {}
+        self.feat = None                                 # this scan's (features, variances)
         self.gamma_relink = float(gating.gate_threshold(s.p_relink, 3))
         # confirmed tracks lost within max_coast, for relinking: ids, x, P, t, t_hit
         self.lost = (np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros((0, 6, 6)),
@@ -419,8 +440,13 @@ class _Tracker:
         return ti[ok], rj[ok], d2[ok], ld[0][ok]
 
     # ------------------------------------------------------------------ one scan
-    def scan(self, t, r, s, z, R):
+    def scan(self, t, r, s, z, R, feat=None):
+        """Process one scan of radar `r` (its scan `s`) at `t`: reports `z`, `R`, and their
+        features ``feat = (f, variance)`` or None."""
         lv, st = self.live, self.s
+        self.feat = feat
+        if feat is not None and lv.ids.size:
+            lv.Pf = lv.Pf + st.q_feature * (t - float(lv.t[0]))
         if lv.ids.size and self.imm:
             imm_predict_live(lv, t, st, self.qm)
             lv.t[:] = t
@@ -433,6 +459,9 @@ class _Tracker:
         ti, rj, d2, ld = self._gate(z, R)
         inc_pair = (imm_increments(lv, ti, rj, z, R, st) if self.imm and ti.size
                     else increments_kernel(d2, ld, st.p_detection, st.clutter_density))
+        if feat is not None and ti.size:
+            inc_pair = inc_pair + _feature.increments(lv.f[ti], lv.Pf[ti], feat[0][rj],
+                                                      feat[1][rj], st.feature_density)
         inc = np.where(scored, self.miss_inc, 0.0)       # a miss, unless a report is taken
         hit = np.zeros(T, dtype=bool)
         used = np.zeros(M)                               # total probability of each report
@@ -446,6 +475,8 @@ class _Tracker:
         lv.t_hit[hit] = t
         kept = self._score(t, inc, hit, scored)
         fresh = used < 0.5
+        if feat is not None:
+            self.feat = (feat[0][fresh], feat[1][fresh])
         born = self._start(t, r, s, z[fresh], R[fresh], kept)
         self._see(r, s, np.concatenate([seen, born]))
 
@@ -490,6 +521,9 @@ class _Tracker:
             imm_gnn_update(lv, i, z[j], R[j])
         else:
             lv.x[i], lv.P[i], _, _ = update_kernel(lv.x[i], lv.P[i], z[j], R[j])
+        if self.feat is not None:
+            lv.f[i], lv.Pf[i] = _feature.update(lv.f[i], lv.Pf[i], self.feat[0][j],
+                                                self.feat[1][j])
         inc[i] = inc_pair[take]
         hit[i] = True
         used[j] = 1.0
@@ -531,6 +565,9 @@ class _Tracker:
             dxu = xu - mean[loc]
             np.add.at(cov, loc, beta[:, None, None] * (Pu + dxu[:, :, None] * dxu[:, None, :]))
             lv.x[rows], lv.P[rows] = mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
+        if self.feat is not None:
+            lv.f[rows], lv.Pf[rows] = _feature.mixture(rows, ti, beta, b0, lv.f, lv.Pf,
+                                                       self.feat[0][rj], self.feat[1][rj])
         hit[rows] = b0[rows] < 0.5
         gain = np.zeros(lv.ids.size)                     # expected increment given a hit
         np.add.at(gain, ti, beta * inc_pair)
@@ -658,7 +695,8 @@ class _Tracker:
         self.next_id += n
         M = self.live.mu.shape[1]
         mu = np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1))
-        self.live.extend(kept, x=x, P=P, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
+        f, fv = self.feat if self.feat is not None else (np.zeros(n), np.ones(n))
+        self.live.extend(kept, x=x, P=P, f=f, Pf=fv, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
                          peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
                          recent=recent, scored=np.ones(n, np.int64), key=ids.copy(),
                          born=np.full(n, t), mu=mu,

@@ -141,6 +141,14 @@ class TrackerSettings:
     imm_probability : tuple of float
         IMM: the mode probabilities of a new track, each in (0, 1], summing to 1
         (default (0.8, 0.2)).
+    feature_density : float
+        :math:`\lambda_f`, the density of a false report's feature, per unit of the
+        feature (> 0; default 1/300: the capstone's false reports carry a speed feature
+        spread evenly over 300 kt). Used only with the reports' `feature`.
+    q_feature : float
+        Intensity of the random walk of a target's feature (the feature's unit squared
+        per second, > 0; default 0.05 kt²/s, the mean squared change of the tuning hour's
+        ADS-B ground speeds per second). Used only with the reports' `feature`.
 
     Raises
     ------
@@ -180,6 +188,8 @@ class TrackerSettings:
     imm_q_vertical: tuple | None = None
     imm_sojourn: tuple = (120.0, 20.0)
     imm_probability: tuple = (0.8, 0.2)
+    feature_density: float = 1.0 / 300.0
+    q_feature: float = 0.05
     lower: float = field(init=False, repr=False)
     upper: float = field(init=False, repr=False)
 
@@ -190,7 +200,8 @@ class TrackerSettings:
         for name in ("p_detection", "p_false_confirm", "p_false_delete", "p_false_reject",
                      "p_relink"):
             put(name, as_float(as_probability(getattr(self, name), name), name))
-        for name in ("clutter_density", "q", "speed_max", "max_coast", "length_unit"):
+        for name in ("clutter_density", "q", "speed_max", "max_coast", "length_unit",
+                     "feature_density", "q_feature"):
             put(name, as_float(as_positive(getattr(self, name), name), name))
         sprt = sprt_thresholds(self.p_false_confirm, self.p_false_delete)  # refuses a sum >= 1
         put("confirmation", as_choice(self.confirmation, "confirmation", CONFIRMATIONS))
