@@ -120,7 +120,6 @@ def main(seeds=5, stonesoup=None, quick=False, out=None, workers=2, ours_only=Fa
           f"tracker: {stonesoup}", flush=True)
     scene = bt._scene()
     t0 = time.perf_counter()
-    rows = []
     with ProcessPoolExecutor(max_workers=workers) as pool:
         futures = []
         for seed in seed_list:
@@ -131,15 +130,11 @@ def main(seeds=5, stonesoup=None, quick=False, out=None, workers=2, ours_only=Fa
             jobs += [(t, seed, duration, "p_false_confirm", a, reports) for t in ("ours_imm", "ours_cv")
                      for a in ALPHAS]
             futures += [pool.submit(_job, j) for j in jobs]
-        for f in futures:
-            r = f.result()
-            rows.append(r)
-            print(f"  {r['tracker']:<9}{r['seed']:>5} {r['threshold_name']} "
-                  f"{r['threshold']:<8g} false/h {r['false_tracks_per_hour']:6.1f}  latency "
-                  f"{r['mean_latency']:5.1f} s  GOSPA {r['mean_gospa']:6.0f} m", flush=True)
-    path = Path(out) if out else (None if quick else OUT)
-    if path is not None:
-        bt.write_table(path, COLUMNS, rows)
+        rows = bt.gather(futures, lambda r: (
+            f"  {r['tracker']:<9}{r['seed']:>5} {r['threshold_name']} {r['threshold']:<8g} "
+            f"false/h {r['false_tracks_per_hour']:6.1f}  latency {r['mean_latency']:5.1f} s  "
+            f"GOSPA {r['mean_gospa']:6.0f} m"))
+    bt.write_unless_quick(rows, COLUMNS, out, quick, OUT)
     print(f"\ncurves (means over {len(seed_list)} seed{'s' * (len(seed_list) > 1)}; total "
           f"{time.perf_counter() - t0:.0f} s):")
     curves = {t: curve(rows, t) for t in ("ours_imm", "ours_cv", stonesoup)}

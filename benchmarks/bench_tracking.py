@@ -157,6 +157,23 @@ def write_table(path, columns, rows):
     print(f"wrote {path}")
 
 
+def gather(futures, line):
+    """The rows of the finished `futures` (each a row dict), in order, each printed as
+    ``line(row)`` as it comes."""
+    rows = []
+    for f in futures:
+        rows.append(f.result())
+        print(line(rows[-1]), flush=True)
+    return rows
+
+
+def write_unless_quick(rows, columns, out, quick, default):
+    """Write `rows` to `out`, else to `default` unless a `quick` run (not the whole hour)."""
+    path = Path(out) if out else (None if quick else default)
+    if path is not None:
+        write_table(path, columns, rows)
+
+
 def summaries(rows, metrics):
     """Per tracker: each column's mean over seeds with its 95 % Student-t interval
     (``tracking.summarise_runs`` for the runs of `metrics`, ``engine.montecarlo.mean`` for

@@ -67,7 +67,6 @@ def main(seeds=5, quick=False, out=None, workers=2) -> int:
     scene = bt._scene()
     fvar = np.array([r.sigma_feature for r in scene["radars"]]) ** 2
     t0 = time.perf_counter()
-    rows = []
     with ProcessPoolExecutor(max_workers=workers) as pool:
         futures = []
         for seed in seed_list:
@@ -75,15 +74,11 @@ def main(seeds=5, quick=False, out=None, workers=2) -> int:
             feature = (det.feature, fvar[det.radar])
             futures += [pool.submit(_job, (t, seed, duration, use, reports, feature))
                         for t in SETTINGS for use in (False, True)]
-        for f in futures:
-            r = f.result()
-            rows.append(r)
-            print(f"  {r['tracker']:<9}{r['seed']:>5} feature {r['feature']}  GOSPA "
-                  f"{r['mean_gospa']:6.0f} m  false/h {r['false_tracks_per_hour']:5.1f}  "
-                  f"latency {r['mean_latency']:5.2f} s  {r['seconds']:.1f} s", flush=True)
-    path = Path(out) if out else (None if quick else OUT)
-    if path is not None:
-        bt.write_table(path, COLUMNS, rows)
+        rows = bt.gather(futures, lambda r: (
+            f"  {r['tracker']:<9}{r['seed']:>5} feature {r['feature']}  GOSPA "
+            f"{r['mean_gospa']:6.0f} m  false/h {r['false_tracks_per_hour']:5.1f}  latency "
+            f"{r['mean_latency']:5.2f} s  {r['seconds']:.1f} s"))
+    bt.write_unless_quick(rows, COLUMNS, out, quick, OUT)
     print(f"\nmeans over {len(seed_list)} seeds (total {time.perf_counter() - t0:.0f} s); "
           f"difference = with - without, mean [95 % interval]:")
     last = []
