@@ -488,6 +488,11 @@ def test_registration_recovers_the_biases():
     assert np.median(np.abs(est.biases - true)[well, 2] / np.abs(true[well, 2])) < 0.25
     lone = est.pairs == 0                 # spread radars: some overlap no other in this scene
     assert lone.any() and np.all(est.biases[lone] == 0.0)
+    # ... and its covariance is the prior's: nothing was learnt of it
+    from radarfusion_ref.continent._registration import PRIOR
+    for i in np.flatnonzero(lone):
+        np.testing.assert_allclose(est.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3],
+                                   np.diag(np.square(PRIOR)), rtol=1e-9)
 
 
 def test_registration_covariance_is_consistent():

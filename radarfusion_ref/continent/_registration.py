@@ -102,7 +102,9 @@ def register(frame, radars, rep):
         keep = nees <= stats.chi2.ppf(_OUTLIER_P, 3)
     counts = np.bincount(i_idx[keep], minlength=m) + np.bincount(j_idx[keep], minlength=m)
     bread = np.linalg.inv(info)
-    meat = _shared_noise(m, used, j_row, a, b, w[:, 0], j_idx, i_idx, b_j, b_i, wt, cov)
+    # the prior is one more observation of every bias, independent of the reports
+    meat = prior + _shared_noise(m, used, j_row, a, b, w[:, 0], j_idx, i_idx, b_j, b_i, wt,
+                                 cov)
     return e, bread @ meat @ bread, int(keep.sum()), counts
 
 

@@ -266,7 +266,8 @@ def track_reports(time, position, cov, radar, scan, *, feature=None, feature_var
     ------
     ValueError
         NaN or infinite entries (named, with the row), a covariance not positive
-        definite, wrong shapes, negative radar or scan numbers, too many reports.
+        definite, wrong shapes, negative radar or scan numbers, too many reports; a
+        `feature` without its `feature_var` or the reverse, a feature variance <= 0.
     TypeError
         Non-numeric input, non-integer `radar` or `scan`, `settings` not a
         :class:`TrackerSettings`.
@@ -696,8 +697,8 @@ class _Tracker:
         M = self.live.mu.shape[1]
         mu = np.tile(np.asarray(self.s.imm_probability[:M]), (n, 1))
         f, fv = self.feat if self.feat is not None else (np.zeros(n), np.ones(n))
-        self.live.extend(kept, x=x, P=P, f=f, Pf=fv, t=np.full(n, t), t_hit=np.full(n, t), score=np.zeros(n),
-                         peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
+        self.live.extend(kept, x=x, P=P, f=f, Pf=fv, t=np.full(n, t), t_hit=np.full(n, t),
+                         score=np.zeros(n), peak=np.zeros(n), confirmed=np.zeros(n, bool), ids=ids,
                          recent=recent, scored=np.ones(n, np.int64), key=ids.copy(),
                          born=np.full(n, t), mu=mu,
                          xm=np.repeat(x[:, None], M, 1), Pm=np.repeat(P[:, None], M, 1))
