@@ -10,7 +10,9 @@ variance; ``feature_density`` and ``q_feature`` at their defaults, which no scor
 Each run is scored by ``tracking.evaluate_tracks_over_time`` as in ``bench_tracking.py``.
 
 It writes ``benchmarks/data/tracking_feature.csv`` (full hour only; one row per tracker,
-feature use and seed: the columns of ``tracking_scored.csv`` and ``feature``) and prints,
+feature use (``feature`` 0 or 1) and seed: the columns of ``tracking_scored.csv`` and
+``feature``; and per tracker and seed a row ``feature`` ``1-0`` of the paired differences,
+with minus without, for ``tracking.load_scored_runs``) and prints,
 per tracker, the mean over the seeds of each metric without and with the feature and the
 mean paired difference (with - without) with its 95 % Student-t interval. Stone Soup is
 given no feature, so the tracking benchmark's comparison stays on positions alone.
@@ -51,13 +53,18 @@ def _job(job):
     return row
 
 
-def paired(rows, tracker, col):
-    """(mean without, mean with, mean paired difference with its interval) over seeds."""
-    by = {(r["seed"], r["feature"]): float(r[col]) for r in rows if r["tracker"] == tracker}
-    seeds = sorted({s for s, _ in by})
-    off = np.array([by[s, 0] for s in seeds])
-    on = np.array([by[s, 1] for s in seeds])
-    return off.mean(), on.mean(), mc_mean(on - off)
+def differences(rows):
+    """Per tracker and seed, a row of the paired differences (with - without): ``feature``
+    ``"1-0"``, so ``tracking.load_scored_runs(..., by=("tracker", "feature"))`` gives their
+    means and intervals beside the two runs'."""
+    by = {(r["tracker"], r["seed"], r["feature"]): r for r in rows}
+    out = []
+    for (tracker, seed, use), on in by.items():
+        if use == 1:
+            off = by[tracker, seed, 0]
+            out.append({"tracker": tracker, "seed": seed, "feature": "1-0",
+                        **{c: round(on[c] - off[c], 6) for c in bt.COLUMNS[2:]}})
+    return out
 
 
 def main(seeds=5, quick=False, out=None, workers=2) -> int:
@@ -78,22 +85,27 @@ def main(seeds=5, quick=False, out=None, workers=2) -> int:
             f"  {r['tracker']:<9}{r['seed']:>5} feature {r['feature']}  GOSPA "
             f"{r['mean_gospa']:6.0f} m  false/h {r['false_tracks_per_hour']:5.1f}  latency "
             f"{r['mean_latency']:5.2f} s  {r['seconds']:.1f} s"))
+    rows += differences(rows)
     bt.write_unless_quick(rows, COLUMNS, out, quick, OUT)
     print(f"\nmeans over {len(seed_list)} seeds (total {time.perf_counter() - t0:.0f} s); "
           f"difference = with - without, mean [95 % interval]:")
     last = []
     for tracker in SETTINGS:
         print(f"{tracker}:")
+        runs = {(use, c): [r[c] for r in rows if (r["tracker"], r["feature"]) == (tracker, use)]
+                for use in (0, 1, "1-0") for c in METRICS}
         for col in METRICS:
-            off, on, d = paired(rows, tracker, col)
+            off, on = np.mean(runs[0, col]), np.mean(runs[1, col])
+            d = mc_mean(runs["1-0", col])
             print(f"  {col:<22} {off:9.4g} -> {on:9.4g}   {d.estimate:+.4g} "
                   f"[{d.low:+.4g}, {d.high:+.4g}]")
-        g_off, _, g = paired(rows, tracker, "mean_gospa")
-        f_off, f_on, _ = paired(rows, tracker, "false_tracks_per_hour")
-        l_off, l_on, _ = paired(rows, tracker, "mean_latency")
+        g_off, g = np.mean(runs[0, "mean_gospa"]), mc_mean(runs["1-0", "mean_gospa"])
         last.append(f"{tracker} GOSPA {100 * g.estimate / g_off:+.1f} % "
                     f"[{100 * g.low / g_off:+.1f}, {100 * g.high / g_off:+.1f}] false "
-                    f"tracks/h {f_off:.1f} -> {f_on:.1f} latency {l_off:.2f} -> {l_on:.2f} s")
+                    f"tracks/h {np.mean(runs[0, 'false_tracks_per_hour']):.1f} -> "
+                    f"{np.mean(runs[1, 'false_tracks_per_hour']):.1f} latency "
+                    f"{np.mean(runs[0, 'mean_latency']):.2f} -> "
+                    f"{np.mean(runs[1, 'mean_latency']):.2f} s")
     print("speed feature: " + " | ".join(last))
     return 0
 

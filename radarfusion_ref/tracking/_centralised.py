@@ -557,18 +557,12 @@ class _Tracker:
         if self.imm:
             imm_jpda_update(lv, ti, rj, z, R, beta, b0)
         else:
-            x0, P0 = lv.x[rows].copy(), lv.P[rows].copy()
-            mean = b0[rows, None] * x0
-            loc = np.searchsorted(rows, ti)
-            np.add.at(mean, loc, beta[:, None] * xu)
-            dx0 = x0 - mean
-            cov = b0[rows, None, None] * (P0 + dx0[:, :, None] * dx0[:, None, :])
-            dxu = xu - mean[loc]
-            np.add.at(cov, loc, beta[:, None, None] * (Pu + dxu[:, :, None] * dxu[:, None, :]))
-            lv.x[rows], lv.P[rows] = mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
+            lv.x[rows], lv.P[rows] = pda_moments(rows, ti, beta, b0, lv.x, lv.P, xu, Pu)
         if self.feat is not None:
-            lv.f[rows], lv.Pf[rows] = _feature.mixture(rows, ti, beta, b0, lv.f, lv.Pf,
-                                                       self.feat[0][rj], self.feat[1][rj])
+            fu, pu = _feature.update(lv.f[ti], lv.Pf[ti], self.feat[0][rj], self.feat[1][rj])
+            f, Pf = pda_moments(rows, ti, beta, b0, lv.f[:, None], lv.Pf[:, None, None],
+                                fu[:, None], pu[:, None, None])
+            lv.f[rows], lv.Pf[rows] = f[:, 0], Pf[:, 0, 0]
         hit[rows] = b0[rows] < 0.5
         gain = np.zeros(lv.ids.size)                     # expected increment given a hit
         np.add.at(gain, ti, beta * inc_pair)
@@ -704,6 +698,21 @@ class _Tracker:
                          xm=np.repeat(x[:, None], M, 1), Pm=np.repeat(P[:, None], M, 1))
         self.rows.add(ids, t, x, P, np.zeros(n, bool), mu)
         return ids
+
+
+def pda_moments(rows, ti, beta, b0, x, P, xu, Pu):
+    """JPDA: per track of `rows`, the mean and covariance of the mixture over its events:
+    the prediction (`x`, `P` of every track) with probability `b0`, and pair p's update
+    (`xu[p]`, `Pu[p]`) with `beta[p]`, pairs `ti` in order of track."""
+    x0, P0 = x[rows], P[rows]
+    mean = b0[rows, None] * x0
+    loc = np.searchsorted(rows, ti)
+    np.add.at(mean, loc, beta[:, None] * xu)
+    dx0 = x0 - mean
+    cov = b0[rows, None, None] * (P0 + dx0[:, :, None] * dx0[:, None, :])
+    dxu = xu - mean[loc]
+    np.add.at(cov, loc, beta[:, None, None] * (Pu + dxu[:, :, None] * dxu[:, None, :]))
+    return mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
 
 
 def _clusters(ti, rj, M):

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from ..engine.validation import as_float_array
+from ..engine.validation import as_float_array, as_positive
 
 _LN_2PI = math.log(2.0 * math.pi)
 
@@ -42,11 +42,7 @@ def features_iv(feature, feature_var, n):
         if a.shape != (n,):
             raise ValueError(f"`{name}` must have shape ({n},), one entry per report; "
                              f"received shape {a.shape}")
-    if n and v.min() <= 0:
-        raise ValueError(f"`feature_var` must be > 0 (each report's feature variance); "
-                         f"received smallest entry {v.min():.6g} at report "
-                         f"{int(np.argmin(v))}")
-    return f, v
+    return f, as_positive(v, "feature_var")
 
 
 def increments(est, var, f, fv, density):
@@ -60,15 +56,3 @@ def update(est, var, f, fv):
     """Scalar Kalman update of each track's feature with its report: (estimate, variance)."""
     k = var / (var + fv)
     return est + k * (f - est), (1.0 - k) * var
-
-
-def mixture(rows, ti, beta, b0, est, var, f, fv):
-    """JPDA: per track of `rows`, the moments of the feature's mixture over its events
-    (miss with probability `b0`, report of pair p with `beta[p]`)."""
-    fu, pu = update(est[ti], var[ti], f, fv)
-    loc = np.searchsorted(rows, ti)
-    mean = b0[rows] * est[rows]
-    np.add.at(mean, loc, beta * fu)
-    spread = b0[rows] * (var[rows] + (est[rows] - mean) ** 2)
-    np.add.at(spread, loc, beta * (pu + (fu - mean[loc]) ** 2))
-    return mean, spread
